@@ -1,0 +1,77 @@
+"""usvid command-line interface: a thin typer layer over the library.
+
+Each command lives in ``usvid.commands.<name>`` and registers itself on :data:`app`. Every command
+takes ``--json`` and then prints exactly one JSON object on stdout. Exit codes: 0 success,
+2 bad usage or bad input (one-line reason on stderr), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+
+import typer
+
+from usvid.errors import UsvidError
+
+app = typer.Typer(
+    name="usvid",
+    help="Identify, validate and simulate USV manoeuvring models from sea-trial logs.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+
+
+def _register_all() -> None:
+    import importlib
+
+    from usvid.commands import COMMAND_MODULES
+
+    for name in COMMAND_MODULES:
+        module = importlib.import_module(f"usvid.commands.{name}")
+        module.register(app)
+
+
+@app.command("version")
+def version() -> None:
+    """Print the usvid version."""
+    from usvid import __version__
+
+    print(__version__)
+
+
+_register_all()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; returns (and exits with) the process exit code."""
+    try:
+        app(args=argv, prog_name="usvid", standalone_mode=True)
+    except SystemExit as exc:  # typer/click end here in standalone mode
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        if argv is not None:
+            return code
+        raise
+    except UsvidError as exc:
+        msg = " ".join(str(exc).split())
+        print(f"usvid: error: {msg}", file=sys.stderr)
+        if argv is not None:
+            return 2
+        sys.exit(2)
+    except KeyboardInterrupt:
+        print("usvid: interrupted", file=sys.stderr)
+        if argv is not None:
+            return 130
+        sys.exit(130)
+    except Exception:  # a bug: say so, with the traceback
+        traceback.print_exc()
+        print("usvid: internal error (please report with the traceback above)", file=sys.stderr)
+        if argv is not None:
+            return 1
+        sys.exit(1)
+    return 0
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,32 @@
+"""One exception family for usvid.
+
+Every error caused by the user's input (a bad log, a bad format spec, a bad model file, data that
+cannot support an estimate) is a :class:`UsvidError`; the CLI maps it to exit code 2 with its
+message on one line of stderr. Anything else escaping is a bug (exit code 1).
+"""
+
+from __future__ import annotations
+
+
+class UsvidError(Exception):
+    """Base class of every error usvid raises on bad input or bad usage."""
+
+
+class FormatSpecError(UsvidError):
+    """A trial format spec (YAML) is malformed or names something unknown."""
+
+
+class LogReadError(UsvidError):
+    """A log file cannot be read at all (wholly bad, empty, unreadable)."""
+
+
+class ModelFileError(UsvidError):
+    """A model file (JSON, ``usvid_model: 1``) fails validation."""
+
+
+class IdentificationError(UsvidError):
+    """The data cannot support the requested estimate (too short, no excitation, collinear)."""
+
+
+class SimulationError(UsvidError):
+    """A simulation request is inconsistent (bad step, bad manoeuvre definition)."""

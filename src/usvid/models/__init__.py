@@ -1,0 +1,1 @@
+"""usvid.models"""
