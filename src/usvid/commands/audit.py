@@ -1,10 +1,84 @@
-"""CLI command(s): audit (not yet implemented)."""
+"""CLI: ``usvid audit LOG --format SPEC [--json]`` - check a log's channels against the physics.
+
+Reads the log with its trial format spec (a YAML path or a shipped spec name), runs
+:func:`usvid.prep.audit` and prints the findings (reader findings first). With ``--json`` one
+object: ``file``, ``format``, ``samples``, ``duration_s``, ``channels``, ``rejected`` (record counts
+per reason from the reader), ``findings`` (list of {severity, code, message, count, t_start, t_end,
+channel, data}) and ``counts`` per severity. A log that cannot be read at all, or holds fewer than
+three valid records, exits with code 2 and a one-line reason.
+"""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated, Any
+
 import typer
+
+from usvid.errors import LogReadError
+
+LogArg = Annotated[Path, typer.Argument(help="Log file to check.", show_default=False)]
+FormatOpt = Annotated[str, typer.Option(
+    "--format", "-f", help="Trial format spec: a YAML path or a shipped spec name.")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+
+
+def load_log(log: Path, fmt: str) -> Any:
+    """Read ``log`` with spec ``fmt``; a log without three valid records is a LogReadError."""
+    from usvid.io import read_trial
+
+    trial = read_trial(log, fmt)
+    if len(trial) < 3:
+        rej = ", ".join(f"{k}: {v}" for k, v in trial.rejected.items()) or "none"
+        raise LogReadError(
+            f"{log}: only {len(trial)} valid record(s), nothing to work on (rejected: {rej})"
+        )
+    return trial
+
+
+def audit_log(log: Path, fmt: str) -> dict[str, Any]:
+    """The JSON object of ``usvid audit`` for one log."""
+    from usvid.prep import audit
+
+    trial = load_log(log, fmt)
+    findings = list(trial.findings) + audit(trial)
+    counts = {s: sum(1 for f in findings if f.severity == s) for s in ("error", "warning", "info")}
+    return {
+        "file": str(log),
+        "format": fmt,
+        "samples": len(trial),
+        "duration_s": trial.duration,
+        "channels": trial.channels,
+        "rejected": dict(trial.rejected),
+        "findings": [f.to_dict() for f in findings],
+        "counts": counts,
+    }
 
 
 def register(app: typer.Typer) -> None:
-    """Register this module's command(s) on the CLI app (placeholder until implemented)."""
-    return None
+    """Register ``usvid audit``."""
+
+    @app.command("audit")
+    def audit_cmd(log: LogArg, fmt: FormatOpt, json_out: JsonOpt = False) -> None:
+        """Check each channel of a log against the physics and report what is wrong."""
+        from usvid.commands._common import emit_json
+
+        out = audit_log(log, fmt)
+        if json_out:
+            emit_json(out)
+            return
+        from rich.console import Console
+        from rich.table import Table
+
+        con = Console()
+        rej = ", ".join(f"{k} {v}" for k, v in out["rejected"].items()) or "none"
+        con.print(f"{log.name}: {out['samples']} samples, {out['duration_s']:.1f} s, "
+                  f"rejected records: {rej}")
+        if not out["findings"]:
+            con.print("no problems found")
+            return
+        table = Table("severity", "code", "channel", "count", "message")
+        for f in out["findings"]:
+            table.add_row(f["severity"], f["code"], f["channel"] or "", str(f["count"]),
+                          f["message"])
+        con.print(table)

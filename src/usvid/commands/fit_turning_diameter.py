@@ -1,10 +1,57 @@
-"""CLI command(s): fit_turning_diameter (not yet implemented)."""
+"""CLI command: ``usvid fit-turning-diameter [TABLE] [--json] [--seed N]`` (seed 004).
+
+Fits seed 004 eq. 1 to a turning-diameter table (default: seed 004 Table 2, package data) by the
+chaotic GA and by a deterministic global least-squares fit, and evaluates the published eq. 3.
+``--json`` prints one object ``{"cga": {...}, "least_squares": {...}, "published_eq3": {...}}``,
+each with a1..a5, F (eq. 2), loo_rmse (leave-one-out error; null for the published fit),
+max_rel_error, at_bounds and method details.
+"""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated
+
 import typer
+
+from usvid.commands._common import emit_json
 
 
 def register(app: typer.Typer) -> None:
-    """Register this module's command(s) on the CLI app (placeholder until implemented)."""
-    return None
+    """Register ``usvid fit-turning-diameter`` on the CLI app."""
+
+    @app.command("fit-turning-diameter")
+    def fit_turning_diameter_cmd(
+        table: Annotated[Path | None, typer.Argument(
+            help="CSV with columns Fr, delta_rad, DL_test (seed 004 Table 2 form) or speed_kn, "
+                 "rudder_deg, turning_diameter_m (Table 1 form). Default: seed 004 Table 2.")
+        ] = None,
+        json_out: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+        seed: Annotated[int, typer.Option("--seed", help="Seed of the CGA and of differential "
+                                                          "evolution.")] = 0,
+        length: Annotated[float, typer.Option("--length", help="Vessel length [m] for a Table 1 "
+                                                              "form table.")] = 1.5,
+    ) -> None:
+        """Fit seed 004's relative turning diameter D/L(Fr, delta) by CGA and least squares."""
+        from usvid.identify.turning_diameter import fit_turning_diameter, load_turning_table
+
+        Fr, delta, DL = load_turning_table(table, length=length)
+        fits = fit_turning_diameter(Fr, delta, DL, seed=seed)
+        if json_out:
+            emit_json({k: v.to_dict() for k, v in fits.items()})
+            return
+        from rich.console import Console
+        from rich.table import Table
+
+        t = Table(title=f"Seed 004 eq. 1 fit on {table or 'seed 004 Table 2'} "
+                        f"(N = {Fr.size}, F = RMS of D/L, eq. 2)")
+        for col in ("method", "a1", "a2", "a3", "a4", "a5", "F", "LOO RMS", "max rel err",
+                    "at bounds"):
+            t.add_column(col, justify="left" if col in ("method", "at bounds") else "right")
+        for name, f in fits.items():
+            a = f.coeffs.as_array()
+            t.add_row(name, *(f"{v:.4f}" for v in a), f"{f.F:.4f}",
+                      "-" if f.loo_rmse is None else f"{f.loo_rmse:.4f}",
+                      f"{100 * f.max_rel_error:.1f} %", ", ".join(f.at_bounds) or "-")
+        console = Console()
+        Console(width=max(console.width, 112)).print(t)  # 10 columns need ~110 characters

@@ -1,10 +1,138 @@
-"""CLI command(s): identify (not yet implemented)."""
+"""CLI: ``usvid identify LOG... --format SPEC --model KIND [--method ls|rls|oe]
+[--validate LOG...] --out MODEL.json [--json]``.
+
+Reads the logs with the format spec, prepares them (:func:`usvid.prep.prepare`: uniform grid,
+unwrapped heading, missing channels derived), identifies the model (:mod:`usvid.identify`) and
+writes the model file atomically (ARCHITECTURE.md schema; ``identification`` holds the data files
+with their sha256, the method, standard errors, 95 % intervals and fit metrics). Prints a fit
+summary; with ``--json`` one JSON object: ``model_file``, ``kind``, ``method``, ``params``,
+``std_errors``, ``ci95``, ``fit`` (training metrics per output channel: rmse, nrmse, r2,
+max_error), ``validation`` (per validation log: metrics and, for zig-zags, simulated vs measured
+overshoots) and ``data``.
+"""
 
 from __future__ import annotations
 
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
 import typer
+
+from usvid.errors import UsvidError
+
+LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify from.",
+                                               show_default=False)]
+FormatOpt = Annotated[str, typer.Option(
+    "--format", "-f", help="Trial format spec: a YAML path or a shipped spec name.")]
+ModelOpt = Annotated[str, typer.Option(
+    "--model", "-m", help="Model kind: nomoto1 | nomoto2 | norrbin | threedof | catamaran.")]
+MethodOpt = Annotated[str, typer.Option(
+    "--method", help="ls (least squares) | rls (recursive, --lam) | oe (LS + output error).")]
+ValidateOpt = Annotated[list[Path] | None, typer.Option(
+    "--validate", help="Held-out log(s) to validate on (repeat the option for several).")]
+OutOpt = Annotated[Path, typer.Option("--out", "-o", help="Model file to write (JSON).")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+WindowOpt = Annotated[float, typer.Option(
+    "--window-s", help="Output-error / metric window [s] (multiple shooting).")]
+OverlapOpt = Annotated[float, typer.Option(
+    "--overlap", help="Overlap of output-error windows, 0 <= overlap < 1.")]
+LamOpt = Annotated[float, typer.Option("--lam", help="RLS forgetting factor (0, 1].")]
+NorrbinOpt = Annotated[str, typer.Option(
+    "--norrbin", help="Norrbin fit: joint (n1 free) | two_step (seed 000, needs turning logs).")]
+
+
+def _load(paths: list[Path], fmt: str) -> list[Any]:
+    from usvid.commands.audit import load_log
+    from usvid.prep import prepare
+
+    out = []
+    for p in paths:
+        tr = load_log(p, fmt)
+        if not tr.is_uniform or tr.data.isna().any().any():
+            tr = prepare(tr, derivatives=False)
+        out.append(tr)
+    return out
+
+
+def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
+                  validate: list[Path] | None = None, out: Path | None = None,
+                  window_s: float = 20.0, overlap: float = 0.0, lam: float = 1.0,
+                  norrbin: str = "joint") -> dict[str, Any]:
+    """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``)."""
+    from usvid.commands._common import write_atomic
+    from usvid.identify.estimator import ModelEstimator
+    from usvid.identify.output_error import RESPONSE_KINDS
+
+    if not logs:
+        raise UsvidError("identify: give at least one LOG")
+    est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
+                         norrbin=norrbin)
+    trials = _load(logs, fmt)
+    est.fit(trials)
+    res = est.result_
+    summary: dict[str, Any] = {
+        "model_file": str(out) if out is not None else None,
+        **res.summary(),
+        "data": res.data,
+    }
+    if validate:
+        from usvid.identify.validate import zigzag_check
+
+        vals = []
+        for tr in _load(validate, fmt):
+            row: dict[str, Any] = {"file": tr.sources[0] if tr.sources else tr.name,
+                                   "metrics": est.score(tr)}
+            if kind in RESPONSE_KINDS:
+                try:
+                    row["zigzag"] = zigzag_check(est, tr)
+                except UsvidError as exc:
+                    row["zigzag"] = {"error": str(exc)}
+            vals.append(row)
+        summary["validation"] = vals
+    if out is not None:
+        from usvid.commands._common import to_json
+
+        d = res.to_dict()
+        if "validation" in summary:
+            d["identification"]["validation"] = json.loads(to_json(summary["validation"]))
+        write_atomic(out, to_json(d) + "\n")
+    return summary
+
+
+def _print_summary(s: dict[str, Any]) -> None:
+    print(f"model {s['kind']} ({s['method']}) -> {s['model_file'] or '(not written)'}")
+    for k, v in s["params"].items():
+        se = s["std_errors"].get(k, math.nan)
+        print(f"  {k:8s} = {v: .6g}  +- {1.96 * se:.3g} (95 %)")
+    for ch, m in s["fit"].items():
+        if isinstance(m, dict):
+            print(f"  fit {ch:4s} rmse {m['rmse']:.4g}  nrmse {m['nrmse']:.3g}  r2 {m['r2']:.4f}")
+    for v in s.get("validation", []):
+        z = v.get("zigzag", {})
+        line = f"  validation {Path(str(v['file'])).name}:"
+        if "overshoot_error_deg" in z:
+            line += " overshoot error [deg] " + ", ".join(
+                f"{e:+.2f}" for e in z["overshoot_error_deg"][:3])
+        print(line)
 
 
 def register(app: typer.Typer) -> None:
-    """Register this module's command(s) on the CLI app (placeholder until implemented)."""
-    return None
+    """Register ``usvid identify``."""
+
+    @app.command("identify")
+    def identify_cmd(logs: LogsArg, fmt: FormatOpt, model: ModelOpt, out: OutOpt,
+                     method: MethodOpt = "ls", validate: ValidateOpt = None,
+                     json_out: JsonOpt = False, window_s: WindowOpt = 20.0,
+                     overlap: OverlapOpt = 0.0, lam: LamOpt = 1.0,
+                     norrbin: NorrbinOpt = "joint") -> None:
+        """Identify a manoeuvring model from trial logs and write the model file."""
+        from usvid.commands._common import emit_json
+
+        s = identify_logs(logs, fmt, model, method, validate=validate, out=out,
+                          window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin)
+        if json_out:
+            emit_json(s)
+        else:
+            _print_summary(s)

@@ -1,10 +1,102 @@
-"""CLI command(s): metrics (not yet implemented)."""
+"""CLI: ``usvid metrics LOG --format SPEC [--json]`` - measured manoeuvre metrics of a log.
+
+Finds the zig-zags and turning circles in the log (:func:`usvid.prep.find_manoeuvres`) and
+measures them with the definitions the simulator uses (:mod:`usvid.prep.metrics`), so the keys are
+those of ``usvid simulate``: ``overshoot_deg`` (list, first first), ``period_s``,
+``initial_turning_time_s``, ``time_to_check_yaw_s`` for a zig-zag; ``advance_m``, ``transfer_m``,
+``tactical_diameter_m``, ``steady_diameter_m``, ``steady_yaw_rate_rad_s``, ``steady_speed_m_s`` for
+a turning circle. JSON: ``file``, ``format``, ``rejected`` (per reason), ``count`` and
+``manoeuvres`` (one object each: kind, times, command, delta_amp_deg, psi_switch_deg, and the
+metric keys); when the log holds exactly one manoeuvre its keys are also at the top level.
+"""
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
 import typer
+
+from usvid.commands.audit import FormatOpt, JsonOpt, LogArg, load_log
+from usvid.errors import UsvidError
+
+PsiOpt = Annotated[float | None, typer.Option(
+    "--psi-deg", help="Zig-zag switching angle [deg] when known (default: measured, rounded "
+                      "down to a standard angle).")]
+TurnOpt = Annotated[float, typer.Option(
+    "--min-turn-deg", help="Heading change [deg] that makes a single rudder pulse a turning "
+                           "circle.")]
+
+
+def metrics_log(log: Path, fmt: str, psi_deg: float | None = None,
+                min_turn_deg: float = 180.0) -> dict[str, Any]:
+    """The JSON object of ``usvid metrics`` for one log."""
+    from usvid.prep import measured_metrics
+
+    if psi_deg is not None and not (math.isfinite(psi_deg) and psi_deg > 0):
+        raise UsvidError(f"--psi-deg must be > 0 deg (got {psi_deg!r})")
+    if not (math.isfinite(min_turn_deg) and min_turn_deg > 0):
+        raise UsvidError(f"--min-turn-deg must be > 0 deg (got {min_turn_deg!r})")
+    trial = load_log(log, fmt)
+    ms = measured_metrics(
+        trial,
+        psi_switch=math.radians(psi_deg) if psi_deg is not None else None,
+        min_turn_deg=min_turn_deg,
+    )
+    out: dict[str, Any] = {
+        "file": str(log),
+        "format": fmt,
+        "rejected": dict(trial.rejected),
+        "count": len(ms),
+        "manoeuvres": ms,
+    }
+    if len(ms) == 1:
+        for k, v in ms[0].items():
+            out.setdefault(k, v)
+    if not ms:
+        out["message"] = "no zig-zag or turning circle found in the log"
+    return out
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, float):
+        return "-" if not math.isfinite(v) else f"{v:.4g}"
+    if isinstance(v, list):
+        return ", ".join(_fmt(x) for x in v[:6]) + (" ..." if len(v) > 6 else "")
+    return str(v)
 
 
 def register(app: typer.Typer) -> None:
-    """Register this module's command(s) on the CLI app (placeholder until implemented)."""
-    return None
+    """Register ``usvid metrics``."""
+
+    @app.command("metrics")
+    def metrics_cmd(log: LogArg, fmt: FormatOpt, json_out: JsonOpt = False,
+                    psi_deg: PsiOpt = None, min_turn_deg: TurnOpt = 180.0) -> None:
+        """Find zig-zags and turning circles in a log and print their measured metrics."""
+        from usvid.commands._common import emit_json
+
+        out = metrics_log(log, fmt, psi_deg, min_turn_deg)
+        if json_out:
+            emit_json(out)
+            return
+        from rich.console import Console
+        from rich.table import Table
+
+        con = Console()
+        if not out["manoeuvres"]:
+            con.print(f"{log.name}: {out['message']}")
+            return
+        keys = {
+            "zigzag": ("delta_amp_deg", "psi_switch_deg", "first_side", "overshoot_deg",
+                       "period_s", "initial_turning_time_s", "time_to_check_yaw_s"),
+            "turning": ("first_side", "advance_m", "transfer_m", "tactical_diameter_m",
+                        "steady_diameter_m", "steady_yaw_rate_rad_s", "steady_speed_m_s"),
+        }
+        for i, m in enumerate(out["manoeuvres"], 1):
+            table = Table("metric", "value",
+                          title=f"{log.name} #{i}: {m['kind']} from t = {m['t_start']:.1f} s")
+            for k in keys[m["kind"]]:
+                if k in m:
+                    table.add_row(k, _fmt(m[k]))
+            con.print(table)

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from usvid.models._validate import check_params
 
 DEFAULT_MAX_ANGLE = math.radians(35.0)
@@ -22,11 +24,16 @@ class IdealServo:
     max_rate: float = math.inf
 
     kind = "ideal"
+    state_names = ()
 
     def __post_init__(self) -> None:
         check_params("servo", {"max_angle": self.max_angle}, positive=("max_angle",))
         if not self.max_rate > 0:
             raise_bad_rate(self.max_rate)
+
+    def delay_samples(self, dt: float) -> int:
+        """Dead time in samples of dt [s] (always 0)."""
+        return 0
 
 
 @dataclass
@@ -41,12 +48,21 @@ class FirstOrderServo:
     max_rate: float = math.inf
 
     kind = "first_order"
+    state_names = ("delta",)
 
     def __post_init__(self) -> None:
         check_params("servo", {"T": self.T, "max_angle": self.max_angle},
                      nonnegative=("T",), positive=("max_angle",))
         if not self.max_rate > 0:
             raise_bad_rate(self.max_rate)
+
+    def f(self, state: np.ndarray, delta_cmd: np.ndarray) -> np.ndarray:
+        """See :func:`first_order_servo_f`."""
+        return first_order_servo_f(state, delta_cmd, self)
+
+    def delay_samples(self, dt: float) -> int:
+        """Dead time in samples of dt [s] (always 0)."""
+        return 0
 
 
 @dataclass
@@ -67,6 +83,7 @@ class SecondOrderServo:
     max_rate: float = math.inf
 
     kind = "second_order"
+    state_names = ("delta", "delta_dot")
 
     def __post_init__(self) -> None:
         check_params("servo",
@@ -77,6 +94,40 @@ class SecondOrderServo:
         if not self.max_rate > 0:
             raise_bad_rate(self.max_rate)
 
+    @classmethod
+    def from_transfer_function(cls, b0: float, a1: float, a0: float, delay: float = 0.0,
+                               **limits: float) -> SecondOrderServo:
+        """From ``b0 / (s^2 + a1 s + a0) e^{-delay s}`` (seed 000 section 5.1.3 form).
+
+        omega_n = sqrt(a0), zeta = a1 / (2 omega_n), gain = b0 / a0.
+        """
+        wn = math.sqrt(a0)
+        return cls(omega_n=wn, zeta=a1 / (2.0 * wn), gain=b0 / a0, delay=delay, **limits)
+
+    def f(self, state: np.ndarray, delta_cmd: np.ndarray) -> np.ndarray:
+        """See :func:`second_order_servo_f` (delta_cmd already delayed by the caller)."""
+        return second_order_servo_f(state, delta_cmd, self)
+
+    def delay_samples(self, dt: float) -> int:
+        """Dead time in whole samples of dt [s]: ``round(delay / dt)``."""
+        return int(round(float(self.delay) / dt))
+
+    def overshoot(self) -> float:
+        """Fractional step overshoot ``exp(-zeta pi / sqrt(1 - zeta^2))`` (0 when zeta >= 1)."""
+        z = float(self.zeta)
+        return math.exp(-z * math.pi / math.sqrt(1.0 - z * z)) if z < 1.0 else 0.0
+
+    def peak_time(self) -> float:
+        """Step-response peak time after the dead time [s]: ``pi / (omega_n sqrt(1-zeta^2))``."""
+        z = float(self.zeta)
+        return math.pi / (float(self.omega_n) * math.sqrt(1.0 - z * z)) if z < 1.0 else math.inf
+
+
+#: Seed 000 section 5.1.3: 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s} (Lanxin vector thruster).
+def seed000_servo() -> SecondOrderServo:
+    """The identified Lanxin servo of seed 000 (section 5.1.3, +-35 deg, 1 s dead time)."""
+    return SecondOrderServo.from_transfer_function(1.95, 2.38125, 1.95, delay=1.0)
+
 
 def raise_bad_rate(value: float) -> None:
     from usvid.errors import UsvidError
@@ -85,3 +136,40 @@ def raise_bad_rate(value: float) -> None:
 
 
 Servo = IdealServo | FirstOrderServo | SecondOrderServo
+
+
+def first_order_servo_f(state: np.ndarray, delta_cmd: np.ndarray,
+                        p: FirstOrderServo) -> np.ndarray:
+    """First-order servo (seed 000 eq. 11): ``delta' = (delta_cmd - delta) / T``.
+
+    state ``(..., 1)`` = (delta [rad],); delta_cmd [rad] shape ``(...)``. The rate is clipped to
+    +-max_rate [rad/s]; the angle limit is applied by the integrator (clip after each step) and
+    here by zeroing a rate that pushes past +-max_angle. T = 0 is not allowed here (ideal servo).
+    """
+    d = np.asarray(state, dtype=float)[..., 0]
+    rate = (np.asarray(delta_cmd, dtype=float) - d) / np.asarray(p.T)
+    rate = _limit(d, rate, p.max_angle, p.max_rate)
+    return rate[..., None]
+
+
+def second_order_servo_f(state: np.ndarray, delta_cmd: np.ndarray,
+                         p: SecondOrderServo) -> np.ndarray:
+    """Second-order servo (seed 000 eq. 12, seed 001 eq. 22):
+
+    ``delta'' + 2 zeta omega_n delta' + omega_n^2 delta = gain omega_n^2 delta_cmd(t - delay)``.
+    state ``(..., 2)`` = (delta [rad], delta' [rad/s]); delta_cmd [rad] is the *delayed* command.
+    The angle rate used is clipped to +-max_rate and zeroed when it pushes past +-max_angle.
+    """
+    s = np.asarray(state, dtype=float)
+    d, w = s[..., 0], s[..., 1]
+    wn = np.asarray(p.omega_n, dtype=float)
+    acc = wn**2 * (np.asarray(p.gain) * np.asarray(delta_cmd, dtype=float) - d) \
+        - 2.0 * np.asarray(p.zeta) * wn * w
+    rate = _limit(d, w, p.max_angle, p.max_rate)
+    return np.stack(np.broadcast_arrays(rate, acc), axis=-1)
+
+
+def _limit(d: np.ndarray, rate: np.ndarray, max_angle: float, max_rate: float) -> np.ndarray:
+    rate = np.clip(rate, -max_rate, max_rate)
+    out = ((d >= max_angle) & (rate > 0)) | ((d <= -max_angle) & (rate < 0))
+    return np.where(out, 0.0, rate)

@@ -1,1 +1,57 @@
-"""usvid.prep"""
+"""usvid.prep: from a raw trial to an identification-ready one, and what the data say.
+
+Geodetic -> local NED (:func:`to_ned`), stale GNSS fixes (:func:`drop_stale`), multi-rate
+alignment (:func:`resample`), zero-phase filtering and derivatives (:func:`savgol_derivative`),
+body velocities, the one-call :func:`prepare`, the channel :func:`audit`, manoeuvre finding
+(:func:`find_manoeuvres`) and measured manoeuvre metrics (:func:`measured_metrics`, with the
+definitions of :mod:`usvid.prep.metrics`).
+"""
+
+from usvid.prep.channel_audit import audit, position_scale
+from usvid.prep.filters import (
+    lowpass,
+    savgol_derivative,
+    savgol_smooth,
+    unwrap_angle,
+    window_samples,
+    wrap_angle,
+)
+from usvid.prep.geodesy import geodetic_to_ned, to_ned
+from usvid.prep.kinematics import (
+    body_to_earth,
+    body_velocity_from_cog,
+    body_velocity_from_positions,
+    earth_to_body,
+)
+from usvid.prep.manoeuvres import Segment, find_manoeuvres, manoeuvre_metrics, measured_metrics
+from usvid.prep.prepare import prepare, sort_time
+from usvid.prep.resample import infer_rate, resample
+from usvid.prep.stale import StaleReport, detect_stale, drop_stale
+
+__all__ = [
+    "Segment",
+    "StaleReport",
+    "audit",
+    "body_to_earth",
+    "body_velocity_from_cog",
+    "body_velocity_from_positions",
+    "detect_stale",
+    "drop_stale",
+    "earth_to_body",
+    "find_manoeuvres",
+    "geodetic_to_ned",
+    "infer_rate",
+    "lowpass",
+    "manoeuvre_metrics",
+    "measured_metrics",
+    "position_scale",
+    "prepare",
+    "resample",
+    "savgol_derivative",
+    "savgol_smooth",
+    "sort_time",
+    "to_ned",
+    "unwrap_angle",
+    "window_samples",
+    "wrap_angle",
+]

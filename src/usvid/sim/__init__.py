@@ -1,1 +1,31 @@
-"""usvid.sim"""
+"""usvid.sim: fixed-step batch simulation of vessel models under manoeuvre logics.
+
+Public API
+----------
+- :func:`simulate` ``(model, logic, *, t_end, dt=0.02, u0=None, record_every=1, seed=0,
+  psi0=0, disturbance=None, channels=None) -> SimResult`` -- RK4 over a batch (numba, parallel
+  over runs). Any model/servo/logic parameter may be a (B,) array.
+- Logics (:mod:`usvid.sim.logic`): :class:`Turning`, :class:`ZigZag`, :class:`CourseChange` with
+  :class:`PID`, :class:`Disturbance` (white noise through 0.42 s/(s^2 + 0.36 s + 0.37), seed 000),
+  :class:`Commanded` (time series).
+- :class:`SimResult` (:mod:`usvid.sim.result`): ``t``, ``channels`` (B, N) arrays,
+  ``batch_size``, ``zigzag_metrics()``, ``turning_metrics()``, ``course_metrics()``,
+  ``to_trial(i)``, ``course`` and ``zigzag_online`` accumulators.
+- Convenience: :func:`simulate_zigzag`, :func:`simulate_turning`, :func:`simulate_course_change`.
+- :mod:`usvid.sim.virtual` (sensor models, virtual trials) and :mod:`usvid.sim.imo` (IMO
+  criteria) are separate modules.
+"""
+
+from usvid.sim.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
+from usvid.sim.result import CHANNEL_UNITS, SimResult
+from usvid.sim.simulate import (
+    simulate,
+    simulate_course_change,
+    simulate_turning,
+    simulate_zigzag,
+)
+
+__all__ = [
+    "CHANNEL_UNITS", "PID", "Commanded", "CourseChange", "Disturbance", "SimResult", "Turning",
+    "ZigZag", "simulate", "simulate_course_change", "simulate_turning", "simulate_zigzag",
+]

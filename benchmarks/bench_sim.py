@@ -1,0 +1,127 @@
+"""Batch simulator benchmark: 10,000 zig-zag 10/10 runs of the seed-000 Lanxin 3-DOF model.
+
+Model: seed 000 eq. 37 (``seed000_threedof``, x_l = 3.5 m, thrust holding 10 kn = 5.144 m/s)
+with the identified second-order servo 1.95/(s^2 + 2.38125 s + 1.95) e^{-s} (+-35 deg);
+100 s at dt = 0.02 s (5,000 RK4 steps per run). Timed after a warm-up call, so numba
+compilation (or cache loading) is excluded. Heading is kept every 10 steps (0.2 s); the
+overshoots come from the kernel's online zig-zag tracker.
+
+Reference: the same model and logic run once through ``scipy.integrate.solve_ivp`` (RK45,
+rtol 1e-8), with the switches located as events and the 1 s servo dead time applied from the
+switch history.
+
+Printed: wall and CPU time, numba threads, per-run times and their ratio, peak memory
+(tracemalloc peak of Python/numpy allocations during the batch, and the process max RSS).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import resource
+import sys
+import time
+import tracemalloc
+
+import numba
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from usvid.models import VesselModel, seed000_servo, seed000_threedof
+from usvid.sim import ZigZag, simulate
+from usvid.trial import Vessel
+
+B = int(os.environ.get("USVID_BENCH_RUNS", "10000"))
+T_END, DT = 100.0, 0.02
+AMP = math.radians(10.0)
+U0 = 5.144
+
+
+def batch() -> tuple[float, float, np.ndarray, int]:
+    model = VesselModel(seed000_threedof(x_l=3.5), servo=seed000_servo(),
+                        vessel=Vessel(length=7.02, speed=U0))
+    simulate(model, ZigZag(AMP, AMP), t_end=1.0, dt=DT, channels=("psi",))  # compile / load
+    logic = ZigZag(np.full(B, AMP), AMP)
+    tracemalloc.start()
+    w0, c0 = time.perf_counter(), time.process_time()
+    res = simulate(model, logic, t_end=T_END, dt=DT, record_every=10, channels=("psi",))
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return wall, cpu, np.degrees(res.zigzag_online["overshoot"]), peak
+
+
+def reference() -> tuple[float, float]:
+    """One run through solve_ivp; returns (wall time [s], first overshoot [deg])."""
+    p = seed000_threedof(x_l=3.5)
+    s = seed000_servo()
+    T = p.d11 * U0
+    wn, zeta, delay, lim = s.omega_n, s.zeta, s.delay, s.max_angle
+    switches = [(0.0, AMP)]  # (time, command)
+
+    def command(t: float) -> float:
+        c = 0.0
+        for ts, v in switches:
+            if ts <= t:
+                c = v
+        return c
+
+    def rhs(t, z):
+        x, y, psi, u, v, r, d, dd = z
+        dc = min(max(d, -lim), lim)
+        tau_u, tau_r = T * math.cos(dc), p.x_l * T * math.sin(dc)
+        return [u * math.cos(psi) - v * math.sin(psi), u * math.sin(psi) + v * math.cos(psi), r,
+                (p.m22 * v * r - p.d11 * u + tau_u) / p.m11,
+                (-p.m11 * u * r - p.d22 * v) / p.m22,
+                ((p.m11 - p.m22) * u * v - p.d33 * r + tau_r) / p.m33,
+                dd, wn * wn * (command(t - delay) - d) - 2 * zeta * wn * dd]
+
+    z = np.array([0, 0, 0, U0, 0, 0, 0, 0], float)
+    t0, cur, first_over, peak = 0.0, 1.0, math.nan, 0.0
+    w0 = time.perf_counter()
+    while t0 < T_END:
+        c = cur
+
+        def ev(t, z, c=c):
+            return c * z[2] - AMP
+
+        ev.terminal, ev.direction = True, 1
+        sol = solve_ivp(rhs, (t0, T_END), z, events=ev, rtol=1e-8, atol=1e-10, dense_output=True)
+        if len(switches) == 2:  # between 1st and 2nd reversal: the first overshoot
+            tt = np.linspace(t0, sol.t[-1], 2000)
+            peak = np.max(sol.sol(tt)[2])
+            first_over = math.degrees(peak - AMP)
+        if sol.status != 1:
+            break
+        t0, z = sol.t_events[0][0], sol.y_events[0][0]
+        cur = -cur
+        switches.append((t0, cur * AMP))
+    return time.perf_counter() - w0, first_over
+
+
+def main() -> None:
+    wall, cpu, over, peak = batch()
+    ref_wall, ref_over = reference()
+    per_run = wall / B
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"bench_sim: {B} zig-zag 10/10 runs, seed-000 3-DOF + 2nd-order servo, "
+          f"{T_END:.0f} s at dt={DT} s ({int(T_END / DT)} RK4 steps/run)")
+    print(f"  numba threads: {numba.get_num_threads()}  (os.cpu_count() = {os.cpu_count()}, "
+          f"load average {os.getloadavg()[0]:.1f})")
+    print(f"  batch (numba, compile excluded): wall {wall:.2f} s, CPU {cpu:.2f} s, "
+          f"{per_run * 1e6:.0f} us/run, {cpu / (B * T_END / DT) * 1e9:.0f} ns CPU/step "
+          "[target <= 2 s wall on 2 free cores]")
+    print(f"  CPU time / {numba.get_num_threads()} threads = {cpu / numba.get_num_threads():.2f} s "
+          "(the wall time on otherwise idle cores; the wall above includes waiting for a "
+          "shared, loaded machine)")
+    print(f"  solve_ivp RK45 (one run):        wall {ref_wall:.3f} s/run")
+    print(f"  ratio solve_ivp / numba per run: {ref_wall / per_run:.0f}x")
+    print(f"  first overshoot: numba {np.nanmean(over[:, 0]):.3f} deg, "
+          f"solve_ivp {ref_over:.3f} deg")
+    print(f"  peak memory: traced {peak / 2**20:.1f} MiB during the batch, "
+          f"process max RSS {rss:.0f} MiB")
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()

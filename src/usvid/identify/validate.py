@@ -1,0 +1,217 @@
+"""Validation of identified models: held-out metrics, leave-one-trial-out cross-validation,
+comparison of model kinds, and simulated-vs-measured manoeuvre metrics (seed 000 section 5.2).
+
+Seed 000 validates its identified models by simulating the manoeuvres of the trials (zig-zag,
+turning) and comparing with the measured ones. :func:`zigzag_check` does that for a zig-zag
+trial: it reads the trial's rudder amplitude, switching angle and first side from the record,
+simulates the same zig-zag on the model (closed loop on the heading, rudder rate limited) and
+compares the overshoot angles (``usvid.prep.metrics.zigzag_metrics`` on both, same definitions).
+
+Units: radians and seconds inside; the metric dictionaries carry degrees in their key names.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numba as nb
+import numpy as np
+
+from usvid.errors import IdentificationError, UsvidError
+from usvid.identify.estimator import ModelEstimator, _as_list, compare_kinds
+from usvid.identify.output_error import _KIND_CODE, RESPONSE_KINDS, _response_rhs
+
+__all__ = ["zigzag_response", "zigzag_check", "cross_validate", "compare_kinds",
+           "validation_table"]
+
+
+@nb.njit(cache=True)
+def _zigzag_kernel(code, p, amp, sw, first, rate, h, n, delay_steps):
+    """Closed-loop zig-zag on a response model (numba, RK4, rudder rate limit ``rate``).
+
+    The rudder order is ``first * amp`` at t = 0, reversed whenever the heading deviation passes
+    ``+-sw`` in the direction of the current turn (standard zig-zag logic, ITTC 7.5-04-02-01).
+    """
+    t = np.arange(n) * h
+    psi = np.zeros(n)
+    r = np.zeros(n)
+    dl = np.zeros(n)
+    cmd = first * amp
+    x1 = 0.0
+    x2 = 0.0
+    d = 0.0
+    ps = 0.0
+    for k in range(n - 1):
+        if cmd * first > 0 and first * ps >= sw:
+            cmd = -first * amp
+        elif cmd * first < 0 and first * ps <= -sw:
+            cmd = first * amp
+        step = cmd - d
+        lim = rate * h
+        if step > lim:
+            step = lim
+        elif step < -lim:
+            step = -lim
+        dn = d + step
+        um = 0.5 * (d + dn)
+        du = (dn - d) / h
+        k1a, k1b = _response_rhs(code, p, x1, x2, d, du)
+        k2a, k2b = _response_rhs(code, p, x1 + 0.5 * h * k1a, x2 + 0.5 * h * k1b, um, du)
+        k3a, k3b = _response_rhs(code, p, x1 + 0.5 * h * k2a, x2 + 0.5 * h * k2b, um, du)
+        k4a, k4b = _response_rhs(code, p, x1 + h * k3a, x2 + h * k3b, dn, du)
+        xn = x1 + h / 6.0 * (k1a + 2.0 * k2a + 2.0 * k3a + k4a)
+        x2 = x2 + h / 6.0 * (k1b + 2.0 * k2b + 2.0 * k3b + k4b)
+        ps = ps + 0.5 * h * (x1 + xn)
+        x1 = xn
+        d = dn
+        psi[k + 1] = ps
+        r[k + 1] = x1
+        dl[k + 1] = d
+    return t, psi, r, dl
+
+
+def zigzag_response(kind: str, params: dict[str, float], delta_amp: float, psi_switch: float, *,
+                    first: int = 1, rate: float = math.inf, t_end: float = 200.0,
+                    h: float = 0.05) -> dict[str, np.ndarray]:
+    """Simulate a ``delta_amp``/``psi_switch`` zig-zag [rad] on a response model.
+
+    Starts from r = 0, psi = 0, delta = 0 with the first rudder order at t = 0 towards ``first``
+    (+1 starboard); rudder rate limited to ``rate`` [rad/s]. For nomoto2 the 2nd-order state
+    starts at rest too. Returns ``t`` [s], ``psi`` [rad], ``r`` [rad/s], ``delta`` [rad].
+    Used when :mod:`usvid.sim` is not available; same logic as its ``ZigZag``.
+    """
+    if kind not in RESPONSE_KINDS:
+        raise UsvidError(f"zigzag_response: kind must be one of {RESPONSE_KINDS} (got {kind!r})")
+    from usvid.identify.output_error import PARAM_NAMES
+
+    p = np.array([params[n] for n in PARAM_NAMES[kind]], dtype=float)
+    n = int(round(t_end / h)) + 1
+    t, psi, r, d = _zigzag_kernel(_KIND_CODE[kind], p, float(delta_amp), float(psi_switch),
+                                  float(1 if first >= 0 else -1),
+                                  float(rate) if math.isfinite(rate) else 1e9, float(h), n, 0)
+    return {"t": t, "psi": psi, "r": r, "delta": d}
+
+
+def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
+                 t_end: float | None = None, psi_switch: float | None = None
+                 ) -> dict[str, Any]:
+    """Simulated versus measured zig-zag metrics of one zig-zag trial (seed 000 sec. 5.2).
+
+    The trial's amplitude [rad], first side (sign of the first large rudder) and
+    switching angle define the simulated zig-zag; the switching angle is ``psi_switch`` [rad], else
+    ``trial.meta["psi_switch"]``, else found by :func:`usvid.prep.find_manoeuvres` (measured and
+    rounded to a standard angle). ``rate`` [rad/s] is the rudder rate limit (default: the
+    measured rate, median of the smoothed |d delta/dt| on the rudder ramps). The amplitude is
+    the median plateau |delta| (samples above 80 % of the largest). Returns
+    measured and simulated overshoots [deg], their differences and periods.
+    """
+    from usvid.prep.metrics import zigzag_metrics
+
+    tr = _as_list(trial)[0]
+    if est.kind not in RESPONSE_KINDS:
+        raise UsvidError("zigzag_check compares response models (nomoto1, nomoto2, norrbin)")
+    t = tr.t
+    d = tr["delta"]
+    psi = np.unwrap(tr["psi"])
+    ad = np.abs(d)
+    # rudder amplitude: the median plateau level (max |delta| of a noisy record is biased high)
+    amp = float(np.median(ad[ad > 0.8 * np.max(ad)])) if np.max(ad) > 0 else 0.0
+    big = np.flatnonzero(ad > 0.5 * amp)
+    if len(big) == 0 or amp < math.radians(0.5):
+        raise IdentificationError(f"trial {tr.name}: no rudder movement, not a zig-zag")
+    first = 1 if d[big[0]] > 0 else -1
+    t_exec = None
+    sw = tr.meta.get("psi_switch")
+    if psi_switch is not None:
+        sw = psi_switch
+    if sw is None:
+        from usvid.prep import find_manoeuvres
+
+        segs = [s for s in find_manoeuvres(tr) if s.kind == "zigzag"]
+        if not segs:
+            raise IdentificationError(f"trial {tr.name}: no zig-zag found in the record")
+        sw = segs[0].psi_switch
+        first = segs[0].side
+        t_exec = segs[0].t_execute
+    sw = float(sw)
+    if rate is None:
+        # rudder rate on the ramps: derivative of the smoothed (0.5 s) rudder angle, median over
+        # the samples where it exceeds half its maximum
+        from scipy.signal import savgol_filter
+
+        hs = float(np.median(np.diff(t)))
+        win = max(int(round(0.5 / hs)) | 1, 5)
+        dd = np.abs(savgol_filter(d, win, 2, deriv=1, delta=hs)) if len(d) > win else np.abs(
+            np.gradient(d, t))
+        moving = dd > 0.5 * np.max(dd)
+        rate = float(np.median(dd[moving])) if np.any(moving) else math.inf
+    meas = zigzag_metrics(t, psi, d, delta_amp=amp, psi_switch=sw, t_execute=t_exec,
+                          first=first)
+    t_end = t_end or float(t[-1] - meas.execute_time_s)
+    sim = zigzag_response(est.kind, est.params_, amp, sw, first=first, rate=rate, t_end=t_end)
+    simm = zigzag_metrics(sim["t"], sim["psi"], sim["delta"], delta_amp=amp, psi_switch=sw,
+                          t_execute=0.0, first=first)
+    n = min(len(meas.overshoot_deg), len(simm.overshoot_deg))
+    return {
+        "trial": tr.name,
+        "delta_amp_deg": math.degrees(amp),
+        "psi_switch_deg": math.degrees(sw),
+        "first_side": "starboard" if first > 0 else "port",
+        "rudder_rate_deg_s": math.degrees(rate),
+        "measured_overshoot_deg": meas.overshoot_deg,
+        "simulated_overshoot_deg": simm.overshoot_deg,
+        "overshoot_error_deg": [simm.overshoot_deg[i] - meas.overshoot_deg[i] for i in range(n)],
+        "measured_period_s": meas.period_s,
+        "simulated_period_s": simm.period_s,
+        "measured_initial_turning_time_s": meas.initial_turning_time_s,
+        "simulated_initial_turning_time_s": simm.initial_turning_time_s,
+    }
+
+
+def cross_validate(trials: Sequence[Any], kind: str, method: str = "ls", *,
+                   window_s: float | None = -1.0, **options: Any) -> dict[str, Any]:
+    """Leave-one-trial-out cross-validation.
+
+    For each trial i: fit on all others, score on trial i (multiple-shooting windows of the
+    estimator, or a free run with ``window_s=None``). Returns ``folds`` (held-out trial, params,
+    metrics) and the mean held-out RMSE/R^2 per output channel.
+    """
+    trials = _as_list(list(trials))
+    if len(trials) < 2:
+        raise IdentificationError("cross-validation needs at least two trials")
+    folds = []
+    for i, held in enumerate(trials):
+        train = [t for j, t in enumerate(trials) if j != i]
+        try:
+            est = ModelEstimator(kind, method, **options).fit(train)
+            sc = est.score(held, window_s=window_s)
+            folds.append({"held_out": held.name, "params": est.params_, "metrics": sc})
+        except UsvidError as exc:
+            folds.append({"held_out": held.name, "error": str(exc)})
+    ok = [f for f in folds if "metrics" in f]
+    mean: dict[str, Any] = {}
+    if ok:
+        for ch in ok[0]["metrics"]:
+            if ch == "window_s":
+                continue
+            mean[ch] = {m: float(np.mean([f["metrics"][ch][m] for f in ok]))
+                        for m in ("rmse", "nrmse", "r2", "max_error")}
+    return {"kind": kind, "method": method, "folds": folds, "mean": mean}
+
+
+def validation_table(est: ModelEstimator, trials: Sequence[Any], *,
+                     window_s: float | None = -1.0) -> list[dict[str, Any]]:
+    """Per-trial fit metrics of a fitted estimator (training or held-out trials), plus the
+    zig-zag overshoot comparison for response models when the trial is a zig-zag."""
+    rows = []
+    for tr in _as_list(list(trials)):
+        row: dict[str, Any] = {"trial": tr.name, "metrics": est.score(tr, window_s=window_s)}
+        if est.kind in RESPONSE_KINDS:
+            try:
+                row["zigzag"] = zigzag_check(est, tr)
+            except UsvidError as exc:
+                row["zigzag_error"] = str(exc)
+        rows.append(row)
+    return rows

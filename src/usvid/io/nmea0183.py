@@ -1,0 +1,812 @@
+"""NMEA 0183 logs: reader (GGA RMC VTG HDT HDG THS ROT RSA, any talker) and writer.
+
+Line format: an optional *log-line time prefix* (ISO 8601 date-time such as
+``2025-11-24T12:00:00.125Z``, or epoch seconds such as ``1764000000.125``, optionally in ``()`` or
+``[]``), then the sentence ``$ttSSS,...*hh``. Time of a record (``time_source``):
+
+- ``prefix``: the prefix of its line (lines without one are rejected as ``no_time``);
+- ``sentence``: the UTC time of GGA/RMC (+ the RMC date when present; midnight roll-over unwrapped);
+  sentences without their own time (HDT, ROT, RSA, VTG, ...) get a time interpolated linearly in
+  line position between the neighbouring time-stamped sentences (a ``time_interpolated`` finding
+  says how many), clamped at the ends;
+- ``auto`` (default): ``prefix`` when most sentence lines carry a parseable prefix, else
+  ``sentence``.
+
+Times are seconds since the first record (``t`` [s]); ``meta["t0_utc"]`` is the ISO time of t = 0
+when the log gives a date (epoch prefix, ISO prefix or RMC date).
+
+Channels (Trial units): ``lat``, ``lon`` [deg] (GGA, RMC), ``sog`` [m/s] and ``cog`` [rad] (RMC,
+VTG), ``psi`` [rad] (HDT, THS; HDG's magnetic heading + deviation + variation when no true heading
+is in the log, else kept as ``psi_hdg``), ``r`` [rad/s] (ROT, deg/min, negative = bow to port),
+``delta`` [rad] (RSA starboard/single rudder, negative = bow to port, i.e. the Trial convention),
+``delta_port`` [rad] (RSA port rudder when valid).
+
+Rejected records, counted per reason in ``Trial.rejected``: ``garbage`` (no ``$``/``!``, or bytes
+that are not printable ASCII), ``truncated`` (no ``*hh`` checksum field at the end),
+``checksum`` (mismatch), ``bad_fields`` (a known sentence whose fields do not parse),
+``invalid_flag`` (a status/mode field saying the data are invalid: RMC ``V``, GGA quality 0,
+THS ``V``, ROT/RSA ``V``), ``no_time`` (no usable time), plus those of
+:func:`usvid.io._assemble.assemble`. Other well-formed sentences are ignored and counted in
+``meta["ignored_sentences"]`` and an info finding.
+
+Two engines decode the same records: ``"fast"`` (default; vectorised checksum over the byte
+buffer, then ``bytes.split`` per line; about 10x the rate of per-line pynmeagps) and
+``"pynmeagps"`` (``NMEAReader.parse`` per line with checksum validation). The tests check that
+both give identical trials on clean logs and on logs with damaged framing (checksum, truncation,
+garbage). One known difference: pynmeagps validates every field of a sentence, the fast path only
+the fields usvid decodes, so a sentence with a malformed field usvid does not use (e.g. RMC's
+magnetic variation) is ``bad_fields`` for the pynmeagps engine and read by the fast one. Times
+and dates of GGA/RMC are parsed by usvid's strict rules in both engines.
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import UTC, date, datetime
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from usvid.errors import LogReadError
+from usvid.io._assemble import apply_renames, assemble
+from usvid.io.spec import FormatSpec
+from usvid.trial import Finding, Trial
+
+KN = 1852.0 / 3600.0  # m/s per knot
+DEG = math.pi / 180.0
+TYPES = ("GGA", "RMC", "VTG", "HDT", "HDG", "THS", "ROT", "RSA")
+_FAST_TYPES = {f"{t},".encode(): t for t in TYPES}
+_TIMED = ("GGA", "RMC")
+_HEX = np.full(256, 255, dtype=np.uint8)
+for _i, _c in enumerate(b"0123456789ABCDEF"):
+    _HEX[_c] = _i
+for _i, _c in enumerate(b"abcdef"):
+    _HEX[_c] = 10 + _i
+
+
+# ----------------------------------------------------------------------------------------------
+# line framing and checksums (vectorised)
+# ----------------------------------------------------------------------------------------------
+def _frame(blob: bytes) -> tuple[list[bytes], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Split into lines; per line the sentence start, star position and status code.
+
+    Status: 0 ok, 1 blank, 2 garbage, 3 truncated, 4 checksum.
+    """
+    lines = blob.split(b"\n")
+    n = len(lines)
+    lens = np.fromiter((len(x) for x in lines), dtype=np.int64, count=n)
+    starts = np.zeros(n, dtype=np.int64)
+    if n > 1:
+        starts[1:] = np.cumsum(lens[:-1] + 1)
+    arr = np.frombuffer(blob, dtype=np.uint8)
+    # strip trailing \r / spaces: effective end per line
+    ends = starts + lens
+    # printable check per line: count bad bytes per line with cumulative sums
+    bad_pos = np.flatnonzero(((arr < 32) | (arr > 126)) & (arr != 10) & (arr != 9))
+    nbad = np.bincount(
+        np.searchsorted(starts, bad_pos, side="right") - 1, minlength=n
+    ).astype(np.int64)
+    # a single trailing \r (CRLF line end) is not garbage; a \r inside a line is
+    has = lens > 0
+    nbad[has] -= arr[ends[has] - 1] == 13
+    # first '$' or '!' per line
+    marks = np.flatnonzero((arr == 36) | (arr == 33))
+    line_of = np.searchsorted(starts, marks, side="right") - 1
+    first = np.full(n, -1, dtype=np.int64)
+    if len(marks):
+        u, idx = np.unique(line_of, return_index=True)
+        first[u] = marks[idx]
+    stars = np.flatnonzero(arr == 42)
+    sline = np.searchsorted(starts, stars, side="right") - 1
+    last = np.full(n, -1, dtype=np.int64)
+    if len(stars):
+        # last star per line: unique on reversed
+        rs = sline[::-1]
+        u, idx = np.unique(rs, return_index=True)
+        last[u] = stars[::-1][idx]
+    # effective end without trailing \r and blanks
+    stripped = np.fromiter((len(x.rstrip()) for x in lines), dtype=np.int64, count=n)
+    eff_end = starts + stripped
+    status = np.zeros(n, dtype=np.int8)
+    blank = stripped == 0
+    status[blank] = 1
+    garbage = ~blank & ((first < 0) | (nbad > 0))
+    status[garbage] = 2
+    cand = status == 0
+    trunc = cand & ((last < first) | (eff_end - last != 3))
+    status[trunc] = 3
+    cand = status == 0
+    # checksum: xor of bytes strictly between '$' and '*'
+    cx = np.bitwise_xor.accumulate(arr) if len(arr) else arr
+    ci = np.flatnonzero(cand)
+    if len(ci):
+        a = first[ci]  # position of '$': xor over a+1 .. star-1 = cx[star-1] ^ cx[a]
+        b = last[ci]
+        calc = cx[b - 1] ^ cx[a]
+        hi = _HEX[arr[b + 1]]
+        lo = _HEX[arr[b + 2]]
+        badhex = (hi == 255) | (lo == 255)
+        decl = (hi.astype(np.int64) << 4) | lo.astype(np.int64)
+        wrong = badhex | (decl != calc)
+        status[ci[badhex]] = 3
+        status[ci[wrong & ~badhex]] = 4
+        # an empty body ($*hh) or a body shorter than an address is garbage
+        short = (b - a) < 6
+        status[ci[short & ~wrong]] = 2
+    return lines, starts, first - starts, last - starts, status
+
+
+# ----------------------------------------------------------------------------------------------
+# time prefixes
+# ----------------------------------------------------------------------------------------------
+def _prefix_time(p: bytes) -> float:
+    """Epoch seconds [s] from a log-line prefix, NaN when it is not a time."""
+    s = p.strip().strip(b"()[]<>,;").strip()
+    if not s:
+        return math.nan
+    try:
+        v = float(s)
+        return v if math.isfinite(v) else math.nan
+    except ValueError:
+        pass
+    try:
+        txt = s.decode("ascii")
+        if txt.endswith("Z"):
+            txt = txt[:-1] + "+00:00"
+        dt = datetime.fromisoformat(txt)
+    except (UnicodeDecodeError, ValueError):
+        return math.nan
+    if dt.tzinfo is None:
+        dt = dt.replace(tzinfo=UTC)
+    return dt.timestamp()
+
+
+def _hms(f: bytes) -> float:
+    """Seconds of day from ``hhmmss.ss`` (ValueError when malformed)."""
+    if len(f) < 6:
+        raise ValueError("time field")
+    h = int(f[0:2])
+    m = int(f[2:4])
+    s = float(f[4:])
+    if not (0 <= h < 24 and 0 <= m < 60 and 0 <= s < 61):
+        raise ValueError("time range")
+    return h * 3600 + m * 60 + s
+
+
+def _dmy(f: bytes) -> float:
+    """Epoch seconds [s] of 00:00 UTC of ``ddmmyy`` (ValueError when malformed)."""
+    if len(f) != 6:
+        raise ValueError("date field")
+    d = date(2000 + int(f[4:6]), int(f[2:4]), int(f[0:2]))
+    return datetime(d.year, d.month, d.day, tzinfo=UTC).timestamp()
+
+
+def _latlon(v: bytes, hemi: bytes, neg: bytes, deg_digits: int) -> float:
+    """Degrees from ``ddmm.mmmm`` / ``dddmm.mmmm`` (fixed width: 2 or 3 degree digits)."""
+    if not v:
+        return math.nan
+    dot = v.find(b".")
+    if (dot if dot >= 0 else len(v)) != deg_digits + 2 or not v[:1].isdigit():
+        raise ValueError("latitude/longitude width")
+    x = float(v)
+    d = int(x // 100)
+    val = d + (x - 100 * d) / 60.0
+    if deg_digits == 2 and not (0 <= val <= 90):
+        raise ValueError("latitude range")
+    if deg_digits == 3 and not (0 <= val <= 180):
+        raise ValueError("longitude range")
+    if hemi == neg:
+        return -val
+    if hemi not in (b"N", b"S", b"E", b"W"):
+        raise ValueError("hemisphere")
+    return val
+
+
+def _num(f: bytes) -> float:
+    if not f:
+        return math.nan
+    x = float(f)
+    if not math.isfinite(x):
+        raise ValueError("non-finite")
+    return x
+
+
+# Record: (time_of_day or nan, date_epoch or nan, {channel: value}) ; raises ValueError if bad,
+# returns None when an invalid-status flag says the data are invalid.
+def _decode_fields(typ: str, f: list[bytes]) -> tuple[float, float, dict[str, float]] | None:
+    nan = math.nan
+    if typ == "GGA":
+        if len(f) < 6:
+            raise ValueError("GGA fields")
+        q = int(f[5]) if f[5] else 0
+        tod = _hms(f[0]) if f[0] else nan
+        if q == 0:
+            return None
+        return tod, nan, {
+            "lat": _latlon(f[1], f[2], b"S", 2),
+            "lon": _latlon(f[3], f[4], b"W", 3),
+        }
+    if typ == "RMC":
+        if len(f) < 9:
+            raise ValueError("RMC fields")
+        tod = _hms(f[0]) if f[0] else nan
+        day = _dmy(f[8]) if f[8] else nan
+        if f[1] != b"A":
+            if f[1] == b"V":
+                return None
+            raise ValueError("RMC status")
+        return tod, day, {
+            "lat": _latlon(f[2], f[3], b"S", 2),
+            "lon": _latlon(f[4], f[5], b"W", 3),
+            "sog": _num(f[6]) * KN,
+            "cog": _num(f[7]) * DEG,
+        }
+    if typ == "VTG":
+        if len(f) < 7:
+            raise ValueError("VTG fields")
+        if len(f) >= 9 and f[8] == b"N":
+            return None
+        sog = _num(f[4]) * KN if f[4] else _num(f[6]) / 3.6
+        return nan, nan, {"cog": _num(f[0]) * DEG, "sog": sog}
+    if typ == "HDT":
+        if len(f) < 1:
+            raise ValueError("HDT fields")
+        return nan, nan, {"psi": _num(f[0]) * DEG}
+    if typ == "THS":
+        if len(f) < 2:
+            raise ValueError("THS fields")
+        if f[1] == b"V":
+            return None
+        if f[1] not in (b"A", b"E", b"M", b"S"):
+            raise ValueError("THS mode")
+        return nan, nan, {"psi": _num(f[0]) * DEG}
+    if typ == "HDG":
+        if len(f) < 5:
+            raise ValueError("HDG fields")
+        h = _num(f[0])
+        dev = _num(f[1]) if f[1] else 0.0
+        var = _num(f[3]) if f[3] else 0.0
+        if f[1] and f[2] == b"W":
+            dev = -dev
+        if f[3] and f[4] == b"W":
+            var = -var
+        return nan, nan, {"psi_hdg": (h + dev + var) * DEG}
+    if typ == "ROT":
+        if len(f) < 2:
+            raise ValueError("ROT fields")
+        if f[1] != b"A":
+            if f[1] == b"V":
+                return None
+            raise ValueError("ROT status")
+        return nan, nan, {"r": _num(f[0]) * DEG / 60.0}
+    if typ == "RSA":
+        if len(f) < 2:
+            raise ValueError("RSA fields")
+        out = {}
+        if f[1] == b"A":
+            out["delta"] = _num(f[0]) * DEG
+        elif f[1] != b"V":
+            raise ValueError("RSA status")
+        if len(f) >= 4 and f[3] == b"A":
+            out["delta_port"] = _num(f[2]) * DEG
+        if not out:
+            return None
+        return nan, nan, out
+    raise ValueError(typ)
+
+
+def _sentence_type(body: bytes) -> str | None:
+    """Sentence type (``GGA``...) of a standard address ``ttSSS``; None for proprietary/other."""
+    addr = body.split(b",", 1)[0]
+    if len(addr) != 5 or addr[:1] == b"P":
+        return None
+    try:
+        return addr[2:].decode("ascii")
+    except UnicodeDecodeError:
+        return None
+
+
+# ----------------------------------------------------------------------------------------------
+class _Records:
+    """Decoded records in compact per-column lists (memory: no dict per record)."""
+
+    def __init__(self) -> None:
+        self.line: list[int] = []
+        self.pre: list[float] = []
+        self.tod: list[float] = []
+        self.day: list[float] = []
+        self.idx: dict[str, list[int]] = {}
+        self.val: dict[str, list[float]] = {}
+        self._memo: dict[bytes, float] = {}
+
+    def __len__(self) -> int:
+        return len(self.line)
+
+    def add(self, i: int, prefix: bytes, tod: float, day: float, values: dict) -> None:
+        j = len(self.line)
+        self.line.append(i)
+        v = self._memo.get(prefix)
+        if v is None:
+            v = self._memo[prefix] = _prefix_time(prefix)
+        self.pre.append(v)
+        self.tod.append(tod)
+        self.day.append(day)
+        for k, x in values.items():
+            if k not in self.idx:
+                self.idx[k] = []
+                self.val[k] = []
+            self.idx[k].append(j)
+            self.val[k].append(x)
+
+
+# ----------------------------------------------------------------------------------------------
+# engines: each returns per-line (line_no, type, tod, day, values) and a rejected counter
+# ----------------------------------------------------------------------------------------------
+def _scan_fast(blob: bytes):
+    lines, _starts, first, last, status = _frame(blob)
+    rejected: dict[str, int] = {}
+    for code, reason in ((2, "garbage"), (3, "truncated"), (4, "checksum")):
+        k = int((status == code).sum())
+        if k:
+            rejected[reason] = k
+    recs = _Records()
+    ignored: dict[str, int] = {}
+    firsts = first.tolist()
+    lasts = last.tolist()
+    for i in np.flatnonzero(status == 0).tolist():
+        line = lines[i]
+        a = firsts[i]
+        body = line[a + 1 : lasts[i]]
+        typ = _FAST_TYPES.get(body[2:6]) if body[:1] != b"P" else None
+        if typ is None:
+            typ = _sentence_type(body)
+            key = typ or body.split(b",", 1)[0].decode("ascii", "replace")
+            ignored[key] = ignored.get(key, 0) + 1
+            continue
+        if b" " in body or b"*" in body:  # no decoded field holds a blank or a star
+            rejected["bad_fields"] = rejected.get("bad_fields", 0) + 1
+            continue
+        try:
+            dec = _decode_fields(typ, body.split(b",")[1:])
+        except (ValueError, IndexError, OverflowError):
+            rejected["bad_fields"] = rejected.get("bad_fields", 0) + 1
+            continue
+        if dec is None:
+            rejected["invalid_flag"] = rejected.get("invalid_flag", 0) + 1
+            continue
+        recs.add(i, line[:a], *dec)
+    return recs, rejected, ignored, len(lines)
+
+
+def _scan_pynmeagps(blob: bytes):
+    """Per-line decoding with ``pynmeagps.NMEAReader.parse`` (checksums validated)."""
+    from pynmeagps import NMEAReader
+    from pynmeagps.nmeatypes_core import VALCKSUM
+
+    lines = blob.split(b"\n")
+    rejected: dict[str, int] = {}
+    ignored: dict[str, int] = {}
+    recs = _Records()
+
+    def rej(reason: str) -> None:
+        rejected[reason] = rejected.get(reason, 0) + 1
+
+    for i, raw in enumerate(lines):
+        line = raw.rstrip()
+        if not line:
+            continue
+        body = raw[:-1] if raw.endswith(b"\r") else raw
+        if any(b < 32 or b > 126 for b in body if b != 9):
+            rej("garbage")
+            continue
+        k1, k2 = line.find(b"$"), line.find(b"!")
+        ks = [k for k in (k1, k2) if k >= 0]
+        if not ks:
+            rej("garbage")
+            continue
+        a = min(ks)
+        sent = line[a:]
+        star = sent.rfind(b"*")
+        if star < 0 or len(sent) - star != 3:
+            rej("truncated")
+            continue
+        if _HEX[sent[star + 1]] == 255 or _HEX[sent[star + 2]] == 255:
+            rej("truncated")
+            continue
+        cks = 0
+        for ch in sent[1:star]:
+            cks ^= ch
+        if cks != int(sent[star + 1 : star + 3], 16):
+            rej("checksum")
+            continue
+        if star < 6:
+            rej("garbage")
+            continue
+        typ = _sentence_type(sent[1:star])
+        if typ not in TYPES:
+            key = typ or sent[1:star].split(b",", 1)[0].decode("ascii", "replace")
+            ignored[key] = ignored.get(key, 0) + 1
+            continue
+        if b" " in sent[:star] or b"*" in sent[1:star]:
+            rej("bad_fields")
+            continue
+        try:
+            msg = NMEAReader.parse(sent + b"\r\n", validate=VALCKSUM)
+        except Exception as exc:  # pynmeagps raises NMEAParseError & friends
+            if "checksum" in str(exc).lower():
+                rej("checksum")
+            elif typ in TYPES:
+                rej("bad_fields")
+            else:
+                ignored[typ or "?"] = ignored.get(typ or "?", 0) + 1
+            continue
+        if typ not in TYPES or msg is None:
+            key = typ or sent[1:star].split(b",", 1)[0].decode("ascii", "replace")
+            ignored[key] = ignored.get(key, 0) + 1
+            continue
+        try:
+            dec = _from_pynmeagps(typ, msg)
+            if dec is not None and typ in _TIMED:
+                # time, date and position syntax by usvid's strict rules (pynmeagps is lenient
+                # there: it reads "010.5" as a longitude and a malformed time as no time)
+                f = sent[1:star].split(b",")[1:]
+                tod = _hms(f[0]) if f[0] else math.nan
+                day = (_dmy(f[8]) if f[8] else math.nan) if typ == "RMC" else math.nan
+                k = 1 if typ == "GGA" else 2
+                _latlon(f[k], f[k + 1], b"S", 2)
+                _latlon(f[k + 2], f[k + 3], b"W", 3)
+                dec = (tod, day, dec[2])
+        except (ValueError, TypeError, AttributeError, OverflowError, IndexError):
+            rej("bad_fields")
+            continue
+        if dec is None:
+            rej("invalid_flag")
+            continue
+        recs.add(i, line[:a], *dec)
+    return recs, rejected, ignored, len(lines)
+
+
+def _g(msg, name: str) -> float:
+    v = getattr(msg, name, "")
+    if v == "" or v is None:
+        return math.nan
+    x = float(v)
+    if not math.isfinite(x):
+        raise ValueError(name)
+    return x
+
+
+def _tod(v) -> float:
+    if v == "" or v is None:
+        return math.nan
+    return v.hour * 3600 + v.minute * 60 + v.second + v.microsecond * 1e-6
+
+
+def _from_pynmeagps(typ: str, m) -> tuple[float, float, dict[str, float]] | None:
+    nan = math.nan
+    if typ == "GGA":
+        q = m.quality if m.quality != "" else 0
+        if int(q) == 0:
+            return None
+        return _tod(m.time), nan, {"lat": _g(m, "lat"), "lon": _g(m, "lon")}
+    if typ == "RMC":
+        if m.status != "A":
+            if m.status == "V":
+                return None
+            raise ValueError("status")
+        day = nan
+        if m.date not in ("", None):
+            day = datetime(m.date.year, m.date.month, m.date.day, tzinfo=UTC).timestamp()
+        return _tod(m.time), day, {
+            "lat": _g(m, "lat"),
+            "lon": _g(m, "lon"),
+            "sog": _g(m, "spd") * KN,
+            "cog": _g(m, "cog") * DEG,
+        }
+    if typ == "VTG":
+        if getattr(m, "posMode", "") == "N":
+            return None
+        sogn = _g(m, "sogn")
+        sog = sogn * KN if math.isfinite(sogn) else _g(m, "sogk") / 3.6
+        return nan, nan, {"cog": _g(m, "cogt") * DEG, "sog": sog}
+    if typ == "HDT":
+        return nan, nan, {"psi": _g(m, "headingT") * DEG}
+    if typ == "THS":
+        if m.mi == "V":
+            return None
+        if m.mi not in ("A", "E", "M", "S"):
+            raise ValueError("mode")
+        return nan, nan, {"psi": _g(m, "headt") * DEG}
+    if typ == "HDG":
+        h = _g(m, "headingM")
+        dev = _g(m, "deviation")
+        var = _g(m, "variation")
+        dev = 0.0 if math.isnan(dev) else (-dev if m.deviationEW == "W" else dev)
+        var = 0.0 if math.isnan(var) else (-var if m.variationEW == "W" else var)
+        return nan, nan, {"psi_hdg": (h + dev + var) * DEG}
+    if typ == "ROT":
+        if m.valid != "A":
+            if m.valid == "V":
+                return None
+            raise ValueError("status")
+        return nan, nan, {"r": _g(m, "rot") * DEG / 60.0}
+    if typ == "RSA":
+        out = {}
+        if m.stbdstatus == "A":
+            out["delta"] = _g(m, "stbdangle") * DEG
+        elif m.stbdstatus != "V":
+            raise ValueError("status")
+        if getattr(m, "portstatus", "") == "A":
+            out["delta_port"] = _g(m, "portangle") * DEG
+        return (nan, nan, out) if out else None
+    raise ValueError(typ)
+
+
+# ----------------------------------------------------------------------------------------------
+# reader
+# ----------------------------------------------------------------------------------------------
+def _unwrap_days(tod: np.ndarray) -> np.ndarray:
+    """Add 86400 s at each midnight roll-over (a drop of more than 12 h)."""
+    out = tod.copy()
+    ok = np.isfinite(out)
+    v = out[ok]
+    if len(v) > 1:
+        jumps = np.r_[0, np.cumsum(np.diff(v) < -43200.0)]
+        out[ok] = v + 86400.0 * jumps
+    return out
+
+
+def read_nmea0183(
+    path: str | Path, spec: FormatSpec | None = None, *, engine: str = "fast"
+) -> Trial:
+    """Read an NMEA 0183 log into a multi-rate Trial (union of time stamps, NaN elsewhere).
+
+    ``engine``: ``"fast"`` or ``"pynmeagps"`` (see module docstring). Raises
+    :class:`LogReadError` (one line, naming the file) when the file is empty or holds no usable
+    sentence.
+    """
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:  # read-only
+            blob = fh.read()
+    except OSError as exc:
+        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if not blob.strip():
+        raise LogReadError(f"{path}: empty file")
+    if engine == "fast":
+        recs, rejected, ignored, nlines = _scan_fast(blob)
+    elif engine == "pynmeagps":
+        recs, rejected, ignored, nlines = _scan_pynmeagps(blob)
+    else:
+        raise ValueError(f"engine must be 'fast' or 'pynmeagps', got {engine!r}")
+    findings: list[Finding] = []
+    if ignored:
+        findings.append(
+            Finding(
+                "info",
+                "ignored_sentences",
+                f"{path.name}: ignored {sum(ignored.values())} sentence(s) of types not used: "
+                + ", ".join(f"{k} ({v})" for k, v in sorted(ignored.items())),
+                count=sum(ignored.values()),
+                data={"types": dict(ignored)},
+            )
+        )
+    if not recs:
+        detail = ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items()))
+        status = _frame(blob)[4]
+        badl = np.flatnonzero(status >= 2)
+        where = f"; first bad line {int(badl[0]) + 1}" if len(badl) else ""
+        raise LogReadError(
+            f"{path}: no usable NMEA 0183 sentence in {nlines} line(s)"
+            + (f" (rejected {detail}{where})" if detail else "")
+        )
+    n = len(recs)
+    line_no = np.asarray(recs.line, dtype=np.int64)
+    pre = np.asarray(recs.pre, dtype=float)
+    tod = np.asarray(recs.tod, dtype=float)
+    day = np.asarray(recs.day, dtype=float)
+    mode = spec.time_source if spec is not None else "auto"
+    if mode == "auto":
+        mode = "prefix" if np.isfinite(pre).mean() > 0.5 else "sentence"
+    meta: dict = {"time_source": mode, "engine": engine}
+    if ignored:
+        meta["ignored_sentences"] = dict(ignored)
+    if mode == "prefix":
+        t_rel = pre  # epoch seconds (float64: 0.24 us resolution)
+        base = 0.0
+        has_date = True
+    else:
+        have = np.isfinite(tod)
+        if not have.any():
+            raise LogReadError(
+                f"{path}: no time in the log: no log-line time prefix and no GGA/RMC time"
+            )
+        tod_u = _unwrap_days(tod)
+        dayv = day[np.isfinite(day)]
+        has_date = len(dayv) > 0
+        base = float(dayv[0]) if has_date else 0.0
+        # seconds of day (roll-overs unwrapped), interpolated by line position where absent
+        tt = tod_u[have]
+        ln = line_no[have]
+        order = np.argsort(ln, kind="stable")
+        t_rel = np.interp(line_no.astype(float), ln[order].astype(float), tt[order])
+        t_rel[have] = tod_u[have]
+        n_interp = int((~have).sum())
+        if n_interp:
+            findings.append(
+                Finding(
+                    "info",
+                    "time_interpolated",
+                    f"{path.name}: {n_interp} sentence(s) without their own time got a time "
+                    "interpolated between the neighbouring GGA/RMC times (no log-line prefix)",
+                    count=n_interp,
+                )
+            )
+    notime = ~np.isfinite(t_rel)
+    if notime.any():
+        rejected["no_time"] = rejected.get("no_time", 0) + int(notime.sum())
+    ok = ~notime
+    if not ok.any():
+        raise LogReadError(f"{path}: no sentence with a usable time ({n} sentences)")
+    rel0 = float(np.min(t_rel[ok]))
+    t0 = base + rel0
+    if has_date:
+        meta["t0_utc"] = datetime.fromtimestamp(t0, tz=UTC).isoformat()
+        meta["t0_epoch"] = t0
+    else:
+        meta["t0_time_of_day_s"] = t0
+    # long format -> channel arrays aligned to records
+    chans = {}
+    for k in sorted(recs.idx):
+        a = np.full(n, np.nan)
+        a[np.asarray(recs.idx[k], dtype=np.int64)] = np.asarray(recs.val[k], dtype=float)
+        chans[k] = a
+    if "psi_hdg" in chans and "psi" not in chans:
+        chans["psi"] = chans.pop("psi_hdg")
+    t = t_rel - rel0
+    chans = {k: v[ok] for k, v in chans.items()}
+    chans = apply_renames(chans, spec)
+    return assemble(
+        path,
+        t[ok],
+        chans,
+        spec=spec,
+        rejected=rejected,
+        findings=findings,
+        count_duplicates=False,
+        meta={**meta, "reader": "nmea0183"},
+    )
+
+
+# ----------------------------------------------------------------------------------------------
+# writer
+# ----------------------------------------------------------------------------------------------
+def checksum(body: str) -> str:
+    """NMEA 0183 checksum of the text between ``$`` and ``*`` (XOR of the bytes, 2 hex digits)."""
+    c = 0
+    for ch in body.encode("ascii"):
+        c ^= ch
+    return f"{c:02X}"
+
+
+def sentence(body: str) -> str:
+    """``$body*hh`` with the correct checksum."""
+    return f"${body}*{checksum(body)}"
+
+
+def _fmt_lat(lat: float) -> tuple[str, str]:
+    a = abs(lat)
+    d = int(a)
+    m = (a - d) * 60.0
+    if round(m, 6) >= 60.0:
+        d, m = d + 1, 0.0
+    return f"{d:02d}{m:09.6f}", ("N" if lat >= 0 else "S")
+
+
+def _fmt_lon(lon: float) -> tuple[str, str]:
+    a = abs(lon)
+    d = int(a)
+    m = (a - d) * 60.0
+    if round(m, 6) >= 60.0:
+        d, m = d + 1, 0.0
+    return f"{d:03d}{m:09.6f}", ("E" if lon >= 0 else "W")
+
+
+def _col(trial: Trial, name: str) -> np.ndarray | None:
+    return trial.data[name].to_numpy(dtype=float) if name in trial.data.columns else None
+
+
+def nmea0183_lines(
+    trial: Trial,
+    *,
+    t0_utc: str | datetime | None = None,
+    gnss_talker: str = "GP",
+    heading_talker: str = "HE",
+    rudder_talker: str = "II",
+    prefix: str = "iso",
+) -> list[str]:
+    """Sentences for every finite sample of ``trial`` (see :func:`write_nmea0183`)."""
+    if prefix not in ("iso", "epoch", "none"):
+        raise ValueError(f"prefix must be 'iso', 'epoch' or 'none', got {prefix!r}")
+    if t0_utc is None:
+        t0_utc = trial.meta.get("t0_utc", "2025-01-01T00:00:00+00:00")
+    t0 = pd.Timestamp(t0_utc)
+    t0 = t0.tz_localize("UTC") if t0.tzinfo is None else t0.tz_convert("UTC")
+    e0 = t0.timestamp()
+    t = trial.t
+    lat, lon = _col(trial, "lat"), _col(trial, "lon")
+    psi, r = _col(trial, "psi"), _col(trial, "r")
+    delta = _col(trial, "delta")
+    sog = _col(trial, "sog")
+    if sog is None:
+        sog = _col(trial, "U")
+    cog = _col(trial, "cog")
+    out: list[str] = []
+    for i in range(len(t)):
+        ep = e0 + float(t[i])
+        if prefix == "iso":
+            us = int(round(ep * 1e6))
+            dt = datetime.fromtimestamp(us // 1_000_000, tz=UTC)
+            pre = dt.strftime("%Y-%m-%dT%H:%M:%S") + f".{us % 1_000_000:06d}Z "
+        elif prefix == "epoch":
+            pre = f"{ep:.6f} "
+        else:
+            pre = ""
+        cs = int(round(ep * 100))  # GGA/RMC carry centiseconds
+        dtc = datetime.fromtimestamp(cs // 100, tz=UTC)
+        hms = dtc.strftime("%H%M%S") + f".{cs % 100:02d}"
+        has_sog = sog is not None and math.isfinite(sog[i])
+        has_cog = cog is not None and math.isfinite(cog[i])
+        sog_kn = f"{sog[i] / KN:.3f}" if has_sog else ""
+        cog_deg = f"{(math.degrees(cog[i]) % 360.0):.2f}" if has_cog else ""
+        if lat is not None and lon is not None and math.isfinite(lat[i]) and math.isfinite(lon[i]):
+            la, ns = _fmt_lat(float(lat[i]))
+            lo, ew = _fmt_lon(float(lon[i]))
+            out.append(pre + sentence(f"{gnss_talker}GGA,{hms},{la},{ns},{lo},{ew},1,10,0.8,0.0,M,"
+                                      "0.0,M,,"))
+            out.append(pre + sentence(f"{gnss_talker}RMC,{hms},A,{la},{ns},{lo},{ew},{sog_kn},"
+                                      f"{cog_deg},{dtc.strftime('%d%m%y')},,,A"))
+        if has_sog or has_cog:
+            sog_kmh = f"{sog[i] * 3.6:.3f}" if has_sog else ""
+            out.append(pre + sentence(f"{gnss_talker}VTG,{cog_deg},T,,M,{sog_kn},N,{sog_kmh},K,A"))
+        if psi is not None and math.isfinite(psi[i]):
+            out.append(pre + sentence(f"{heading_talker}HDT,{math.degrees(psi[i]) % 360.0:.3f},T"))
+        if r is not None and math.isfinite(r[i]):
+            out.append(pre + sentence(f"{heading_talker}ROT,{math.degrees(r[i]) * 60.0:.3f},A"))
+        if delta is not None and math.isfinite(delta[i]):
+            out.append(pre + sentence(f"{rudder_talker}RSA,{math.degrees(delta[i]):.3f},A,,V"))
+    return out
+
+
+def write_nmea0183(
+    trial: Trial,
+    path: str | Path,
+    *,
+    t0_utc: str | datetime | None = None,
+    gnss_talker: str = "GP",
+    heading_talker: str = "HE",
+    rudder_talker: str = "II",
+    prefix: str = "iso",
+) -> Path:
+    """Write a Trial as an NMEA 0183 log (atomically).
+
+    Each finite sample becomes sentences: ``lat``/``lon`` -> GGA + RMC (with ``sog`` or ``U``
+    [m/s] -> knots and ``cog`` [rad] -> degrees), ``sog``/``cog`` -> VTG, ``psi`` -> HDT [deg],
+    ``r`` -> ROT [deg/min], ``delta`` -> RSA [deg] (starboard rudder field). Every line starts
+    with a time prefix (``prefix="iso"``: ISO 8601 UTC with microseconds; ``"epoch"``: epoch
+    seconds; ``"none"``: sentence times only) so that sub-second timing survives; t = 0 is
+    ``t0_utc`` (default ``trial.meta["t0_utc"]`` or 2025-01-01). Quantisation: positions 1e-6
+    arc-minutes (< 2 mm), heading/rate/rudder 1e-3 deg (deg/min), speed 1e-3 kn.
+    """
+    from usvid.commands._common import write_atomic
+
+    lines = nmea0183_lines(
+        trial,
+        t0_utc=t0_utc,
+        gnss_talker=gnss_talker,
+        heading_talker=heading_talker,
+        rudder_talker=rudder_talker,
+        prefix=prefix,
+    )
+    return write_atomic(path, "\r\n".join(lines) + "\r\n")

@@ -1,0 +1,390 @@
+"""Trial format specs: how a log file maps onto the Trial contract (``ARCHITECTURE.md``).
+
+A spec is YAML read with ``yaml.safe_load`` only and validated field by field; an unknown key, a
+wrong type, an unknown unit or a unit that does not fit its channel raises
+:class:`usvid.errors.FormatSpecError` naming the spec file and the field
+(``"hsva.yaml: columns.psi.unit: unknown unit 'degs' (known: s, ms, ...)"``).
+
+Schema (every key optional except ``reader``)::
+
+    reader: table            # table | excel | parquet | nmea0183 | nmea2000
+    delimiter: whitespace    # table only: whitespace | "," | ";" | "\\t" (or "tab")
+    skip_rows: 4             # lines (table) / rows (excel) skipped before the header or the data
+    header: false            # true: the first row after skip_rows holds the column names
+    comment: "#"             # table only: lines starting with this are ignored
+    encoding: cp1252         # text encoding (table, nmea0183)
+    sheet: Sheet1            # excel only: sheet name or 0-based index
+    non_monotonic: sort      # sort | reject: records whose time goes back (see readers)
+    time_source: auto        # nmea0183 only: auto | prefix | sentence
+    description: "..."       # free text
+    columns:                 # Trial channel -> source column (0-based index or header name)
+      t:     {col: 0, unit: s}
+      psi:   {col: 3, unit: deg, sign: 1, offset: 0.0, scale: 1.0, optional: false}
+      delta: 8               # shorthand: {col: 8} with the channel's SI unit
+    vessel: {length: 7.0, speed: 1.18, beam: 1.27, draft: 0.455, mass: 3272,
+             displacement: 3.27, block_coefficient: 0.81, extra: {scale_factor: 45.7}}
+
+Conversion of one column: ``value = sign * factor(unit) * (scale * raw + offset)``, i.e. ``scale``
+and ``offset`` act in the source unit, then the unit is converted to the Trial unit of the channel
+(SI, radians; ``lat``/``lon`` in degrees) and ``sign`` (+1 or -1) flips the convention (e.g. a
+rudder angle positive to port gets ``sign: -1``).
+
+For the ``nmea0183`` and ``nmea2000`` readers ``columns`` is optional: the readers decode the
+standard channels themselves (``lat lon psi r delta U sog cog n ...``); an entry there renames or
+re-signs a decoded channel (``delta: {col: delta, sign: -1}``) and must not name a unit other than
+the channel's Trial unit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from usvid.errors import FormatSpecError
+from usvid.io import units as _units
+from usvid.trial import Vessel
+
+READERS = ("table", "excel", "parquet", "nmea0183", "nmea2000")
+DELIMITERS = {"whitespace": None, ",": ",", ";": ";", "\t": "\t", "tab": "\t"}
+SPEC_KEYS = (
+    "reader",
+    "delimiter",
+    "skip_rows",
+    "header",
+    "comment",
+    "encoding",
+    "sheet",
+    "non_monotonic",
+    "time_source",
+    "description",
+    "columns",
+    "vessel",
+)
+COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional")
+VESSEL_KEYS = (
+    "length",
+    "speed",
+    "beam",
+    "draft",
+    "mass",
+    "displacement",
+    "block_coefficient",
+    "extra",
+)
+_SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
+
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One Trial channel read from one source column.
+
+    ``col`` is a 0-based index or a header name; ``unit`` a key of :data:`usvid.io.units.UNITS`
+    (or ``datetime`` for the time column); ``sign`` +1/-1; ``offset``/``scale`` in the source unit;
+    ``optional`` columns may be absent from the file.
+    """
+
+    name: str
+    col: int | str
+    unit: str | None = None
+    sign: float = 1.0
+    offset: float = 0.0
+    scale: float = 1.0
+    optional: bool = False
+
+    @property
+    def factor(self) -> float:
+        """Multiplier from the (scaled, offset) source value to the Trial unit, sign included."""
+        if self.unit is None or self.unit == _units.DATETIME:
+            return self.sign
+        return self.sign * _units.target_factor(self.name, self.unit)
+
+    def convert(self, raw: Any) -> Any:
+        """``sign * factor(unit) * (scale * raw + offset)`` (numpy arrays or floats)."""
+        return self.factor * (self.scale * raw + self.offset)
+
+
+@dataclass(frozen=True)
+class FormatSpec:
+    """A validated trial format spec (see the module docstring for the YAML schema)."""
+
+    reader: str
+    columns: dict[str, ColumnSpec] = field(default_factory=dict)
+    delimiter: str | None = None  # None = whitespace
+    skip_rows: int = 0
+    header: bool | None = None  # None: decided by the reader (excel/parquet: True, table: False)
+    comment: str | None = None
+    encoding: str = "utf-8"
+    sheet: int | str = 0
+    non_monotonic: str = "sort"
+    time_source: str = "auto"
+    description: str = ""
+    vessel: Vessel = field(default_factory=Vessel)
+    source: str = "<spec>"
+
+    @property
+    def uses_names(self) -> bool:
+        """True when any column is addressed by header name."""
+        return any(isinstance(c.col, str) for c in self.columns.values())
+
+
+def _err(source: str, where: str, msg: str) -> FormatSpecError:
+    return FormatSpecError(f"{source}: {where}: {msg}" if where else f"{source}: {msg}")
+
+
+def _check_keys(d: dict, allowed: tuple[str, ...], source: str, where: str) -> None:
+    for k in d:
+        if k not in allowed:
+            loc = f"{where}.{k}" if where else str(k)
+            raise _err(source, loc, f"unknown key '{k}' (allowed: {', '.join(allowed)})")
+
+
+def _number(v: Any, source: str, where: str, *, positive: bool = False) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise _err(source, where, f"expected a number, got {v!r}")
+    f = float(v)
+    if not math.isfinite(f):
+        raise _err(source, where, f"expected a finite number, got {v!r}")
+    if positive and f <= 0:
+        raise _err(source, where, f"must be > 0 (got {v!r})")
+    return f
+
+
+def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
+    where = f"columns.{name}"
+    if isinstance(v, int | str) and not isinstance(v, bool):
+        v = {"col": v}
+    if not isinstance(v, dict):
+        raise _err(source, where, f"expected a mapping {{col: ..., unit: ...}}, got {v!r}")
+    _check_keys(v, COLUMN_KEYS, source, where)
+    if "col" not in v:
+        raise _err(source, where, "missing key 'col' (0-based column index or header name)")
+    col = v["col"]
+    if isinstance(col, bool) or not isinstance(col, int | str):
+        raise _err(source, f"{where}.col", f"expected an index or a header name, got {col!r}")
+    if isinstance(col, int) and col < 0:
+        raise _err(source, f"{where}.col", f"column index must be >= 0 (got {col})")
+    unit = v.get("unit")
+    if unit is not None:
+        cu = _units.canonical_unit(str(unit))
+        if cu is None:
+            raise _err(
+                source,
+                f"{where}.unit",
+                f"unknown unit '{unit}' (known: {', '.join(_units.known_units())})",
+            )
+        if cu == _units.DATETIME and name != "t":
+            raise _err(source, f"{where}.unit", "unit 'datetime' is only allowed for 't'")
+        if cu != _units.DATETIME:
+            try:
+                _units.target_factor(name, cu)
+            except ValueError as exc:
+                raise _err(source, f"{where}.unit", str(exc)) from None
+        unit = cu
+    sign = _number(v.get("sign", 1), source, f"{where}.sign")
+    if sign not in (1.0, -1.0):
+        raise _err(source, f"{where}.sign", f"must be 1 or -1 (got {v['sign']!r})")
+    optional = v.get("optional", False)
+    if not isinstance(optional, bool):
+        raise _err(source, f"{where}.optional", f"expected true or false, got {optional!r}")
+    if optional and name == "t":
+        raise _err(source, f"{where}.optional", "the time column cannot be optional")
+    return ColumnSpec(
+        name=name,
+        col=col,
+        unit=unit,
+        sign=sign,
+        offset=_number(v.get("offset", 0.0), source, f"{where}.offset"),
+        scale=_number(v.get("scale", 1.0), source, f"{where}.scale"),
+        optional=optional,
+    )
+
+
+def _vessel(v: Any, source: str) -> Vessel:
+    if not isinstance(v, dict):
+        raise _err(source, "vessel", f"expected a mapping, got {v!r}")
+    _check_keys(v, VESSEL_KEYS, source, "vessel")
+    kw = {k: _number(v[k], source, f"vessel.{k}", positive=True) for k in v if k != "extra"}
+    extra = v.get("extra", {}) or {}
+    if not isinstance(extra, dict):
+        raise _err(source, "vessel.extra", f"expected a mapping name -> number, got {extra!r}")
+    ex = {str(k): _number(x, source, f"vessel.extra.{k}") for k, x in extra.items()}
+    return Vessel(**kw, extra=ex)
+
+
+def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
+    """Validate a spec given as a mapping (already parsed YAML) and build a :class:`FormatSpec`.
+
+    Raises :class:`FormatSpecError` naming ``source`` and the offending field.
+    """
+    if not isinstance(d, dict):
+        raise _err(source, "", f"a format spec must be a mapping, got {type(d).__name__}")
+    _check_keys(d, SPEC_KEYS, source, "")
+    if "reader" not in d:
+        raise _err(source, "reader", f"missing (one of: {', '.join(READERS)})")
+    reader = d["reader"]
+    if reader not in READERS:
+        raise _err(source, "reader", f"unknown reader {reader!r} (one of: {', '.join(READERS)})")
+
+    def only(key: str, readers: tuple[str, ...]) -> None:
+        if key in d and reader not in readers:
+            raise _err(source, key, f"only used by reader {' / '.join(readers)}, not {reader}")
+
+    only("delimiter", ("table",))
+    only("comment", ("table",))
+    only("sheet", ("excel",))
+    only("time_source", ("nmea0183",))
+    only("encoding", ("table", "nmea0183"))
+    only("skip_rows", ("table", "excel"))
+    only("header", ("table", "excel"))
+
+    delim = d.get("delimiter", "whitespace")
+    if delim not in DELIMITERS:
+        raise _err(
+            source, "delimiter", f"expected whitespace, ',', ';' or '\\t', got {delim!r}"
+        )
+    skip = d.get("skip_rows", 0)
+    if isinstance(skip, bool) or not isinstance(skip, int) or skip < 0:
+        raise _err(source, "skip_rows", f"expected an integer >= 0, got {skip!r}")
+    header = d.get("header")
+    if header is not None and not isinstance(header, bool):
+        raise _err(source, "header", f"expected true or false, got {header!r}")
+    comment = d.get("comment")
+    if comment is not None and (not isinstance(comment, str) or len(comment) != 1):
+        raise _err(source, "comment", f"expected one character, got {comment!r}")
+    encoding = d.get("encoding", "utf-8")
+    if not isinstance(encoding, str):
+        raise _err(source, "encoding", f"expected a codec name, got {encoding!r}")
+    import codecs
+
+    try:
+        codecs.lookup(encoding)
+    except LookupError:
+        raise _err(source, "encoding", f"unknown text encoding {encoding!r}") from None
+    sheet = d.get("sheet", 0)
+    if isinstance(sheet, bool) or not isinstance(sheet, int | str):
+        raise _err(source, "sheet", f"expected a sheet name or 0-based index, got {sheet!r}")
+    nm = d.get("non_monotonic", "sort")
+    if nm not in ("sort", "reject"):
+        raise _err(source, "non_monotonic", f"expected 'sort' or 'reject', got {nm!r}")
+    ts = d.get("time_source", "auto")
+    if ts not in ("auto", "prefix", "sentence"):
+        raise _err(source, "time_source", f"expected auto, prefix or sentence, got {ts!r}")
+    desc = d.get("description", "")
+    if not isinstance(desc, str):
+        raise _err(source, "description", f"expected text, got {desc!r}")
+
+    cols_raw = d.get("columns", {}) or {}
+    if not isinstance(cols_raw, dict):
+        raise _err(source, "columns", f"expected a mapping channel -> column, got {cols_raw!r}")
+    columns: dict[str, ColumnSpec] = {}
+    for name, v in cols_raw.items():
+        if not isinstance(name, str) or not name.isidentifier():
+            raise _err(source, f"columns.{name}", "channel names must be identifiers")
+        columns[name] = _column(name, v, reader, source)
+    if reader in ("table", "excel", "parquet"):
+        if "t" not in columns:
+            raise _err(source, "columns.t", "missing: the time column is required")
+        for c in columns.values():
+            if c.unit is None:
+                raise _err(source, f"columns.{c.name}.unit", "missing: every column needs a unit")
+        if reader == "table" and header is False and any(
+            isinstance(c.col, str) for c in columns.values()
+        ):
+            raise _err(source, "header", "columns are named by header, but header is false")
+    else:
+        from usvid.trial import CHANNEL_UNITS
+
+        for c in columns.values():
+            if not isinstance(c.col, str):
+                raise _err(
+                    source,
+                    f"columns.{c.name}.col",
+                    "NMEA readers name decoded channels, not column indices",
+                )
+            want = CHANNEL_UNITS.get(c.col)
+            if c.unit is not None and want is not None and c.unit != want:
+                raise _err(
+                    source,
+                    f"columns.{c.name}.unit",
+                    f"the {reader} reader delivers '{c.col}' in {want}, not {c.unit}",
+                )
+
+    vessel = _vessel(d["vessel"], source) if "vessel" in d else Vessel()
+    return FormatSpec(
+        reader=reader,
+        columns=columns,
+        delimiter=DELIMITERS[delim],
+        skip_rows=skip,
+        header=header,
+        comment=comment,
+        encoding=encoding,
+        sheet=sheet,
+        non_monotonic=nm,
+        time_source=ts,
+        description=desc,
+        vessel=vessel,
+        source=source,
+    )
+
+
+def load_spec(path: str | Path) -> FormatSpec:
+    """Read and validate a trial format spec (YAML, ``yaml.safe_load`` only).
+
+    Raises :class:`FormatSpecError` for an unreadable file, bad YAML or any schema violation.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise FormatSpecError(f"{p}: cannot read format spec ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise FormatSpecError(f"{p}: format spec is not UTF-8 text") from None
+    try:
+        d = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise FormatSpecError(f"{p}:{where} {problem}") from None
+    return parse_spec(d, source=p.name)
+
+
+def shipped_specs() -> list[str]:
+    """Names of the specs shipped with usvid (``src/usvid/specs/*.yaml``, without suffix)."""
+    return sorted(p.stem for p in _SPECS_DIR.glob("*.yaml"))
+
+
+def shipped_spec_path(name: str) -> Path:
+    """Path of a shipped spec (``"hsva_kvlcc2"`` or ``"hsva_kvlcc2.yaml"``)."""
+    stem = name[:-5] if name.endswith(".yaml") else name
+    p = _SPECS_DIR / f"{stem}.yaml"
+    if not p.is_file():
+        raise FormatSpecError(
+            f"no shipped format spec '{name}' (shipped: {', '.join(shipped_specs())})"
+        )
+    return p
+
+
+def shipped_spec(name: str) -> FormatSpec:
+    """Load a shipped spec by name, e.g. ``shipped_spec("hsva_kvlcc2")``."""
+    return load_spec(shipped_spec_path(name))
+
+
+def coerce_spec(spec: str | Path | FormatSpec | dict | None) -> FormatSpec | None:
+    """A :class:`FormatSpec` from a path, a shipped name, a mapping or a spec (None passes)."""
+    if spec is None or isinstance(spec, FormatSpec):
+        return spec
+    if isinstance(spec, dict):
+        return parse_spec(spec)
+    p = Path(spec)
+    if p.is_file():
+        return load_spec(p)
+    if isinstance(spec, str) and "/" not in spec and "\\" not in spec:
+        stem = spec[:-5] if spec.endswith(".yaml") else spec
+        if (_SPECS_DIR / f"{stem}.yaml").is_file():
+            return shipped_spec(stem)
+    raise FormatSpecError(f"{spec}: format spec file not found (nor a shipped spec name)")

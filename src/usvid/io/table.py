@@ -1,0 +1,256 @@
+"""Readers for tabular logs: delimited text (whitespace, CSV, ...), Excel (.xlsx) and Parquet.
+
+Each maps source columns onto Trial channels by the spec's ``columns`` (0-based index or header
+name), converts units to SI/radians (``ColumnSpec.convert``) and hands the records to
+:func:`usvid.io._assemble.assemble` (NaN time, NaN rows, non-monotonic time, duplicates).
+
+Bad records in text tables are rejected and counted per reason in ``Trial.rejected``:
+``truncated`` (fewer fields than the table has), ``field_count`` (more fields), ``garbage``
+(a line that is not text: control bytes or undecodable bytes), ``bad_value`` (a mapped cell that
+is not a number), plus the reasons of ``assemble``. Files are opened read-only.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from usvid.errors import FormatSpecError, LogReadError
+from usvid.io._assemble import assemble
+from usvid.io.spec import ColumnSpec, FormatSpec
+from usvid.io.units import DATETIME
+from usvid.trial import Trial
+
+_CTRL = {chr(c) for c in range(32) if c not in (9,)} | {"\ufffd", "\x7f"}
+
+
+def _resolve(
+    path: Path, spec: FormatSpec, names: list[str] | None, ncols: int
+) -> dict[str, int]:
+    """Source column position of each spec column (optional ones may be missing)."""
+    pos: dict[str, int] = {}
+    for c in spec.columns.values():
+        if isinstance(c.col, int):
+            if c.col >= ncols:
+                if c.optional:
+                    continue
+                raise FormatSpecError(
+                    f"{path.name}: spec {spec.source} columns.{c.name}.col: index {c.col} is out "
+                    f"of range (the file has {ncols} columns, indices 0..{ncols - 1})"
+                )
+            pos[c.name] = c.col
+        else:
+            if names is None:
+                raise FormatSpecError(
+                    f"{path.name}: spec {spec.source} columns.{c.name}.col: names column "
+                    f"'{c.col}' but the file is read without a header row (set header: true)"
+                )
+            stripped = [str(n).strip() for n in names]
+            if c.col in stripped:
+                pos[c.name] = stripped.index(c.col)
+            elif c.optional:
+                continue
+            else:
+                raise FormatSpecError(
+                    f"{path.name}: spec {spec.source} columns.{c.name}.col: no column named "
+                    f"'{c.col}' (the header has: {', '.join(stripped)})"
+                )
+    return pos
+
+
+def _to_float(values: pd.Series | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Numbers from a column; second array marks cells that are non-empty but not numeric."""
+    s = pd.Series(values)
+    if pd.api.types.is_numeric_dtype(s.dtype) and not pd.api.types.is_bool_dtype(s.dtype):
+        return s.to_numpy(dtype=float), np.zeros(len(s), dtype=bool)
+    num = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+    txt = s.astype(str).str.strip()
+    empty = s.isna().to_numpy() | txt.isin(["", "nan", "NaN", "NA", "None", "-"]).to_numpy()
+    return num, np.isnan(num) & ~empty
+
+
+def _to_seconds(values: pd.Series | np.ndarray) -> tuple[np.ndarray, np.ndarray, str | None]:
+    """Seconds since the first valid date-time; invalid cells, and the ISO origin."""
+    s = pd.Series(values)
+    dt = pd.to_datetime(s, errors="coerce", format="mixed")
+    bad = dt.isna().to_numpy() & s.notna().to_numpy()
+    valid = dt.dropna()
+    if valid.empty:
+        return np.full(len(s), np.nan), bad, None
+    t0 = valid.min()
+    secs = (dt - t0).dt.total_seconds().to_numpy(dtype=float)
+    return secs, bad, t0.isoformat()
+
+
+def map_columns(
+    path: Path,
+    spec: FormatSpec,
+    cols: dict[str, pd.Series | np.ndarray],
+    rejected: dict[str, int],
+) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
+    """Convert the mapped source columns; rows with non-numeric cells are rejected (bad_value)."""
+    out: dict[str, np.ndarray] = {}
+    bad_any = None
+    meta: dict = {}
+    for name, raw in cols.items():
+        c: ColumnSpec = spec.columns[name]
+        if c.unit == DATETIME:
+            v, bad, t0 = _to_seconds(raw)
+            if t0 is not None:
+                meta["t0_utc"] = t0
+        else:
+            v, bad = _to_float(raw)
+        out[name] = c.convert(v)
+        bad_any = bad if bad_any is None else (bad_any | bad)
+    if bad_any is not None and bad_any.any():
+        rejected["bad_value"] = rejected.get("bad_value", 0) + int(bad_any.sum())
+        out = {k: v[~bad_any] for k, v in out.items()}
+    t = out.pop("t")
+    return t, out, meta
+
+
+def _split(line: str, delim: str | None) -> list[str]:
+    if delim is None:
+        return line.split()
+    return [f.strip().strip('"') for f in line.split(delim)]
+
+
+def read_table(path: str | Path, spec: FormatSpec) -> Trial:
+    """Read a delimited text table (whitespace, ',', ';', tab) with a spec.
+
+    Units: as the spec says, converted to SI/radians. Raises :class:`LogReadError` when the file
+    is empty, unreadable or has no usable record, :class:`FormatSpecError` when a spec column is
+    not in the file (index out of range, header name not found).
+    """
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:  # read-only
+            blob = fh.read()
+    except OSError as exc:
+        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if not blob.strip():
+        raise LogReadError(f"{path}: empty file")
+    text = blob.decode(spec.encoding, errors="replace")
+    lines = text.splitlines()
+    rejected: dict[str, int] = {}
+    i = spec.skip_rows
+    if i >= len(lines):
+        raise LogReadError(
+            f"{path}: the file has {len(lines)} lines, fewer than skip_rows = {spec.skip_rows}"
+        )
+    names = None
+    want_header = spec.header if spec.header is not None else spec.uses_names
+
+    def usable(s: str) -> bool:
+        st = s.strip()
+        return bool(st) and not (spec.comment and st.startswith(spec.comment))
+
+    if want_header:
+        while i < len(lines) and not usable(lines[i]):
+            i += 1
+        if i >= len(lines):
+            raise LogReadError(f"{path} line {i + 1}: expected a header row, found end of file")
+        names = _split(lines[i], spec.delimiter)
+        i += 1
+    rows: list[list[str]] = []
+    garbage = 0
+    for s in lines[i:]:
+        if not usable(s):
+            continue
+        if any(ch in _CTRL for ch in s):
+            garbage += 1
+            continue
+        rows.append(_split(s, spec.delimiter))
+    if garbage:
+        rejected["garbage"] = garbage
+    if not rows:
+        raise LogReadError(
+            f"{path} line {i + 1}: no data rows after {i} header line(s)"
+            + (f" ({garbage} garbage lines)" if garbage else "")
+        )
+    counts = np.fromiter((len(r) for r in rows), dtype=np.int64, count=len(rows))
+    if names is not None:
+        ncols = len(names)
+    else:
+        vals, cnt = np.unique(counts, return_counts=True)
+        ncols = int(vals[np.argmax(cnt)])
+    pos = _resolve(path, spec, names, ncols)
+    short = counts < ncols
+    long_ = counts > ncols
+    if short.any():
+        rejected["truncated"] = int(short.sum())
+    if long_.any():
+        rejected["field_count"] = int(long_.sum())
+    ok = ~(short | long_)
+    good = [r for r, k in zip(rows, ok, strict=True) if k]
+    if not good:
+        raise LogReadError(f"{path}: no row has the expected {ncols} fields")
+    cols = {name: np.array([r[p] for r in good], dtype=object) for name, p in pos.items()}
+    t, chans, meta = map_columns(path, spec, cols, rejected)
+    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta)
+
+
+def _frame_to_trial(path: Path, spec: FormatSpec, df: pd.DataFrame, header: bool) -> Trial:
+    names = [str(c) for c in df.columns] if header else None
+    pos = _resolve(path, spec, names, df.shape[1])
+    rejected: dict[str, int] = {}
+    cols = {name: df.iloc[:, p] for name, p in pos.items()}
+    t, chans, meta = map_columns(path, spec, cols, rejected)
+    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta)
+
+
+def read_excel(path: str | Path, spec: FormatSpec) -> Trial:
+    """Read one sheet of an Excel workbook (.xlsx through openpyxl, opened read-only)."""
+    path = Path(path)
+    if not path.is_file():
+        raise LogReadError(f"{path}: no such file")
+    if path.stat().st_size == 0:
+        raise LogReadError(f"{path}: empty file")
+    header = spec.header if spec.header is not None else True
+    try:
+        xl = pd.ExcelFile(path, engine="openpyxl")
+    except Exception as exc:  # openpyxl raises many kinds on a non-workbook
+        raise LogReadError(
+            f"{path}: not a readable .xlsx workbook ({type(exc).__name__})"
+        ) from None
+    with xl:
+        sheets = xl.sheet_names
+        if isinstance(spec.sheet, int):
+            if spec.sheet >= len(sheets):
+                raise FormatSpecError(
+                    f"{path.name}: spec {spec.source} sheet: index {spec.sheet} out of range "
+                    f"(sheets: {', '.join(sheets)})"
+                )
+        elif spec.sheet not in sheets:
+            raise FormatSpecError(
+                f"{path.name}: spec {spec.source} sheet: no sheet '{spec.sheet}' "
+                f"(sheets: {', '.join(sheets)})"
+            )
+        try:
+            df = pd.read_excel(
+                xl, sheet_name=spec.sheet, header=0 if header else None,
+                skiprows=spec.skip_rows,
+            )
+        except Exception as exc:
+            raise LogReadError(f"{path}: cannot read sheet {spec.sheet!r} ({exc})") from None
+    if df.empty:
+        raise LogReadError(f"{path}: sheet {spec.sheet!r} has no data rows")
+    return _frame_to_trial(path, spec, df, header)
+
+
+def read_parquet(path: str | Path, spec: FormatSpec) -> Trial:
+    """Read a Parquet table (columns by name or 0-based index)."""
+    path = Path(path)
+    if not path.is_file():
+        raise LogReadError(f"{path}: no such file")
+    if path.stat().st_size == 0:
+        raise LogReadError(f"{path}: empty file")
+    try:
+        df = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises ArrowInvalid / OSError on a non-parquet file
+        raise LogReadError(f"{path}: not a readable Parquet file ({type(exc).__name__})") from None
+    if df.empty:
+        raise LogReadError(f"{path}: Parquet table has no rows")
+    return _frame_to_trial(path, spec, df, True)

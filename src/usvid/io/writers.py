@@ -1,0 +1,71 @@
+"""Writers for Trials as tables: CSV and Parquet (SI units, radians, one column per channel).
+
+Both are written atomically. A table written here reads back with ``read_trial(path, None)``
+(header names are Trial channel names in SI) or with the spec :func:`table_spec` returns.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import pandas as pd
+import yaml
+
+from usvid.trial import CHANNEL_UNITS, Trial
+
+
+def _si_unit(name: str) -> str:
+    return CHANNEL_UNITS.get(name, "1")
+
+
+def table_spec(trial: Trial, reader: str = "table") -> dict:
+    """A format spec (as a mapping) that reads back a table written by this module."""
+    spec: dict = {"reader": reader}
+    if reader == "table":
+        spec.update({"delimiter": ",", "header": True})
+    spec["columns"] = {c: {"col": c, "unit": _si_unit(c)} for c in trial.data.columns}
+    v = trial.vessel.to_dict()
+    extra = {k: v.pop(k) for k in list(v) if k not in (
+        "length", "speed", "beam", "draft", "mass", "displacement", "block_coefficient")}
+    if extra:
+        v["extra"] = extra
+    if v:
+        spec["vessel"] = v
+    return spec
+
+
+def write_csv(trial: Trial, path: str | Path, *, spec_path: str | Path | None = None) -> Path:
+    """Write the channel table as CSV (comma, header row of channel names, SI units, radians).
+
+    Full float precision (``repr``), NaN as empty fields. With ``spec_path`` also writes the YAML
+    format spec that reads it back.
+    """
+    from usvid.commands._common import write_atomic
+
+    buf = io.StringIO()
+    trial.data.to_csv(buf, index=False, float_format="%.17g", na_rep="")
+    out = write_atomic(path, buf.getvalue())
+    if spec_path is not None:
+        write_atomic(spec_path, yaml.safe_dump(table_spec(trial), sort_keys=False))
+    return out
+
+
+def write_parquet(trial: Trial, path: str | Path) -> Path:
+    """Write the channel table as Parquet (SI units, radians; trial summary in the metadata)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from usvid.commands._common import write_atomic
+
+    table = pa.Table.from_pandas(pd.DataFrame(trial.data), preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    meta[b"usvid"] = json.dumps(
+        {"name": trial.name, "vessel": trial.vessel.to_dict(), "sources": trial.sources},
+        default=str,
+    ).encode()
+    table = table.replace_schema_metadata(meta)
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    return write_atomic(path, sink.getvalue().to_pybytes())

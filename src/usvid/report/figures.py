@@ -1,0 +1,174 @@
+"""Report figures: matplotlib (Agg backend, no display, no network) rendered to base64 PNG.
+
+Every function takes plain data (lists/arrays in the units named in the argument names, as stored
+in a run's ``run.json``) and returns a ``data:image/png;base64,...`` URI that the HTML embeds, so
+the report is one self-contained file. The figures mirror seed 000: trajectories measured vs
+simulated (figures 7a, 8a, 10), time series of u, v, r, psi and delta (figures 7b-c, 8b-c, 9),
+course keeping under disturbance (figures 11-12), plus the seed 004 turning-diameter fit.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")  # before pyplot: never needs a display
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+#: PNG resolution [dots per inch]: sharp enough to print, small enough to embed (~40-80 kB each).
+DPI = 96
+_MEASURED = {"color": "#1f77b4", "lw": 1.2}
+_SIMULATED = {"color": "#d62728", "lw": 1.2, "ls": "--"}
+_STYLE = {
+    "font.size": 8.5,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "svg.hashsalt": "usvid",
+}
+
+
+def fig_to_data_uri(fig: Any) -> str:
+    """Render a matplotlib figure to a ``data:image/png;base64,...`` URI and close it.
+
+    The PNG carries no timestamp (``metadata={"Software": None}``), so the same data give the
+    same bytes.
+    """
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight", metadata={"Software": None})
+    plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _arr(values: Any) -> np.ndarray:
+    """A float array; ``None`` entries (JSON null for NaN) become NaN."""
+    if values is None:
+        return np.array([], dtype=float)
+    return np.array([np.nan if v is None else v for v in np.ravel(values)], dtype=float)
+
+
+def trajectory_figure(
+    tracks: Mapping[str, Mapping[str, Sequence[float]]], title: str = ""
+) -> str:
+    """Plan view of one or more tracks: x north [m] up, y east [m] to the right, equal axes.
+
+    ``tracks`` maps a label (``"measured"``, ``"simulated"``, ...) to ``{"x": [...], "y": [...]}``
+    in metres (NED). Returns a PNG data URI.
+    """
+    with plt.rc_context(_STYLE):
+        fig, ax = plt.subplots(figsize=(4.2, 4.0))
+        for label, tr in tracks.items():
+            style = _SIMULATED if label.startswith("sim") else _MEASURED
+            if label not in ("measured", "simulated"):
+                style = {"lw": 1.2}
+            x, y = _arr(tr.get("x")), _arr(tr.get("y"))
+            if x.size:
+                ax.plot(y, x, label=label, **style)
+                ax.plot(y[:1], x[:1], "o", ms=3, color=style.get("color", "k"))
+        ax.set_xlabel("y east [m]")
+        ax.set_ylabel("x north [m]")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.legend(loc="best", fontsize=7)
+        if title:
+            ax.set_title(title)
+        return fig_to_data_uri(fig)
+
+
+def timeseries_figure(
+    t_s: Sequence[float],
+    panels: Sequence[Mapping[str, Any]],
+    title: str = "",
+) -> str:
+    """Stacked time series sharing the time axis [s].
+
+    Each panel is ``{"ylabel": str, "lines": [{"label": str, "y": [...], "kind":
+    "measured"|"simulated"|"other", "t": optional own time axis}]}``. Returns a PNG data URI.
+    """
+    t = _arr(t_s)
+    n = max(len(panels), 1)
+    with plt.rc_context(_STYLE):
+        fig, axes = plt.subplots(n, 1, figsize=(7.0, 1.55 * n + 0.5), sharex=True, squeeze=False)
+        for ax, panel in zip(axes[:, 0], panels, strict=False):
+            for line in panel.get("lines", []):
+                kind = line.get("kind", "other")
+                style = {"measured": _MEASURED, "simulated": _SIMULATED}.get(kind, {"lw": 1.0})
+                tt = _arr(line["t"]) if line.get("t") is not None else t
+                y = _arr(line.get("y"))
+                if y.size and y.size == tt.size:
+                    ax.plot(tt, y, label=line.get("label", kind), **style)
+            ax.set_ylabel(panel.get("ylabel", ""))
+            if panel.get("lines"):
+                ax.legend(loc="upper right", fontsize=6.5, ncol=3)
+        axes[-1, 0].set_xlabel("t [s]")
+        if title:
+            axes[0, 0].set_title(title)
+        fig.align_ylabels()
+        return fig_to_data_uri(fig)
+
+
+def course_keeping_figure(cc: Mapping[str, Any]) -> str:
+    """Course change 0 -> target under disturbance (seed 000 figures 11-12).
+
+    ``cc``: ``{"t": [...s], "target_deg": float, "disturbance": [...] (optional), "runs":
+    [{"label": "PD", "psi_deg": [...], "delta_deg": [...]}]}``. Returns a PNG data URI.
+    """
+    t = _arr(cc.get("t"))
+    dist = _arr(cc.get("disturbance"))
+    n = 3 if dist.size == t.size and t.size else 2
+    with plt.rc_context(_STYLE):
+        fig, axes = plt.subplots(n, 1, figsize=(7.0, 1.7 * n + 0.5), sharex=True)
+        for run in cc.get("runs", []):
+            psi = _arr(run.get("psi_deg"))
+            dlt = _arr(run.get("delta_deg"))
+            if psi.size == t.size:
+                axes[0].plot(t, psi, lw=1.1, label=run.get("label", ""))
+            if dlt.size == t.size:
+                axes[1].plot(t, dlt, lw=0.9, label=run.get("label", ""))
+        target = cc.get("target_deg")
+        if target is not None:
+            axes[0].axhline(float(target), color="k", lw=0.8, ls=":", label="target")
+        axes[0].set_ylabel("psi [deg]")
+        axes[1].set_ylabel("delta [deg]")
+        axes[0].legend(loc="lower right", fontsize=7)
+        axes[1].legend(loc="upper right", fontsize=7)
+        if n == 3:
+            axes[2].plot(t, dist, color="#555555", lw=0.8)
+            axes[2].set_ylabel("disturbance [deg]")
+        axes[-1].set_xlabel("t [s]")
+        fig.align_ylabels()
+        return fig_to_data_uri(fig)
+
+
+def scatter_fit_figure(
+    x: Sequence[float],
+    y: Sequence[float],
+    curve_x: Sequence[float] | None,
+    curve_y: Sequence[float] | None,
+    xlabel: str,
+    ylabel: str,
+    title: str = "",
+    point_label: str = "data",
+    curve_label: str = "fit",
+) -> str:
+    """Data points and a fitted curve (turning-diameter fit, Norrbin steady turns).
+
+    Units are whatever the labels say. Returns a PNG data URI.
+    """
+    with plt.rc_context(_STYLE):
+        fig, ax = plt.subplots(figsize=(4.6, 3.2))
+        ax.plot(_arr(x), _arr(y), "o", ms=4, label=point_label)
+        if curve_x is not None and curve_y is not None:
+            ax.plot(_arr(curve_x), _arr(curve_y), "-", lw=1.2, color="#d62728", label=curve_label)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.legend(loc="best", fontsize=7)
+        if title:
+            ax.set_title(title)
+        return fig_to_data_uri(fig)

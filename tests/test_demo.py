@@ -1,0 +1,202 @@
+"""``usvid demo`` end to end (quick mode): determinism of the model files, the report in headless
+Chromium, ``usvid report`` regeneration, and Ctrl-C leaving no half-written output."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import pytest
+
+from usvid.cli import main
+from usvid.report import browser
+from usvid.report.html import external_urls
+
+ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def demo_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict]:
+    """Two quick demos with the same seed: one through the CLI (--json), one through the API."""
+    from usvid.report.demo import run_demo
+
+    a = tmp_path_factory.mktemp("demo_a")
+    b = tmp_path_factory.mktemp("demo_b")
+    import contextlib
+    import io
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["demo", "--out", str(a), "--seed", "4", "--quick", "--json"])
+    assert code == 0
+    out = json.loads(buf.getvalue())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = run_demo(b, seed=4, quick=True)
+    assert res.exit_code == 0
+    return a, b, out
+
+
+@pytest.mark.slow
+def test_demo_same_seed_same_model_files(demo_runs) -> None:
+    a, b, out = demo_runs
+    files = sorted(p.name for p in (a / "models").iterdir())
+    assert files == ["nomoto1.json", "norrbin.json", "servo.json", "threedof.json"]
+    for name in files:
+        assert (a / "models" / name).read_bytes() == (b / "models" / name).read_bytes(), name
+    # the logs too (seeded noise, fixed file times)
+    for log in sorted((a / "logs").iterdir()):
+        assert log.read_bytes() == (b / "logs" / log.name).read_bytes(), log.name
+
+
+@pytest.mark.slow
+def test_demo_json_and_run_contents(demo_runs) -> None:
+    a, _, out = demo_runs
+    assert [s["status"] for s in out["steps"]] == ["ok"] * 7, out["steps"]
+    assert set(out["models"]) == {"servo", "nomoto1", "norrbin", "threedof"}
+    acc = out["acceptance"]
+    # quick mode (45 s zig-zag): the Nomoto K, T and the 3-DOF coefficients still land within
+    # the full demo's acceptance bands (5 % and 10 %); measured +-0.5 % and ~5 %
+    assert acc["nomoto_within_5pct"] and acc["threedof_within_10pct"], acc
+    run = json.loads((a / "run.json").read_text())
+    assert run["usvid_run"] == 1 and run["truth_definition"]
+    assert len(run["validation"]) >= 8 and run["course_keeping"]["runs"][0]["label"] == "PD"
+    # model files load back through usvid.modelfile
+    from usvid.modelfile import load_model
+
+    for kind in ("nomoto1", "norrbin", "threedof"):
+        assert load_model(a / "models" / f"{kind}.json").kind == kind
+
+
+@pytest.mark.slow
+def test_demo_report_is_self_contained(demo_runs) -> None:
+    a, _, _ = demo_runs
+    html = (a / "report.html").read_text(encoding="utf-8")
+    assert external_urls(html) == []
+    assert "<script" not in html and "<link" not in html
+    assert html.count('src="data:image/png;base64,') >= 10
+    import re
+
+    # every resource is inline and every link is an in-page anchor
+    assert all(v.startswith("data:") for v in re.findall(r'src="([^"]*)"', html))
+    assert all(v.startswith("#") for v in re.findall(r'href="([^"]*)"', html))
+    assert "url(" not in html.split("</style>")[0].split("<style>")[1]  # no CSS fetches
+
+
+@pytest.mark.slow
+def test_usvid_report_regenerates_identically(demo_runs, tmp_path: Path) -> None:
+    a, _, _ = demo_runs
+    before = (a / "report.html").read_bytes()
+    (a / "report.html").unlink()
+    assert main(["report", str(a)]) == 0
+    assert (a / "report.html").read_bytes() == before  # same run.json -> same bytes
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(browser.find_chromium() is None,
+                    reason="chromium not installed (apt-get install chromium)")
+def test_demo_report_in_headless_chromium(demo_runs) -> None:
+    a, _, _ = demo_runs
+    check = browser.check_html(a / "report.html")
+    assert check.errors == [], check.errors
+    assert len(check.images) >= 10
+    assert check.broken_images == [], check.broken_images  # every figure decoded
+    shot = browser.screenshot(a / "report.html", ARTIFACTS / "demo_report.png", height=4000)
+    assert shot.stat().st_size > 50_000
+
+
+def _leftovers(folder: Path) -> list[str]:
+    return [str(p) for p in folder.rglob("*") if p.name.endswith(".tmp")]
+
+
+@pytest.mark.slow
+def test_ctrl_c_leaves_no_half_written_output(tmp_path: Path) -> None:
+    """SIGINT while the campaign writes its logs: the process ends, no temporary file or folder
+    is left, and report.html is absent (or complete, had the run already finished)."""
+    out = tmp_path / "run"
+    env = {**os.environ, "PYTHONWARNINGS": "ignore"}
+    proc = subprocess.Popen([sys.executable, "-m", "usvid.cli", "demo", "--quick", "--out",
+                             str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=env, cwd=REPO,
+                            # a shell's background job ignores SIGINT; restore the default so
+                            # that Python turns it into KeyboardInterrupt as at a terminal
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if out.is_dir() and any(p.name.startswith(".logs.") for p in out.iterdir()):
+                break  # the campaign is writing into its temporary log folder
+            time.sleep(0.05)
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode != 0, "the demo finished before the interrupt could be sent"
+    assert b"Traceback" not in err  # KeyboardInterrupt handled, not an internal error
+    assert _leftovers(out) == []
+    report = out / "report.html"
+    assert not report.exists() or report.read_text().rstrip().endswith("</html>")
+    assert not (out / "logs").exists() or not any((out / "logs").glob(".*"))
+
+
+def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
+    """A missing library part is 'unavailable' (named), a dependent step 'skipped', an exception
+    'failed' (exit code 1); the run continues and the report says which step is missing."""
+    from usvid.report.demo import DemoPipeline, need
+
+    p = DemoPipeline(tmp_path, seed=0)
+
+    def missing() -> str:
+        need("usvid.no_such_module", "thing")
+        return "unreachable"
+
+    def deeper() -> str:
+        import usvid.no_such_module_either  # noqa: F401
+
+        return "unreachable"
+
+    def dependent() -> str:
+        p.require("campaign")
+        return "unreachable"
+
+    def broken() -> str:
+        raise ValueError("bad value")
+
+    assert not p.step("a", "A", missing)
+    assert not p.step("b", "B", deeper)
+    assert not p.step("c", "C", dependent)
+    assert not p.step("d", "D", broken)
+    assert p.step("e", "E", lambda: "fine")
+    status = {s["name"]: (s["status"], s["message"]) for s in p.run["steps"]}
+    assert status["a"] == ("unavailable", "usvid.no_such_module is not available (No module "
+                                          "named 'usvid.no_such_module')")
+    assert status["b"][0] == "unavailable" and "usvid.no_such_module_either" in status["b"][1]
+    assert status["c"] == ("skipped", "needs campaign from an earlier step")
+    assert status["d"] == ("failed", "ValueError: bad value")
+    assert status["e"] == ("ok", "fine")
+    from usvid.report.html import build_html
+
+    html = build_html(p.run)
+    assert "Trial campaign not available" in html and "unavailable" in html
+
+
+def test_finite_pair_trims_and_fills() -> None:
+    import numpy as np
+
+    from usvid.report.demo import _finite_pair
+
+    a = np.array([np.nan, 1.0, np.nan, 3.0, 4.0, np.nan])
+    b = np.array([0.0, 10.0, 20.0, np.nan, 40.0, 50.0])
+    x, y = _finite_pair(a, b)
+    # both finite first at index 1, last at index 4; interior gaps linearly interpolated
+    assert x.tolist() == [1.0, 2.0, 3.0, 4.0]
+    assert y.tolist() == [10.0, 20.0, 30.0, 40.0]

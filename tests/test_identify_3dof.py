@@ -1,0 +1,105 @@
+"""3-DOF (seed 000 eq. 37) and twin-thruster catamaran (seed 002) identification: recovery of the
+regression coefficients on noisy virtual trials (servo dead time, disturbance, seeded)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from usvid.identify.estimator import ModelEstimator
+from usvid.models.catamaran import Catamaran
+from usvid.models.model import VesselModel
+from usvid.models.servo import SecondOrderServo
+from usvid.models.threedof import ThreeDOF
+from usvid.sim.logic import Commanded, Disturbance, ZigZag
+from usvid.sim.simulate import simulate
+from usvid.sim.virtual import SensorModel, virtual_trial_uniform
+from usvid.trial import Vessel
+
+# speed sensor noise 0.02 m/s (GNSS Doppler class), other sensors at SensorModel defaults
+SENSORS = SensorModel(speed_sigma_m_s=0.02)
+
+
+@pytest.fixture(scope="module")
+def threedof_case():
+    # a small vector-thruster USV with a sway motion large enough to be measured (|v| ~ 0.7 m/s);
+    # the Lanxin model of seed 000 has |v| < 1 cm/s, below any speed sensor's noise
+    dyn = ThreeDOF(m11=120.0, m22=180.0, m33=60.0, d11=30.0, d22=90.0, d33=50.0, x_l=1.0,
+                   thrust=60.0)
+    model = VesselModel(dyn, servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5),
+                        vessel=Vessel(length=2.0))
+    # two zig-zags started below the steady speed so the surge equation is excited too
+    res = simulate(model, ZigZag(delta_amp=np.radians([30, 20]), psi_switch=np.radians([10, 20])),
+                   t_end=200.0, dt=0.02, u0=np.array([0.5, 1.0]),
+                   disturbance=Disturbance(0.0005, seed=np.arange(2)))
+    trials = []
+    for i in range(2):
+        tr = virtual_trial_uniform(res, SENSORS, seed=1, i=i, rate_hz=10.0)
+        tr.data["thrust"] = 60.0  # the logged thrust [N] (constant here)
+        trials.append(tr)
+    return dyn.regression_coefficients(), trials
+
+
+@pytest.mark.parametrize("method", ["ls", "oe"])
+def test_threedof_recovery_within_10_percent(threedof_case, method):
+    truth, trials = threedof_case
+    est = ModelEstimator("threedof", method, x_l=1.0).fit(trials)
+    for k, v in truth.items():
+        assert est.params_[k] == pytest.approx(v, rel=0.10), k  # task: within 10 %
+    # the model file holds the Fossen parameters of seed 000 eq. 13-17
+    p = est.to_dict()["parameters"]
+    assert p["m11"] == pytest.approx(120.0, rel=0.10)
+    assert p["d33"] == pytest.approx(50.0, rel=0.10)
+
+
+def test_threedof_from_shaft_speed_and_thrust_model(threedof_case):
+    truth, trials = threedof_case
+    tr = trials[0]
+    data = tr.data.drop(columns=["thrust"]).copy()
+    data["n"] = 10.0  # [rps]; a thrust model T(n, u) = 6 n  gives the same 60 N
+    est = ModelEstimator("threedof", "ls", x_l=1.0,
+                         thrust=lambda n, u: 6.0 * np.asarray(n)).fit(tr.with_data(data))
+    assert est.params_["c_tau"] == pytest.approx(truth["c_tau"], rel=0.10)
+
+
+@pytest.fixture(scope="module")
+def catamaran_case():
+    cat = Catamaran(m11=80.0, m22=120.0, m33=30.0, d11=25.0, d22=70.0, d33=40.0, b=0.8,
+                    thrust=0.5)
+    t = np.arange(0.0, 300.01, 0.1)
+    rng = np.random.default_rng(0)
+    seg = (t // 15).astype(int)  # commands held 15 s: steady runs and differential turns
+    lev = rng.uniform(20, 100, seg.max() + 1)
+    dif = rng.uniform(-40, 40, seg.max() + 1)
+    dif[::3] = 0.0  # every third segment a straight run (seed 002: speed/thrust runs)
+    res = simulate(VesselModel(cat, vessel=Vessel(length=1.5)),
+                   Commanded(t=t, n_port=lev[seg] + dif[seg], n_stbd=lev[seg] - dif[seg]),
+                   t_end=300.0, dt=0.02, u0=0.0)
+    trial = virtual_trial_uniform(res, SENSORS, seed=2, rate_hz=10.0)
+    truth = {"a_vr": 120 / 80, "a_u": -25 / 80, "a_tau": 1 / 80, "b_ur": -80 / 120,
+             "b_v": -70 / 120, "c_uv": (80 - 120) / 30, "c_r": -40 / 30, "c_tau": 1 / 30}
+    return truth, trial
+
+
+@pytest.mark.parametrize("method", ["ls", "oe"])
+def test_catamaran_recovery_within_10_percent(catamaran_case, method):
+    truth, trial = catamaran_case
+    est = ModelEstimator("catamaran", method, thrust=0.5, half_beam=0.4).fit(trial)
+    for k, v in truth.items():
+        assert est.params_[k] == pytest.approx(v, rel=0.10), k  # task: within 10 %
+    p = est.to_dict()["parameters"]
+    assert p["m11"] == pytest.approx(80.0, rel=0.10)
+    assert p["d11"] == pytest.approx(25.0, rel=0.10)
+    assert p["b"] == pytest.approx(0.8)
+    assert p["thrust"] == 0.5
+
+
+def test_catamaran_steady_runs_give_d11(catamaran_case):
+    # seed 002: on steady straight runs d11 u = tau_u; the commands are held 15 s, the surge time
+    # constant m11/d11 = 3.2 s, so the last 5 s after a 10 s settling are steady within ~4 %
+    _, trial = catamaran_case
+    est = ModelEstimator("catamaran", "ls", thrust=0.5, half_beam=0.4).fit(trial)
+    st = est.result_.diagnostics.get("steady_runs")
+    assert st is not None and st["n_runs"] >= 2
+    assert st["d11"] == pytest.approx(25.0, rel=0.10)
+    assert st["d11_from_regression"] == pytest.approx(25.0, rel=0.10)

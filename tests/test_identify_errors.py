@@ -1,0 +1,120 @@
+"""Bad input to the identification: a clear UsvidError (or warning) naming the cause."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from usvid.errors import IdentificationError, UsvidError
+from usvid.identify.estimator import ModelEstimator
+from usvid.identify.ls import NotFittedError
+from usvid.identify.regressors import IdentificationWarning
+from usvid.trial import Trial
+
+
+def _nomoto_trial(n=2000, h=0.1, name="log.csv", nan_at=(), delta=None):
+    t = np.arange(n) * h
+    d = np.radians(15) * np.sign(np.sin(2 * np.pi * t / 25.0)) if delta is None else delta
+    r = np.zeros(n)
+    for k in range(n - 1):
+        r[k + 1] = r[k] + h * (0.5 * d[k] - r[k]) / 3.0
+    psi = np.concatenate([[0.0], np.cumsum(h * r[:-1])])
+    df = pd.DataFrame({"t": t, "psi": psi, "r": r, "delta": d})
+    for i in nan_at:
+        df.loc[i, "r"] = np.nan
+    return Trial(data=df, name=name)
+
+
+def test_too_short_trial():
+    with pytest.raises(IdentificationError, match=r"trial short\.csv: too short"):
+        ModelEstimator("nomoto1").fit(_nomoto_trial(n=20, name="short.csv"))
+    with pytest.raises(IdentificationError, match="too short"):
+        ModelEstimator("nomoto1").fit(_nomoto_trial(n=25, h=0.1, name="s2"))
+
+
+def test_constant_rudder_is_no_excitation():
+    tr = _nomoto_trial(delta=np.full(2000, math.radians(5.0)), name="const.csv")
+    with pytest.raises(IdentificationError, match=r"no excitation.*rudder.*const\.csv"):
+        ModelEstimator("nomoto1").fit(tr)
+
+
+def test_collinear_regressors_named():
+    # r = K delta exactly with a quadratic rudder ramp: the cubic Savitzky-Golay smoothing leaves
+    # r_s = K delta, so the regressors 'a' (r) and 'b' (delta) are collinear
+    n, h = 600, 0.1
+    t = np.arange(n) * h
+    d = 0.2 * (t / t[-1]) ** 2 - 0.05
+    df = pd.DataFrame({"t": t, "r": 0.5 * d, "delta": d})
+    with pytest.raises(IdentificationError, match=r"collinear regressors.*'a'.*'b'"):
+        ModelEstimator("nomoto1").fit(Trial(data=df, name="col"))
+
+
+def test_few_nan_samples_warn_and_interpolate():
+    tr = _nomoto_trial(nan_at=(100, 500, 501), name="gappy.csv")
+    with pytest.warns(IdentificationWarning, match=r"gappy\.csv: channel 'r' has 3 NaN"):
+        est = ModelEstimator("nomoto1").fit(tr)
+    # Euler-integrated truth K = 0.5, T = 3: the three interpolated samples change nothing
+    assert est.params_["K"] == pytest.approx(0.5, rel=0.05)
+
+
+def test_mostly_nan_channel_is_an_error():
+    tr = _nomoto_trial(nan_at=range(0, 1500), name="bad.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(IdentificationError, match=r"bad\.csv: channel 'r' has 1500 of 2000"):
+            ModelEstimator("nomoto1").fit(tr)
+
+
+def test_missing_channel_named():
+    tr = _nomoto_trial()
+    tr = tr.with_data(tr.data.drop(columns=["delta"]))
+    with pytest.raises(IdentificationError, match=r"needs channel 'delta'"):
+        ModelEstimator("nomoto1").fit(tr)
+    with pytest.raises(IdentificationError, match=r"'threedof' needs channel 'u'"):
+        ModelEstimator("threedof").fit(_nomoto_trial())
+
+
+def test_bad_arguments_and_not_fitted():
+    with pytest.raises(UsvidError, match="`kind` must be one of"):
+        ModelEstimator("abkowitz")
+    with pytest.raises(UsvidError, match="`method` must be one of"):
+        ModelEstimator("nomoto1", method="ml")
+    with pytest.raises(UsvidError, match="`window_s` must be > 0"):
+        ModelEstimator("nomoto1", window_s=0)
+    with pytest.raises(UsvidError, match=r"trials\[0\] is a DataFrame"):
+        ModelEstimator("nomoto1").fit(pd.DataFrame({"t": [0.0]}))
+    est = ModelEstimator("nomoto1")
+    with pytest.raises(NotFittedError, match="not fitted"):
+        _ = est.params_
+    with pytest.raises(NotFittedError):
+        est.simulate(_nomoto_trial())
+
+
+def test_course_unstable_with_nomoto1_says_use_norrbin():
+    # a course-unstable linear vessel (T r' - r = K delta, i.e. Nomoto T = -10 s) kept bounded by
+    # a 10/10 zig-zag: the Nomoto 1 fit finds T < 0 and the message points to the Norrbin model
+    n, h = 3000, 0.1
+    r = np.zeros(n)
+    psi = np.zeros(n)
+    d = np.zeros(n)
+    cmd = math.radians(10)
+    for k in range(n - 1):
+        if psi[k] > math.radians(10):
+            cmd = -math.radians(10)
+        elif psi[k] < -math.radians(10):
+            cmd = math.radians(10)
+        d[k] = cmd
+        r[k + 1] = r[k] + h * (0.3 * d[k] + r[k]) / 10.0
+        psi[k + 1] = psi[k] + h * r[k]
+    d[-1] = cmd
+    tr = Trial(data=pd.DataFrame({"t": np.arange(n) * h, "psi": psi, "r": r, "delta": d}),
+               name="unstable")
+    with pytest.raises(IdentificationError, match="use --model norrbin"):
+        ModelEstimator("nomoto1").fit(tr)
+    est = ModelEstimator("norrbin").fit(tr)
+    assert est.params_["n1"] == -1.0
+    assert est.params_["T"] == pytest.approx(10.0, rel=0.05)

@@ -1,0 +1,190 @@
+"""Table readers (delimited text, Excel, Parquet) and the CSV/Parquet writers."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from usvid import Trial
+from usvid.errors import FormatSpecError, LogReadError
+from usvid.io import parse_spec, read_trial, write_csv, write_parquet
+
+WS = {
+    "reader": "table",
+    "skip_rows": 2,
+    "columns": {
+        "t": {"col": 0, "unit": "s"},
+        "psi": {"col": 1, "unit": "deg"},
+        "r": {"col": 2, "unit": "deg/s"},
+        "delta": {"col": 3, "unit": "deg", "sign": -1},
+    },
+}
+
+
+def _write(tmp_path, name, text, mode="w"):
+    p = tmp_path / name
+    if mode == "wb":
+        p.write_bytes(text)
+    else:
+        p.write_text(text, encoding="utf-8")
+    return p
+
+
+def _ws_lines(n=5):
+    return [f"  {0.05 * i:.2f}  {i * 1.0:.1f}  2.0  {-1.0 * i:.1f}" for i in range(n)]
+
+
+def test_whitespace_table_units_and_sign(tmp_path):
+    p = _write(tmp_path, "a.dat", "title\nunits\n" + "\n".join(_ws_lines()) + "\n")
+    mtime = os.stat(p).st_mtime_ns
+    tr = read_trial(p, WS)
+    assert os.stat(p).st_mtime_ns == mtime
+    assert tr.rejected == {} and len(tr) == 5
+    assert tr["psi"][3] == pytest.approx(math.radians(3.0), rel=1e-12)
+    assert tr["r"][0] == pytest.approx(math.radians(2.0), rel=1e-12)
+    assert tr["delta"][2] == pytest.approx(math.radians(2.0), rel=1e-12)  # sign -1 of -2 deg
+    assert tr.sample_rate == pytest.approx(20.0)
+
+
+def test_csv_with_header_names_and_cp1252(tmp_path):
+    text = "Zeit;Kurs °;Fahrt kn\n0,0;10;2\n0,5;11;4\n"
+    text = text.replace(",", ".")
+    p = _write(tmp_path, "b.csv", text.encode("cp1252"), mode="wb")
+    spec = {
+        "reader": "table",
+        "delimiter": ";",
+        "header": True,
+        "encoding": "cp1252",
+        "columns": {
+            "t": {"col": "Zeit", "unit": "s"},
+            "psi": {"col": "Kurs °", "unit": "deg"},
+            "U": {"col": "Fahrt kn", "unit": "kn"},
+        },
+    }
+    tr = read_trial(p, spec)
+    assert tr["U"][1] == pytest.approx(4 * 1852 / 3600, rel=1e-12)
+    assert tr["psi"][0] == pytest.approx(math.radians(10), rel=1e-12)
+
+
+def test_column_index_out_of_range_names_file_field_and_range(tmp_path):
+    p = _write(tmp_path, "c.dat", "h\nh\n" + "\n".join(_ws_lines()) + "\n")
+    spec = {**WS, "columns": {**WS["columns"], "n": {"col": 7, "unit": "rpm"}}}
+    with pytest.raises(FormatSpecError, match=r"c\.dat: .*columns\.n\.col: index 7 is out of "
+                       r"range \(the file has 4 columns, indices 0\.\.3\)"):
+        read_trial(p, spec)
+
+
+def test_missing_header_column_names_what_exists(tmp_path):
+    p = _write(tmp_path, "d.csv", "time,hdg\n0,1\n1,2\n")
+    spec = {"reader": "table", "delimiter": ",", "header": True,
+            "columns": {"t": {"col": "time", "unit": "s"},
+                        "psi": {"col": "heading", "unit": "deg"}}}
+    with pytest.raises(FormatSpecError, match=r"columns\.psi\.col: no column named 'heading' "
+                       r"\(the header has: time, hdg\)"):
+        read_trial(p, spec)
+    spec["columns"]["psi"]["optional"] = True
+    assert read_trial(p, spec).channels == []
+
+
+def test_empty_and_header_only_files(tmp_path):
+    with pytest.raises(LogReadError, match=r"e\.dat: empty file"):
+        read_trial(_write(tmp_path, "e.dat", ""), WS)
+    with pytest.raises(LogReadError, match=r"f\.dat line 3: no data rows"):
+        read_trial(_write(tmp_path, "f.dat", "a\nb\n\n"), WS)
+    with pytest.raises(LogReadError, match="no such file"):
+        read_trial(tmp_path / "nope.dat", WS)
+
+
+def test_nan_rows_truncated_garbage_bad_values_counted(tmp_path):
+    lines = _ws_lines(8)
+    lines[2] = "  0.10  nan  nan  nan"  # NaN row: rejected nan_row
+    lines[3] = "  0.15  3.0"  # truncated
+    lines[4] = "  0.20  4.0  2.0  -4.0  99"  # too many fields
+    lines[5] = "  0.25  abc  2.0  -5.0"  # not a number
+    lines.insert(6, "\x00\x01\xff\xfe binary")  # garbage
+    p = _write(tmp_path, "g.dat", ("h\nh\n" + "\n".join(lines) + "\n").encode("latin-1"), "wb")
+    tr = read_trial(p, WS)
+    assert tr.rejected == {"nan_row": 1, "truncated": 1, "field_count": 1, "bad_value": 1,
+                           "garbage": 1}
+    assert len(tr) == 4  # rows 0, 1, 6, 7 of 8
+
+
+def test_non_monotonic_time_sorted_or_rejected(tmp_path):
+    rows = ["0.0 1 2 3", "0.1 1 2 3", "0.3 1 2 3", "0.2 1 2 3", "0.4 1 2 3", "0.4 5 2 3"]
+    p = _write(tmp_path, "h.dat", "h\nh\n" + "\n".join(rows) + "\n")
+    tr = read_trial(p, WS)
+    assert np.all(np.diff(tr.t) > 0) and len(tr) == 5
+    assert tr.rejected == {"duplicate_time": 1}
+    f = [x for x in tr.findings if x.code == "non_monotonic_time"]
+    assert len(f) == 1 and f[0].count == 1 and "sorted" in f[0].message
+    tr2 = read_trial(p, {**WS, "non_monotonic": "reject"})
+    assert tr2.rejected == {"non_monotonic": 1, "duplicate_time": 1}
+    assert list(tr2.t) == pytest.approx([0.0, 0.1, 0.3, 0.4])
+
+
+def test_all_rows_bad_is_a_log_read_error(tmp_path):
+    p = _write(tmp_path, "i.dat", "h\nh\nx y z w\nfoo bar baz qux\n")
+    with pytest.raises(LogReadError, match=r"i\.dat: no usable records \(bad_value: 2\)"):
+        read_trial(p, WS)
+
+
+def test_datetime_time_column(tmp_path):
+    p = _write(tmp_path, "j.csv",
+               "when,hdg\n2025-07-24 17:18:48.200,1\n2025-07-24 17:18:48.450,2\n")
+    spec = {"reader": "table", "delimiter": ",", "header": True,
+            "columns": {"t": {"col": "when", "unit": "datetime"}, "psi": {"col": 1, "unit": "deg"}}}
+    tr = read_trial(p, spec)
+    assert list(tr.t) == pytest.approx([0.0, 0.25], abs=1e-9)
+    assert tr.meta["t0_utc"].startswith("2025-07-24T17:18:48.2")
+
+
+def _trial():
+    t = np.arange(0, 2, 0.1)
+    return Trial(pd.DataFrame({"t": t, "psi": 0.1 * t, "U": np.full_like(t, 1.5),
+                               "delta": np.where(t > 1, np.nan, 0.05)}), name="w")
+
+
+def test_csv_and_parquet_roundtrip_exact(tmp_path):
+    tr = _trial()
+    write_csv(tr, tmp_path / "w.csv", spec_path=tmp_path / "w.yaml")
+    write_parquet(tr, tmp_path / "w.parquet")
+    for back in (read_trial(tmp_path / "w.csv", tmp_path / "w.yaml"),
+                 read_trial(tmp_path / "w.csv", None),
+                 read_trial(tmp_path / "w.parquet", None)):
+        pd.testing.assert_frame_equal(back.data, tr.data, check_exact=True)
+
+
+def test_excel_reader_and_bad_sheet(tmp_path):
+    df = pd.DataFrame({"time": [0.0, 0.1, 0.2], "Heading": [10.0, 20.0, 30.0], "PWM": [1500] * 3})
+    p = tmp_path / "k.xlsx"
+    df.to_excel(p, sheet_name="Log", index=False)
+    spec = {"reader": "excel", "sheet": "Log",
+            "columns": {"t": {"col": "time", "unit": "s"}, "psi": {"col": "Heading", "unit": "deg"},
+                        "pwm": {"col": 2, "unit": "1"}}}
+    tr = read_trial(p, spec)
+    assert tr["psi"] == pytest.approx(np.radians([10, 20, 30]), rel=1e-12)
+    assert tr["pwm"][0] == 1500
+    with pytest.raises(FormatSpecError, match=r"sheet: no sheet 'Sheet9' \(sheets: Log\)"):
+        read_trial(p, {**spec, "sheet": "Sheet9"})
+    bad = _write(tmp_path, "bad.xlsx", b"not a zip", "wb")
+    with pytest.raises(LogReadError, match="not a readable .xlsx"):
+        read_trial(bad, spec)
+
+
+def test_parquet_garbage(tmp_path):
+    bad = _write(tmp_path, "bad.parquet", b"PAR1 but not really", "wb")
+    spec = parse_spec({"reader": "parquet", "columns": {"t": {"col": "t", "unit": "s"}}})
+    with pytest.raises(LogReadError, match="not a readable Parquet"):
+        read_trial(bad, spec)
+
+
+def test_unit_unknown_to_spec_in_file_spec(tmp_path):
+    p = _write(tmp_path, "l.dat", "h\nh\n" + "\n".join(_ws_lines()) + "\n")
+    spec = {**WS, "columns": {**WS["columns"], "n": {"col": 1, "unit": "furlong/fortnight"}}}
+    with pytest.raises(FormatSpecError,
+                       match=r"columns\.n\.unit: unknown unit 'furlong/fortnight'"):
+        read_trial(p, spec)

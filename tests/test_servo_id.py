@@ -1,0 +1,98 @@
+"""Servo identification: recovery of seed 000's servo from noisy simulated data, and errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from usvid.errors import IdentificationError
+from usvid.identify.servo import identify_second_order_servo
+from usvid.models.servo import SecondOrderServo
+
+DT = 0.02
+WN, ZETA, GAIN, DELAY = np.sqrt(1.95), 0.8526, 1.0, 1.0  # seed 000 sec. 5.1.3
+
+
+def _command(seed: int, t_end: float = 120.0) -> tuple[np.ndarray, np.ndarray]:
+    """Zig-zag steps of +-15 deg every 6-12 s, each with a small random offset (+-3 deg)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, t_end, DT)
+    u = np.zeros_like(t)
+    switch = 2.0 + np.cumsum(rng.uniform(6.0, 12.0, size=int(t_end / 6) + 1))
+    for i, ts in enumerate(switch):
+        u[t >= ts] = np.radians((15.0 if i % 2 == 0 else -15.0) + rng.uniform(-3, 3))
+    return t, u
+
+
+def _measure(t, u, wn=WN, zeta=ZETA, gain=GAIN, delay=DELAY, noise_deg=0.3, seed=0):
+    """scipy.signal.lsim of the continuous servo on the delayed command, plus sensor noise."""
+    d = int(round(delay / DT))
+    ud = np.concatenate([np.full(d, u[0]), u[: u.size - d]])
+    _, y, _ = signal.lsim(([gain * wn**2], [1.0, 2 * zeta * wn, wn**2]), ud, t)
+    rng = np.random.default_rng(seed + 1000)
+    return y + np.radians(noise_deg) * rng.normal(size=t.size)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_recovers_seed000_servo_from_noisy_data(seed):
+    t, u = _command(seed)
+    y = _measure(t, u, seed=seed)  # 0.3 deg white sensor noise (a typical potentiometer)
+    r = identify_second_order_servo(u, y, DT, max_delay=2.0)
+    # acceptance (task brief): omega_n and zeta within 5 %, delay within one sample
+    assert r.omega_n == pytest.approx(WN, rel=0.05)
+    assert r.zeta == pytest.approx(ZETA, rel=0.05)
+    assert r.gain == pytest.approx(GAIN, rel=0.02)  # gain is set by 20 plateaus: tight
+    assert abs(r.delay - DELAY) <= DT + 1e-12
+    # the standard errors are honest: truth within 4 se (lsim's input interpolation adds a
+    # half-sample model mismatch, so no tighter)
+    for name, true in (("omega_n", WN), ("zeta", ZETA), ("gain", GAIN)):
+        assert abs(getattr(r, name) - true) < 4 * r.std_errors[name] + 0.01 * true
+        lo, hi = r.ci95[name]
+        assert lo < getattr(r, name) < hi
+    # the residual is the sensor noise (0.3 deg = 0.0052 rad), 20 % margin for model mismatch
+    assert r.fit.rmse < 1.2 * np.radians(0.3)
+    assert isinstance(r.servo, SecondOrderServo) and r.servo.delay == r.delay
+    d = r.to_dict()
+    assert d["kind"] == "second_order" and set(d["std_errors"]) == {"omega_n", "zeta", "gain"}
+
+
+def test_other_servo_and_arx_only_on_clean_data():
+    t, u = _command(5)
+    y = _measure(t, u, wn=2.5, zeta=0.5, gain=0.9, delay=0.3, noise_deg=0.0)
+    r = identify_second_order_servo(u, y, DT, max_delay=1.0, refine=False)
+    assert r.method == "arx"
+    # noise-free: only lsim's linear input interpolation (half a sample) separates model and data
+    assert r.omega_n == pytest.approx(2.5, rel=0.03)
+    assert r.zeta == pytest.approx(0.5, rel=0.05)
+    assert r.gain == pytest.approx(0.9, rel=0.01)
+    assert abs(r.delay - 0.3) <= DT + 1e-12
+    assert all(np.isfinite(v) for v in r.std_errors.values())
+
+
+def test_bad_input():
+    t, u = _command(0, t_end=20.0)
+    y = _measure(t, u)
+    with pytest.raises(IdentificationError, match="no excitation"):
+        identify_second_order_servo(np.zeros_like(u), y, DT)
+    y_bad = y.copy()
+    y_bad[10] = np.nan
+    with pytest.raises(IdentificationError, match="delta is not finite at sample 10"):
+        identify_second_order_servo(u, y_bad, DT)
+    with pytest.raises(IdentificationError, match="equal length"):
+        identify_second_order_servo(u, y[:-1], DT)
+    with pytest.raises(IdentificationError, match="too few samples"):
+        short = np.r_[np.zeros(50), np.full(50, 0.1)]
+        identify_second_order_servo(short, short, DT, max_delay=2.0)
+    with pytest.raises(IdentificationError, match="negative servo gain"):
+        identify_second_order_servo(u, -y, DT)
+
+
+@pytest.mark.parametrize("wn, zeta", [(WN, ZETA), (2.0, 0.2), (1.5, 1.0), (0.8, 2.5)])
+def test_closed_form_zoh_matches_scipy(wn, zeta):
+    from usvid.identify.servo import _zoh_coefficients
+
+    b, a = _zoh_coefficients(wn, zeta, 0.9, DT)
+    nd, dd, _ = signal.cont2discrete(([0.9 * wn**2], [1, 2 * zeta * wn, wn**2]), DT, "zoh")
+    np.testing.assert_allclose(a, dd, rtol=1e-10)
+    np.testing.assert_allclose(b, np.ravel(nd), rtol=1e-8, atol=1e-14)

@@ -1,0 +1,131 @@
+"""Validation: simulated zig-zag against usvid.sim, cross-validation, comparison of kinds, and the
+real-data result on the HSVA KVLCC2 zig-zags (seed 000 section 5.2 style: simulated versus
+measured overshoots)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from usvid.identify.estimator import ModelEstimator, compare_kinds
+from usvid.identify.validate import (
+    cross_validate,
+    validation_table,
+    zigzag_check,
+    zigzag_response,
+)
+from usvid.models.model import VesselModel
+from usvid.models.response import Nomoto1, Norrbin
+from usvid.models.servo import IdealServo
+from usvid.sim.logic import ZigZag
+from usvid.sim.simulate import simulate
+from usvid.sim.virtual import SensorModel, virtual_trial_uniform
+from usvid.trial import Vessel
+
+DEG = math.pi / 180
+
+
+def test_zigzag_response_matches_usvid_sim():
+    # same Norrbin model, same 20/20 zig-zag, rudder rate 5 deg/s: both simulators agree
+    dyn = Norrbin(K=0.5, T=3.0, n1=1.0, n3=2.0)
+    params = {"K": 0.5, "T": 3.0, "n1": 1.0, "n3": 2.0, "delta0": 0.0}
+    rate = 5 * DEG
+    mine = zigzag_response("norrbin", params, 20 * DEG, 20 * DEG, rate=rate, t_end=120.0,
+                           h=0.02)
+    model = VesselModel(dyn, servo=IdealServo(max_rate=rate), vessel=Vessel(speed=3.0))
+    res = simulate(model, ZigZag(delta_amp=20 * DEG, psi_switch=20 * DEG), t_end=120.0, dt=0.02)
+    from usvid.prep.metrics import zigzag_metrics
+
+    a = zigzag_metrics(mine["t"], mine["psi"], mine["delta"], psi_switch=20 * DEG)
+    b = res.zigzag_metrics()[0]
+    # the switch instants are resolved to one 0.02 s step and the two simulators may switch one
+    # step apart: one step at the ~0.17 rad/s yaw rate is 0.2 deg of heading
+    assert a.overshoot_deg[:3] == pytest.approx(b.overshoot_deg[:3], abs=0.25)
+
+
+@pytest.fixture(scope="module")
+def virtual_set():
+    dyn = Nomoto1(K=0.5, T=3.0)
+    model = VesselModel(dyn, servo=IdealServo(max_rate=10 * DEG), vessel=Vessel(speed=3.0))
+    amps = np.radians([10.0, 20.0, 15.0])
+    res = simulate(model, ZigZag(delta_amp=amps, psi_switch=amps), t_end=150.0, dt=0.02)
+    trials = [virtual_trial_uniform(res, SensorModel(), seed=4, i=i, rate_hz=10.0,
+                                    name=f"zz{i}") for i in range(3)]
+    for tr, a in zip(trials, amps, strict=True):
+        tr.meta["psi_switch"] = float(a)
+    return trials
+
+
+def test_cross_validation_leave_one_out(virtual_set):
+    cv = cross_validate(virtual_set, "nomoto1", "ls")
+    assert [f["held_out"] for f in cv["folds"]] == ["zz0", "zz1", "zz2"]
+    for f in cv["folds"]:
+        assert f["params"]["K"] == pytest.approx(0.5, rel=0.05)
+    # held-out heading R^2 in 20 s windows: the model explains the unseen zig-zags
+    assert cv["mean"]["psi"]["r2"] > 0.99
+
+
+def test_compare_kinds_and_validation_table(virtual_set):
+    rows = compare_kinds(virtual_set[:2], ("nomoto1", "norrbin"), method="ls",
+                         validate=virtual_set[2])
+    assert [r["kind"] for r in rows] == ["nomoto1", "norrbin"]
+    assert all(r["validation"]["psi"]["r2"] > 0.99 for r in rows)
+    est = ModelEstimator("nomoto1", "ls").fit(virtual_set[:2])
+    tab = validation_table(est, virtual_set[2:])
+    z = tab[0]["zigzag"]
+    # the noise-free-model zig-zag reproduces the measured overshoots (compass noise 0.5 deg)
+    assert abs(z["overshoot_error_deg"][0]) < 0.5
+
+
+# --- real data: HSVA KVLCC2 (model scale 1:45.7, 1.18 m/s) --------------------------------------
+TRAIN = ("10_05", "15_05", "20_05")
+VALID = {"10_10_P": 9.7, "10_10_S": 9.7, "20_10_P": 12.0, "20_10_S": 11.7}
+
+
+def _hsva(hsva_dir, name):
+    from usvid.io import read_trial
+
+    return read_trial(hsva_dir / f"HSVA_CPMC_KVLCC2_Z_{name}.dat", "hsva_kvlcc2")
+
+
+@pytest.fixture(scope="module")
+def kvlcc2(hsva_dir):
+    train = [_hsva(hsva_dir, n) for n in TRAIN]
+    valid = {n: _hsva(hsva_dir, n) for n in VALID}
+    return train, valid
+
+
+# Output error with 35 s windows, 50 % overlap (windows of about 1-2 yaw time constants; the fit
+# is sensitive to the window length on this near-critically stable ship, see the report)
+KV_OPTS = {"window_s": 35.0, "overlap": 0.5}
+
+
+def test_kvlcc2_measured_overshoots_match_published(kvlcc2):
+    est = ModelEstimator("nomoto1", "ls").fit(kvlcc2[0])
+    for name, want in VALID.items():
+        z = zigzag_check(est, kvlcc2[1][name])
+        # published first overshoots (SIMMAN 2008): 9.7 deg for 10/10, 12.0 / 11.7 for 20/10 P/S
+        assert z["measured_overshoot_deg"][0] == pytest.approx(want, abs=0.1)
+
+
+def test_kvlcc2_norrbin_first_overshoot_within_1p5_deg(kvlcc2):
+    train, valid = kvlcc2
+    est = ModelEstimator("norrbin", "oe", **KV_OPTS).fit(train)
+    # course-unstable: n1 = -1 (the linear yaw damping is negative), held by the cubic
+    assert est.params_["n1"] == -1.0 and est.params_["n3"] > 0
+    for name in VALID:
+        z = zigzag_check(est, valid[name])
+        # task acceptance: first overshoot within 1.5 deg of the measured one
+        assert abs(z["overshoot_error_deg"][0]) < 1.5, (name, z["overshoot_error_deg"])
+
+
+def test_kvlcc2_norrbin_is_best_kind(kvlcc2):
+    train, valid = kvlcc2
+    err = {}
+    for kind in ("nomoto1", "nomoto2", "norrbin"):
+        est = ModelEstimator(kind, "oe", **KV_OPTS).fit(train)
+        err[kind] = np.mean([abs(zigzag_check(est, v)["overshoot_error_deg"][0])
+                             for v in valid.values()])
+    assert err["norrbin"] < err["nomoto1"] and err["norrbin"] < err["nomoto2"]
