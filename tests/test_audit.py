@@ -187,7 +187,9 @@ def test_hsva_shipped_spec_is_clean(hsva_dir):
 
 
 def test_twin_thruster_stale_rate_and_scale(twin_dir):
-    from usvid.io import read_trial
+    import yaml
+
+    from usvid.io import read_trial, shipped_spec_path
 
     for name in ("boat1_2_circle.xlsx", "boat1_2_sin.xlsx"):
         f = codes(audit(read_trial(twin_dir / name, "twin_thruster_xlsx")))
@@ -196,9 +198,15 @@ def test_twin_thruster_stale_rate_and_scale(twin_dir):
         assert f["position_scale"].data["factor"] == pytest.approx(1.1117, abs=0.001)
         assert "+11.2 %" in f["position_scale"].message
         assert not {"thruster_sign", "yaw_rate_column", "rudder_sign"} & set(f)
+        # the shipped spec takes time from DateTime, so position-derived speed agrees with the
+        # receiver's Speed
+        assert "speed_scale" not in f
         # the file's t runs 9.5 % fast against its DateTime column (235.3 s of t for 257.8 s of
-        # wall clock in the circle log, 153.5 for 168.0 in the sin log): GNSS speeds agree with
-        # the wall clock, so positions differentiated on t are 1.09-1.10 times too fast
+        # wall clock in the circle log, 153.5 for 168.0 in the sin log): read on "t", positions
+        # differentiated on it are 1.09-1.10 times too fast, and the audit says so
+        spec = yaml.safe_load(shipped_spec_path("twin_thruster_xlsx").read_text())
+        spec["columns"]["t"] = {"col": "t", "unit": "s"}
+        f = codes(audit(read_trial(twin_dir / name, spec)))
         assert f["speed_scale"].data["factor"] == pytest.approx(1.095, abs=0.01)
 
 

@@ -200,3 +200,14 @@ def test_finite_pair_trims_and_fills() -> None:
     # both finite first at index 1, last at index 4; interior gaps linearly interpolated
     assert x.tolist() == [1.0, 2.0, 3.0, 4.0]
     assert y.tolist() == [10.0, 20.0, 30.0, 40.0]
+
+
+def test_norrbin_turns_everywhere_by_hand() -> None:
+    from usvid.report.demo import norrbin_turns_everywhere
+
+    # n1 r + n3 r^3 peaks at r* = sqrt(n1/(-3 n3)) with 2/3 n1 r*; K delta_max = 0.7 * 0.6109
+    # = 0.4276. n3 = -1: r* = 0.5774, peak 0.3849 < 0.4276 -> no steady 35 deg turn
+    assert not norrbin_turns_everywhere({"K": 0.7, "n1": 1.0, "n3": -1.0})
+    # n3 = -0.4: r* = 0.9129, peak 0.6086 > 0.4276 -> every angle has a steady turn
+    assert norrbin_turns_everywhere({"K": 0.7, "n1": 1.0, "n3": -0.4})
+    assert norrbin_turns_everywhere({"K": 0.7, "n1": 1.0, "n3": 1.1})  # seed 000 alpha

@@ -45,7 +45,9 @@ PID_GAINS = {"PD": (0.7, 0.0, 1.0), "PID": (0.7, 0.00095, 1.0)}
 PAPER_ITAE = {"PID": 37.98, "PD": 38.6}
 COURSE_TARGET_DEG = 100.0
 #: Disturbance std [deg] of the course-keeping simulation (a rudder-equivalent disturbance).
-COURSE_DIST_DEG = 2.0
+COURSE_DIST_DEG = 1.0
+#: Duration of the course-change simulation [s] (the ITAE horizon; seed 000 does not state its).
+COURSE_T_END_S = 60.0
 
 
 class Unavailable(Exception):
@@ -337,7 +339,7 @@ class DemoPipeline:
                 and norrbin_turns_everywhere(ident["norrbin"].params) else "nomoto1")
         cc = course(ident[kind].model, servo, camp, seed=self.seed, gains=PID_GAINS,
                     target_deg=COURSE_TARGET_DEG, dist_deg=COURSE_DIST_DEG,
-                    t_end=60.0 if self.quick else 120.0)
+                    t_end=COURSE_T_END_S)
         cc["model"] = kind
         cc["description"] = cc["description"].replace("Identified Norrbin model",
                                                       f"Identified {kind} model")
