@@ -41,7 +41,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from usvid.errors import ModelFileError, UsvidError
-from usvid.trial import Vessel
+from usvid.trial import VESSEL_FIELDS, Vessel
 
 __all__ = [
     "MODEL_KINDS",
@@ -443,9 +443,7 @@ def model_from_dict(d: Any, source: str = "model") -> Any:
     dynamics = _make_dynamics(spec.kind, spec.parameters, source)
     servo = _make_servo(spec.servo, source)
     v = spec.vessel
-    vessel = Vessel(length=v.length, speed=v.speed, beam=v.beam, draft=v.draft, mass=v.mass,
-                    displacement=v.displacement, block_coefficient=v.block_coefficient,
-                    extra=dict(v.extra))
+    vessel = Vessel(**{k: getattr(v, k) for k in VESSEL_FIELDS}, extra=dict(v.extra))
     ident = spec.identification.model_dump() if spec.identification is not None else None
     return VesselModel(dynamics, servo=servo, vessel=vessel, identification=ident)
 
@@ -479,7 +477,7 @@ def model_to_dict(model: Any) -> dict[str, Any]:
             params[f.name] = _jsonify(getattr(dyn, f.name))
     vessel = model.vessel if model.vessel is not None else Vessel()
     vd: dict[str, Any] = {}
-    for k in ("length", "speed", "beam", "draft", "mass", "displacement", "block_coefficient"):
+    for k in VESSEL_FIELDS:
         val = getattr(vessel, k)
         if val is not None:
             vd[k] = float(val)

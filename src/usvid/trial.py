@@ -47,6 +47,18 @@ CHANNEL_UNITS: dict[str, str] = {
 }
 
 
+#: The numeric particulars of :class:`Vessel` (every field but ``extra``), in field order.
+VESSEL_FIELDS = (
+    "length",
+    "speed",
+    "beam",
+    "draft",
+    "mass",
+    "displacement",
+    "block_coefficient",
+)
+
+
 @dataclass
 class Vessel:
     """Vessel particulars carried with a trial or a model (SI units).
@@ -65,19 +77,7 @@ class Vessel:
     extra: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        out = {
-            k: getattr(self, k)
-            for k in (
-                "length",
-                "speed",
-                "beam",
-                "draft",
-                "mass",
-                "displacement",
-                "block_coefficient",
-            )
-            if getattr(self, k) is not None
-        }
+        out = {k: getattr(self, k) for k in VESSEL_FIELDS if getattr(self, k) is not None}
         out.update(self.extra)
         return out
 

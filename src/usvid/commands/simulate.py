@@ -189,6 +189,7 @@ def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float
 # typer commands
 # ---------------------------------------------------------------------------------------------
 sim_app = typer.Typer(name="simulate", no_args_is_help=True, add_completion=False,
+                      rich_markup_mode=None,
                       help="Simulate a standard manoeuvre on a model file and print its metrics.")
 
 

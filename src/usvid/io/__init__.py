@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from usvid.errors import FormatSpecError, LogReadError
+from usvid.io._assemble import read_log_bytes
 from usvid.io.n2k import read_candump, write_candump
 from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
 from usvid.io.spec import (
@@ -53,13 +54,7 @@ def detect_reader(path: str | Path) -> str:
     CSV with a header of Trial channel names. Raises :class:`LogReadError` when unreadable/empty.
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(65536)
-    except OSError as exc:
-        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if not head.strip():
-        raise LogReadError(f"{path}: empty file")
+    head = read_log_bytes(path, 65536)
     if head[:4] == b"PAR1":
         return "parquet"
     if head[:2] == b"PK":

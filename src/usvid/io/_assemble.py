@@ -25,6 +25,31 @@ from usvid.io.spec import FormatSpec
 from usvid.trial import Finding, Trial, Vessel
 
 
+def read_log_bytes(path: Path, limit: int = -1) -> bytes:
+    """The bytes of the log ``path`` (opened read-only; at most ``limit`` bytes, -1 = all).
+
+    Shared by every text reader. Raises :class:`LogReadError` naming the file when it cannot be
+    read or holds only white space.
+    """
+    try:
+        with open(path, "rb") as fh:  # read-only
+            blob = fh.read(limit)
+    except OSError as exc:
+        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if not blob.strip():
+        raise LogReadError(f"{path}: empty file")
+    return blob
+
+
+def check_log_file(path: Path) -> None:
+    """For the binary readers (Excel, Parquet): :class:`LogReadError` when ``path`` is not a file
+    or is empty."""
+    if not path.is_file():
+        raise LogReadError(f"{path}: no such file")
+    if path.stat().st_size == 0:
+        raise LogReadError(f"{path}: empty file")
+
+
 def _add(rejected: dict[str, int], reason: str, n: int) -> None:
     if n:
         rejected[reason] = rejected.get(reason, 0) + int(n)

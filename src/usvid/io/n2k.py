@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import LogReadError
-from usvid.io._assemble import apply_renames, assemble
+from usvid.io._assemble import apply_renames, assemble, read_log_bytes
 from usvid.io.spec import FormatSpec
 from usvid.trial import Finding, Trial
 
@@ -126,13 +126,7 @@ def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     from nmea2000.input_formats import N2KFormat
 
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:  # read-only
-            blob = fh.read()
-    except OSError as exc:
-        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if not blob.strip():
-        raise LogReadError(f"{path}: empty file")
+    blob = read_log_bytes(path)
     text = blob.decode("ascii", errors="replace")
     dec = NMEA2000Decoder(N2KFormat.CANDUMP3, units="si", include_pgns=list(PGNS))
     rejected: dict[str, int] = {}

@@ -49,7 +49,7 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import LogReadError
-from usvid.io._assemble import apply_renames, assemble
+from usvid.io._assemble import apply_renames, assemble, read_log_bytes
 from usvid.io.spec import FormatSpec
 from usvid.trial import Finding, Trial
 
@@ -567,13 +567,7 @@ def read_nmea0183(
     sentence.
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:  # read-only
-            blob = fh.read()
-    except OSError as exc:
-        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if not blob.strip():
-        raise LogReadError(f"{path}: empty file")
+    blob = read_log_bytes(path)
     if engine == "fast":
         recs, rejected, ignored, nlines = _scan_fast(blob)
     elif engine == "pynmeagps":

@@ -46,7 +46,7 @@ import yaml
 
 from usvid.errors import FormatSpecError
 from usvid.io import units as _units
-from usvid.trial import Vessel
+from usvid.trial import VESSEL_FIELDS, Vessel
 
 READERS = ("table", "excel", "parquet", "nmea0183", "nmea2000")
 DELIMITERS = {"whitespace": None, ",": ",", ";": ";", "\t": "\t", "tab": "\t"}
@@ -65,16 +65,7 @@ SPEC_KEYS = (
     "vessel",
 )
 COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional")
-VESSEL_KEYS = (
-    "length",
-    "speed",
-    "beam",
-    "draft",
-    "mass",
-    "displacement",
-    "block_coefficient",
-    "extra",
-)
+VESSEL_KEYS = (*VESSEL_FIELDS, "extra")
 _SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
 
 

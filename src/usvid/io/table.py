@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import FormatSpecError, LogReadError
-from usvid.io._assemble import assemble
+from usvid.io._assemble import assemble, check_log_file, read_log_bytes
 from usvid.io.spec import ColumnSpec, FormatSpec
 from usvid.io.units import DATETIME
 from usvid.trial import Trial
@@ -125,13 +125,7 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     not in the file (index out of range, header name not found).
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as fh:  # read-only
-            blob = fh.read()
-    except OSError as exc:
-        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if not blob.strip():
-        raise LogReadError(f"{path}: empty file")
+    blob = read_log_bytes(path)
     text = blob.decode(spec.encoding, errors="replace")
     lines = text.splitlines()
     rejected: dict[str, int] = {}
@@ -204,10 +198,7 @@ def _frame_to_trial(path: Path, spec: FormatSpec, df: pd.DataFrame, header: bool
 def read_excel(path: str | Path, spec: FormatSpec) -> Trial:
     """Read one sheet of an Excel workbook (.xlsx through openpyxl, opened read-only)."""
     path = Path(path)
-    if not path.is_file():
-        raise LogReadError(f"{path}: no such file")
-    if path.stat().st_size == 0:
-        raise LogReadError(f"{path}: empty file")
+    check_log_file(path)
     header = spec.header if spec.header is not None else True
     try:
         xl = pd.ExcelFile(path, engine="openpyxl")
@@ -243,10 +234,7 @@ def read_excel(path: str | Path, spec: FormatSpec) -> Trial:
 def read_parquet(path: str | Path, spec: FormatSpec) -> Trial:
     """Read a Parquet table (columns by name or 0-based index)."""
     path = Path(path)
-    if not path.is_file():
-        raise LogReadError(f"{path}: no such file")
-    if path.stat().st_size == 0:
-        raise LogReadError(f"{path}: empty file")
+    check_log_file(path)
     try:
         df = pd.read_parquet(path)
     except Exception as exc:  # pyarrow raises ArrowInvalid / OSError on a non-parquet file

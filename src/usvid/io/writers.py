@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from usvid.trial import CHANNEL_UNITS, Trial
+from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Trial
 
 
 def _si_unit(name: str) -> str:
@@ -27,8 +27,7 @@ def table_spec(trial: Trial, reader: str = "table") -> dict:
         spec.update({"delimiter": ",", "header": True})
     spec["columns"] = {c: {"col": c, "unit": _si_unit(c)} for c in trial.data.columns}
     v = trial.vessel.to_dict()
-    extra = {k: v.pop(k) for k in list(v) if k not in (
-        "length", "speed", "beam", "draft", "mass", "displacement", "block_coefficient")}
+    extra = {k: v.pop(k) for k in list(v) if k not in VESSEL_FIELDS}
     if extra:
         v["extra"] = extra
     if v:
