@@ -180,6 +180,16 @@ def _show(v: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+#: pydantic error type -> (comparison, ctx key) of a violated bound
+_BOUND_ERRORS = {"greater_than": (">", "gt"), "greater_than_equal": (">=", "ge"),
+                 "less_than_equal": ("<=", "le")}
+#: pydantic error type -> what the value must be
+_TYPE_ERRORS = {"finite_number": "a finite number", "float_type": "a number",
+                "int_type": "a number", "float_parsing": "a number", "int_from_float": "a number",
+                "dict_type": "an object", "model_type": "an object", "list_type": "a list",
+                "string_type": "a string"}
+
+
 def _message(err: dict[str, Any], prefix: str = "") -> str:
     where = _loc(tuple(err.get("loc", ())), prefix)
     typ = err.get("type", "")
@@ -189,28 +199,17 @@ def _message(err: dict[str, Any], prefix: str = "") -> str:
         return f"{where} is missing"
     if typ == "extra_forbidden":
         return f"unknown key {where}"
-    if typ == "greater_than":
-        return f"{where} must be > {ctx.get('gt'):g} (got {_show(got)})"
-    if typ == "greater_than_equal":
-        return f"{where} must be >= {ctx.get('ge'):g} (got {_show(got)})"
-    if typ == "less_than_equal":
-        return f"{where} must be <= {ctx.get('le'):g} (got {_show(got)})"
-    if typ == "finite_number":
-        return f"{where} must be a finite number (got {_show(got)})"
-    if typ in ("float_type", "int_type", "float_parsing", "int_from_float"):
-        return f"{where} must be a number (got {_show(got)})"
+    if typ in _BOUND_ERRORS:
+        op, key = _BOUND_ERRORS[typ]
+        return f"{where} must be {op} {ctx.get(key):g} (got {_show(got)})"
+    if typ in _TYPE_ERRORS:
+        return f"{where} must be {_TYPE_ERRORS[typ]} (got {_show(got)})"
     if typ == "literal_error":
         return f"{where} must be {ctx.get('expected')} (got {_show(got)})"
     if typ == "union_tag_invalid":
         return f"{where}.kind must be one of {', '.join(SERVO_KINDS)} (got {_show(ctx.get('tag'))})"
     if typ == "union_tag_not_found":
         return f"{where}.kind is missing (one of {', '.join(SERVO_KINDS)})"
-    if typ in ("dict_type", "model_type"):
-        return f"{where} must be an object (got {_show(got)})"
-    if typ == "list_type":
-        return f"{where} must be a list (got {_show(got)})"
-    if typ == "string_type":
-        return f"{where} must be a string (got {_show(got)})"
     return f"{where}: {err.get('msg', 'invalid')} (got {_show(got)})"
 
 
@@ -311,6 +310,27 @@ def _dataclass_params_model(cls: type, name: str) -> type[BaseModel]:
     return create_model(name, __config__=_STRICT, **fields)
 
 
+def _validated_kwargs(spec: type[BaseModel], body: dict[str, Any], where: str, source: str, *,
+                      lists_as_tuples: bool = False) -> dict[str, Any]:
+    """Validate ``body`` against ``spec`` and return the constructor keyword arguments: the
+    fields given (or with a non-None default), nested ``{"kind": ...}`` objects built (lists made
+    tuples when ``lists_as_tuples``). A bad field raises :class:`ModelFileError` at ``where``."""
+    try:
+        ok = spec.model_validate(body)
+    except ValidationError as exc:
+        _raise(exc, source, where)
+    kwargs: dict[str, Any] = {}
+    for k in spec.model_fields:
+        v = getattr(ok, k)
+        if v is None and k not in body:
+            continue
+        if lists_as_tuples and isinstance(v, list):
+            kwargs[k] = tuple(v)
+        else:
+            kwargs[k] = _build_nested(v, f"{where}.{k}", source)
+    return kwargs
+
+
 def _build_nested(obj: Any, where: str, source: str) -> Any:
     """Turn a nested ``{"kind": "propeller", ...}`` object into its thrust dataclass."""
     if not isinstance(obj, dict):
@@ -323,16 +343,7 @@ def _build_nested(obj: Any, where: str, source: str) -> Any:
     cls = classes[kind]
     spec = _dataclass_params_model(cls, f"{cls.__name__}Spec")
     body = {k: v for k, v in obj.items() if k != "kind"}
-    try:
-        ok = spec.model_validate(body)
-    except ValidationError as exc:
-        _raise(exc, source, where)
-    kwargs = {}
-    for k in spec.model_fields:
-        v = getattr(ok, k)
-        if v is None and k not in body:
-            continue
-        kwargs[k] = tuple(v) if isinstance(v, list) else _build_nested(v, f"{where}.{k}", source)
+    kwargs = _validated_kwargs(spec, body, where, source, lists_as_tuples=True)
     try:
         return cls(**kwargs)
     except UsvidError as exc:
@@ -411,16 +422,7 @@ def _make_dynamics(kind: str, params: dict[str, Any], source: str) -> Any:
         spec = _RESPONSE_PARAMS[kind]
     else:
         spec = _dataclass_params_model(cls, f"{cls.__name__}Params")
-    try:
-        ok = spec.model_validate(params)
-    except ValidationError as exc:
-        _raise(exc, source, "parameters")
-    kwargs: dict[str, Any] = {}
-    for k in spec.model_fields:
-        v = getattr(ok, k)
-        if v is None and k not in params:
-            continue
-        kwargs[k] = _build_nested(v, f"parameters.{k}", source)
+    kwargs = _validated_kwargs(spec, params, "parameters", source)
     try:
         return cls(**kwargs)
     except UsvidError as exc:

@@ -65,6 +65,33 @@ def _check_dt(dt: float) -> None:
         raise SimulationError(f"--dt must be in (0, 1] s (got {dt!r})")
 
 
+def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | None = None
+           ) -> tuple[Any, float]:
+    """Check ``--dt`` (and a given ``--t-end``), load the model file; returns (model, u0 [m/s])."""
+    _check_dt(dt)
+    if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= MAX_T_END):
+        raise SimulationError(f"--t-end must be in (0, {MAX_T_END:g}] s (got {t_end!r})")
+    model = _load(model_path)
+    return model, _speed(model, speed, model_path)
+
+
+def _output(out: dict[str, Any], as_json: bool, title: str, rows: list[tuple[str, Any, str]],
+            check: Any = None) -> None:
+    """Print the command's result: ``out`` as one JSON object, or ``rows`` (plus the IMO
+    criteria of ``check``) as a table."""
+    from usvid.commands._common import emit_json
+
+    if as_json:
+        emit_json(out)
+        return
+    _print_table(title, rows + (_imo_rows(check) if check else []))
+
+
+def _default_ki(controller: str) -> float:
+    """Integral gain [1/s] when none is given: seed 000's 0.00095 for PID, 0 for PD."""
+    return 0.00095 if controller == "pid" else 0.0
+
+
 def _default_t_end(model: Any, u0: float) -> float:
     """A first guess of the run length [s]: a few yaw time constants and L/U, at least 60 s."""
     dyn = model.dynamics
@@ -173,7 +200,7 @@ def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float
     from usvid.sim import PID, CourseChange, Disturbance, simulate
 
     if ki is None:
-        ki = 0.00095 if controller == "pid" else 0.0
+        ki = _default_ki(controller)
     if controller == "pd" and ki != 0:
         raise UsvidError("--controller pd takes no integral gain (give --controller pid)")
     if not (math.isfinite(noise_deg) and noise_deg >= 0):
@@ -208,12 +235,9 @@ def zigzag_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Zig-zag test: overshoot angles, period, initial turning time, time to check yaw."""
-    from usvid.commands._common import emit_json
     from usvid.sim.imo import imo_zigzag_check, zigzag_kind
 
-    _check_dt(dt)
-    model = _load(model_path)
-    u0 = _speed(model, speed, model_path)
+    model, u0 = _setup(model_path, dt, speed)
     psi_deg = delta_deg if psi_deg is None else psi_deg
     _, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
                       t_end=t_end, dt=dt, u0=u0)
@@ -224,17 +248,12 @@ def zigzag_cmd(
     out.update(manoeuvre="zigzag", model=str(model_path), model_kind=model.kind,
                delta_deg=delta_deg, psi_deg=psi_deg, speed_m_s=u0,
                imo=check.to_dict() if check else None)
-    if as_json:
-        emit_json(out)
-        return
     rows = [("overshoot angles (first 4)", m.overshoot_deg[:4], "deg"),
             ("period", m.period_s, "s"),
             ("initial turning time", m.initial_turning_time_s, "s"),
             ("time to check yaw", m.time_to_check_yaw_s, "s")]
-    if check:
-        rows += _imo_rows(check)
-    _print_table(f"zig-zag {delta_deg:g}/{psi_deg:g} ({first.value} first), "
-                 f"{model_path.name} ({model.kind})", rows)
+    _output(out, as_json, f"zig-zag {delta_deg:g}/{psi_deg:g} ({first.value} first), "
+            f"{model_path.name} ({model.kind})", rows, check)
 
 
 @sim_app.command("turning")
@@ -249,29 +268,22 @@ def turning_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Turning circle: advance, transfer, tactical and steady diameters, steady yaw rate/speed."""
-    from usvid.commands._common import emit_json
     from usvid.sim.imo import imo_turning_check
 
-    _check_dt(dt)
-    model = _load(model_path)
-    u0 = _speed(model, speed, model_path)
+    model, u0 = _setup(model_path, dt, speed)
     _, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
     out: dict[str, Any] = m.to_dict()
     L = model.vessel.length
     check = imo_turning_check(m, L) if L else None
     out.update(manoeuvre="turning", model=str(model_path), model_kind=model.kind,
                delta_deg=delta_deg, speed_m_s=u0, imo=check.to_dict() if check else None)
-    if as_json:
-        emit_json(out)
-        return
     rows = [("advance", m.advance_m, "m"), ("transfer", m.transfer_m, "m"),
             ("tactical diameter", m.tactical_diameter_m, "m"),
             ("steady diameter", m.steady_diameter_m, "m"),
             ("steady yaw rate", m.steady_yaw_rate_rad_s, "rad/s"),
             ("steady speed", m.steady_speed_m_s, "m/s"), ("side", m.side, "")]
-    if check:
-        rows += _imo_rows(check)
-    _print_table(f"turning circle {delta_deg:g} deg, {model_path.name} ({model.kind})", rows)
+    _output(out, as_json, f"turning circle {delta_deg:g} deg, {model_path.name} ({model.kind})",
+            rows, check)
 
 
 @sim_app.command("course-keeping")
@@ -294,29 +306,20 @@ def course_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Course change 0 -> target with a PD/PID autopilot: ITAE, IAE, largest rudder angle."""
-    from usvid.commands._common import emit_json
-
-    _check_dt(dt)
-    if not (math.isfinite(t_end) and 0 < t_end <= MAX_T_END):
-        raise SimulationError(f"--t-end must be in (0, {MAX_T_END:g}] s (got {t_end!r})")
-    model = _load(model_path)
-    u0 = _speed(model, speed, model_path)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     _, m = run_course(model, controller=controller.value, kp=kp, ki=ki, kd=kd,
                       target_deg=target_deg, noise_deg=noise, seed=seed, t_end=t_end, dt=dt,
                       u0=u0)
     out: dict[str, Any] = dict(m)
     out.update(manoeuvre="course-keeping", model=str(model_path), model_kind=model.kind,
                controller=controller.value, kp=kp,
-               ki=(ki if ki is not None else (0.00095 if controller.value == "pid" else 0.0)),
+               ki=ki if ki is not None else _default_ki(controller.value),
                kd=kd, target_deg=target_deg, noise_deg=noise, seed=seed, t_end_s=t_end,
                speed_m_s=u0)
-    if as_json:
-        emit_json(out)
-        return
-    _print_table(f"course change 0 -> {target_deg:g} deg, {controller.value.upper()}, "
-                 f"{model_path.name}",
-                 [("ITAE", m["itae"], "rad s^2"), ("IAE", m["iae"], "rad s"),
-                  ("max rudder", m["max_rudder_deg"], "deg")])
+    _output(out, as_json, f"course change 0 -> {target_deg:g} deg, {controller.value.upper()}, "
+            f"{model_path.name}",
+            [("ITAE", m["itae"], "rad s^2"), ("IAE", m["iae"], "rad s"),
+             ("max rudder", m["max_rudder_deg"], "deg")])
 
 
 def register(app: typer.Typer) -> None:

@@ -38,7 +38,15 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
-from usvid.identify.ls import LeastSquares, NotFittedError
+from usvid.identify.ls import (
+    FittedAttributes,
+    LeastSquares,
+    check_collinearity,
+    interval95,
+    numerical_jacobian,
+    quantile975,
+    standard_errors,
+)
 from usvid.identify.metrics import fit_metrics
 from usvid.identify.output_error import (
     PARAM_NAMES,
@@ -61,7 +69,6 @@ from usvid.identify.regressors import (
 from usvid.identify.rls import RecursiveLeastSquares
 
 METHODS = ("ls", "rls", "oe")
-Z95 = 1.959963984540054
 MIN_DELTA_STD = math.radians(0.2)  # [rad] rudder scatter below which there is no excitation
 
 
@@ -95,18 +102,6 @@ def _is_turning(s: Series) -> bool:
     """A turning test: rudder constant (std < 0.5 deg) and non-zero over the last half."""
     d = s["delta"][len(s) // 2:]
     return bool(np.std(d) < math.radians(0.5) and abs(np.mean(d)) > math.radians(0.5))
-
-
-def _numjac(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray) -> np.ndarray:
-    f0 = f(x)
-    J = np.empty((len(f0), len(x)))
-    for j in range(len(x)):
-        h = 1e-6 * max(abs(x[j]), 1e-8)
-        xp, xm = x.copy(), x.copy()
-        xp[j] += h
-        xm[j] -= h
-        J[:, j] = (f(xp) - f(xm)) / (2 * h)
-    return J
 
 
 def _norrbin_to_t1(p: np.ndarray) -> np.ndarray:
@@ -189,18 +184,16 @@ def _build_dynamics(kind: str, params: dict[str, float], x_l: float | None,
                                             strict=False,
                                             thrust=thrust if hasattr(thrust, "thrust") else None)
         from usvid.models.catamaran import Catamaran
+        from usvid.models.threedof import fossen_from_regression
 
-        m11 = 1.0 / params["a_tau"]
-        m22 = params["a_vr"] * m11
-        m33 = 1.0 / params["c_tau"]
         hb = 1.0 if half_beam is None else half_beam
         # c_tau was fitted on (T_p - T_s) b/2 with the given b/2: c_tau = 1/m33
         # thrust map kept when it can be written to the model file (TwinThrust or k)
         cat_thrust = thrust if (hasattr(thrust, "thrust") or isinstance(thrust, (int, float))
                                 ) else 1.0
-        return Catamaran(m11=m11, m22=m22, m33=m33, d11=-params["a_u"] * m11,
-                         d22=-params["b_v"] * m22, d33=-params["c_r"] * m33, b=2.0 * hb,
-                         thrust=cat_thrust)
+        fossen = fossen_from_regression(params["a_vr"], params["a_u"], params["a_tau"],
+                                        params["b_v"], params["c_r"], params["c_tau"])
+        return Catamaran(**fossen, b=2.0 * hb, thrust=cat_thrust)
     except UsvidError as exc:
         hint = (" (a negative T means a course-unstable vessel: use --model norrbin)"
                 if kind == "nomoto1" and params.get("T", 1) <= 0 else "")
@@ -208,7 +201,7 @@ def _build_dynamics(kind: str, params: dict[str, float], x_l: float | None,
                                   f"{hint}") from exc
 
 
-class ModelEstimator:
+class ModelEstimator(FittedAttributes):
     """Identify a manoeuvring model of kind ``kind`` from one or many trials.
 
     Parameters
@@ -279,11 +272,10 @@ class ModelEstimator:
         self.oe_channels = oe_channels
         self.overlap = float(overlap)
 
-    def __getattr__(self, name: str) -> Any:
-        if name.endswith("_") and not name.startswith("_"):
-            raise NotFittedError(f"ModelEstimator({self.kind!r}) is not fitted yet: call "
-                                 f"fit(trials) before reading {name}")
-        raise AttributeError(name)
+    _fit_call = "fit(trials)"
+
+    def _estimator_label(self) -> str:
+        return f"ModelEstimator({self.kind!r})"
 
     # -- data ------------------------------------------------------------------------------------
     def _series(self, trials: list) -> list[Series]:
@@ -344,13 +336,7 @@ class ModelEstimator:
             cov = est.P_ * est.sigma2_
             res = reg.y - reg.Phi @ theta
             # RLS does not test collinearity itself: run the same check as batch LS
-            from usvid.identify.ls import collinearity
-
-            cond, culprits = collinearity(reg.Phi, list(reg.names), self.cond_max)
-            if culprits:
-                raise IdentificationError(
-                    f"collinear regressors {', '.join(map(repr, culprits))} (condition number "
-                    f"{cond:.3g}): the data cannot separate their effects")
+            check_collinearity(reg.Phi, list(reg.names), self.cond_max)
         else:
             est = LeastSquares(cond_max=self.cond_max).fit(reg.Phi, reg.y, reg.names,
                                                            y_name=f"d{reg.block}/dt")
@@ -394,7 +380,7 @@ class ModelEstimator:
         params = theta_to_params(kind, form, names, theta, h)
         pnames = list(params.keys())
         try:
-            G = _numjac(mapping, theta)
+            G = numerical_jacobian(mapping, theta)
             cov_p = G @ cov_t @ G.T
         except IdentificationError:
             cov_p = np.full((len(pnames), len(pnames)), np.nan)
@@ -482,7 +468,7 @@ class ModelEstimator:
             oe = refine_output_error(self.kind, p0, win, free=free, channels=self.oe_channels)
             pe, cov = oe.params, oe.cov
             if self.kind == "norrbin":
-                G = _numjac(_norrbin_from_t1, pe)
+                G = numerical_jacobian(_norrbin_from_t1, pe)
                 pe, cov = _norrbin_from_t1(pe), G @ cov @ G.T
             params = dict(zip(names, pe.tolist(), strict=True))
             diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
@@ -490,17 +476,13 @@ class ModelEstimator:
                           "sigma": oe.sigma, "n_residuals": oe.n_residuals,
                           "window_s": self.window_s}
             diag["ls_params"] = p_ls
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
-        q = Z95
-        if oe is not None and math.isfinite(oe.dof):
-            from scipy import stats
-
-            q = float(stats.t.ppf(0.975, oe.dof))
+        se = standard_errors(cov)
+        q = quantile975(oe.dof if oe is not None else math.inf)
         self.params_ = {n: float(params[n]) for n in names}
         self.cov_ = cov
         self.std_errors_ = dict(zip(names, se.tolist(), strict=True))
-        self.ci95_ = {n: [self.params_[n] - q * s, self.params_[n] + q * s]
-                      for n, s in zip(names, se, strict=True)}
+        ci = interval95([self.params_[n] for n in names], se, q)
+        self.ci95_ = dict(zip(names, ci.tolist(), strict=True))
         diag["ci95_quantile"] = q
         self.series_ = series
         self.oe_ = oe

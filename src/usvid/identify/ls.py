@@ -21,7 +21,8 @@ data) they are optimistic.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,57 @@ from usvid.errors import IdentificationError
 
 class NotFittedError(IdentificationError):
     """An estimator's learned attribute was read before :meth:`fit` was called."""
+
+
+class FittedAttributes:
+    """Mixin of the estimator contract: reading a learned attribute (public name ending in ``_``)
+    before ``fit`` raises :class:`NotFittedError` naming the estimator and the call to make."""
+
+    _fit_call = "fit(X, y)"
+
+    def _estimator_label(self) -> str:
+        return type(self).__name__
+
+    def __getattr__(self, name: str) -> Any:
+        if name.endswith("_") and not name.startswith("_"):
+            raise NotFittedError(f"{self._estimator_label()} is not fitted yet: call "
+                                 f"{self._fit_call} before reading {name}")
+        raise AttributeError(name)
+
+
+def standard_errors(cov: np.ndarray) -> np.ndarray:
+    """Standard errors ``sqrt(diag(cov))`` (p,), negative round-off on the diagonal read as 0."""
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+
+def quantile975(dof: float = math.inf) -> float:
+    """0.975 quantile of Student's t with ``dof`` degrees of freedom (of the normal law when
+    ``dof`` is infinite): the half-width factor of a two-sided 95 % interval."""
+    if math.isinf(dof):
+        return float(stats.norm.ppf(0.975))
+    return float(stats.t.ppf(0.975, dof))
+
+
+def interval95(theta: Any, se: Any, q: float) -> np.ndarray:
+    """95 % intervals ``theta -+ q se`` as a (p, 2) array of [low, high]."""
+    theta = np.asarray(theta, dtype=float)
+    se = np.asarray(se, dtype=float)
+    return np.column_stack([theta - q * se, theta + q * se])
+
+
+def numerical_jacobian(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, *,
+                       floor: float = 1e-8) -> np.ndarray:
+    """Central-difference Jacobian (m, p) of ``f`` at ``x`` (p,), step ``1e-6 max(|x_j|, floor)``
+    (for the delta method ``cov(f) = J cov(x) J^T``)."""
+    f0 = f(x)
+    J = np.empty((len(f0), len(x)))
+    for j in range(len(x)):
+        h = 1e-6 * max(abs(x[j]), floor)
+        xp, xm = x.copy(), x.copy()
+        xp[j] += h
+        xm[j] -= h
+        J[:, j] = (f(xp) - f(xm)) / (2 * h)
+    return J
 
 
 def _names(p: int, names: Sequence[str] | None, X: Any) -> list[str]:
@@ -111,6 +163,17 @@ def collinearity(X: np.ndarray, names: Sequence[str], cond_max: float
     return cond, [names[j] for j in np.flatnonzero(v >= 0.1 * v.max())]
 
 
+def check_collinearity(X: np.ndarray, names: Sequence[str], cond_max: float) -> float:
+    """:func:`collinearity`, raising :class:`IdentificationError` naming the collinear columns
+    when the condition number exceeds ``cond_max``; returns the condition number."""
+    cond, culprits = collinearity(X, names, cond_max)
+    if culprits:
+        raise IdentificationError(
+            f"collinear regressors {', '.join(map(repr, culprits))} (condition number "
+            f"{cond:.3g} > {cond_max:.3g}): the data cannot separate their effects")
+    return cond
+
+
 def arx_regressors(u: Any, y: Any, na: int, nb: int, nk: int = 1, *, start: int | None = None
                    ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Regressors of the ARX model (seed 001 eq. 23 and 26 are ARX models identified by RLS).
@@ -155,7 +218,7 @@ def arx_transfer_function(theta: Any, na: int, nb: int, nk: int = 1
     return np.concatenate([np.zeros(nk), th[na:]]), np.concatenate([[1.0], th[:na]])
 
 
-class LeastSquares:
+class LeastSquares(FittedAttributes):
     """Ordinary batch least squares with standard errors, covariance and 95 % intervals.
 
     Parameters
@@ -182,22 +245,12 @@ class LeastSquares:
         self.ci = ci
         self._fitted = False
 
-    def __getattr__(self, name: str) -> Any:
-        if name.endswith("_") and not name.startswith("_"):
-            raise NotFittedError(
-                f"{type(self).__name__} is not fitted yet: call fit(X, y) before reading {name}")
-        raise AttributeError(name)
-
     def fit(self, X: Any, y: Any, names: Sequence[str] | None = None, *,
             y_name: str = "y") -> LeastSquares:
         """Estimate ``theta`` from regressors ``X`` (N, p) and output ``y`` (N,); returns self."""
         Xa, ya, nm = check_regression_data(X, y, names, y_name=y_name)
         n, p = Xa.shape
-        cond, culprits = collinearity(Xa, nm, self.cond_max)
-        if culprits:
-            raise IdentificationError(
-                f"collinear regressors {', '.join(map(repr, culprits))} (condition number "
-                f"{cond:.3g} > {self.cond_max:.3g}): the data cannot separate their effects")
+        cond = check_collinearity(Xa, nm, self.cond_max)
         # SVD solve on the equilibrated matrix (numerically safer than normal equations).
         norms = np.linalg.norm(Xa, axis=0)
         u, s, vt = np.linalg.svd(Xa / norms, full_matrices=False)
@@ -208,12 +261,12 @@ class LeastSquares:
         sigma2 = float(res @ res) / dof
         inv_s = (vt.T / s) @ (vt / s[:, None])  # (Xs^T Xs)^-1
         cov = sigma2 * inv_s / np.outer(norms, norms)
-        se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        q = float(stats.t.ppf(0.975, dof)) if self.ci == "t" else float(stats.norm.ppf(0.975))
+        se = standard_errors(cov)
+        q = quantile975(dof if self.ci == "t" else math.inf)
         self.coef_ = theta
         self.cov_ = cov
         self.std_errors_ = se
-        self.ci95_ = np.column_stack([theta - q * se, theta + q * se])
+        self.ci95_ = interval95(theta, se, q)
         self.sigma2_ = sigma2
         self.residuals_ = res
         self.cond_ = cond

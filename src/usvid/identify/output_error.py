@@ -44,6 +44,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from usvid.errors import IdentificationError
+from usvid.identify.metrics import rmse
 
 #: Parameter names (order of the kernel's parameter vector) of each simulated model kind.
 PARAM_NAMES: dict[str, tuple[str, ...]] = {
@@ -87,6 +88,21 @@ def _response_rhs(code, p, x1, x2, u, du):
 
 
 @nb.njit(cache=True)
+def _response_rk4(code, p, x1, x2, u0, u1, h):
+    """One RK4 step of :func:`_response_rhs` over [t, t + h] with the input linear from ``u0`` to
+    ``u1`` (midpoint value at the inner stages). Returns the new (x1, x2), not clipped."""
+    um = 0.5 * (u0 + u1)
+    du = (u1 - u0) / h
+    k1a, k1b = _response_rhs(code, p, x1, x2, u0, du)
+    k2a, k2b = _response_rhs(code, p, x1 + 0.5 * h * k1a, x2 + 0.5 * h * k1b, um, du)
+    k3a, k3b = _response_rhs(code, p, x1 + 0.5 * h * k2a, x2 + 0.5 * h * k2b, um, du)
+    k4a, k4b = _response_rhs(code, p, x1 + h * k3a, x2 + h * k3b, u1, du)
+    xn = x1 + h / 6.0 * (k1a + 2.0 * k2a + 2.0 * k3a + k4a)
+    x2n = x2 + h / 6.0 * (k1b + 2.0 * k2b + 2.0 * k3b + k4b)
+    return xn, x2n
+
+
+@nb.njit(cache=True)
 def simulate_response_batch(code, p, delta, h, r0, rdot0, psi0):
     """RK4 simulation of a response model over a batch of windows (numba).
 
@@ -122,16 +138,7 @@ def simulate_response_batch(code, p, delta, h, r0, rdot0, psi0):
         r[b, 0] = x1
         psi[b, 0] = ps
         for k in range(W - 1):
-            u0 = delta[b, k]
-            u1 = delta[b, k + 1]
-            um = 0.5 * (u0 + u1)
-            du = (u1 - u0) / h
-            k1a, k1b = _response_rhs(code, p, x1, x2, u0, du)
-            k2a, k2b = _response_rhs(code, p, x1 + 0.5 * h * k1a, x2 + 0.5 * h * k1b, um, du)
-            k3a, k3b = _response_rhs(code, p, x1 + 0.5 * h * k2a, x2 + 0.5 * h * k2b, um, du)
-            k4a, k4b = _response_rhs(code, p, x1 + h * k3a, x2 + h * k3b, u1, du)
-            xn = x1 + h / 6.0 * (k1a + 2.0 * k2a + 2.0 * k3a + k4a)
-            x2 = x2 + h / 6.0 * (k1b + 2.0 * k2b + 2.0 * k3b + k4b)
+            xn, x2 = _response_rk4(code, p, x1, x2, delta[b, k], delta[b, k + 1], h)
             if not np.isfinite(xn) or xn > _R_CLIP:
                 xn = _R_CLIP
             elif xn < -_R_CLIP:
@@ -349,6 +356,74 @@ def _init_names(kind: str) -> tuple[str, ...]:
     return ("r", "psi") if kind in RESPONSE_KINDS else ("u", "v", "r", "psi")
 
 
+def _fd_params(fun, x: np.ndarray, f0: np.ndarray, nf: int, hi: np.ndarray) -> np.ndarray:
+    """Forward-difference derivatives of ``fun`` (residuals shaped like ``f0``) with respect to
+    the first ``nf`` unknowns (model parameters): array ``f0.shape + (nf,)``. Relative step
+    sqrt(eps), taken backwards at an upper bound."""
+    out = np.empty(f0.shape + (nf,))
+    for j in range(nf):
+        h = _EPS_FD * max(1.0, abs(x[j]))
+        if x[j] + h > hi[j]:
+            h = -h
+        x1 = x.copy()
+        x1[j] += h
+        out[..., j] = (fun(x1) - f0) / h
+    return out
+
+
+def _fd_states(fun, x: np.ndarray, f0: np.ndarray, nf: int, ni: int, B: int
+               ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Grouped forward differences for the window initial states: for each of the ``ni`` states,
+    all ``B`` windows perturbed at once (a window's state moves only its own residuals). Returns
+    per state ``(fun(x + h) - f0, h)`` with ``h`` (B,) the steps."""
+    out = []
+    for j in range(ni):
+        sl = slice(nf + j * B, nf + (j + 1) * B)
+        h = _EPS_FD * np.maximum(1.0, np.abs(x[sl]))
+        x1 = x.copy()
+        x1[sl] += h
+        out.append((fun(x1) - f0, h))
+    return out
+
+
+def _rms_sigma(kind: str, unpack, x: np.ndarray, meas: dict[str, np.ndarray],
+               channels: tuple[str, ...]) -> dict[str, float]:
+    """Second-pass channel weights: RMS of each channel's residual at ``x`` (floored at 1e-12)."""
+    p, w = unpack(x)
+    sim = simulate_windows(kind, p, w)
+    return {c: max(rmse(meas[c][:, 1:], sim[c][:, 1:]), 1e-12) for c in channels}
+
+
+def _singular(kind: str, free: np.ndarray) -> IdentificationError:
+    """The error of a singular Jacobian at the optimum, naming the free parameters."""
+    return IdentificationError(
+        f"output-error fit of {kind}: singular Jacobian (parameters "
+        f"{', '.join(np.array(PARAM_NAMES[kind])[free])} not separately identifiable from these "
+        "data)")
+
+
+def _param_covariance(n_params: int, free: np.ndarray, Sinv: np.ndarray, s2: float, fac: float,
+                      B: int, m: int, ncol: int, sandwich
+                      ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Covariance (n_params, n_params; zero rows for held parameters), standard errors and the
+    reported inflation factor.
+
+    ``Sinv`` is the free-parameter block of ``(J^T J)^-1``; ``sandwich()`` gives the uncorrected
+    cluster-robust form of that block. With ``B >= MIN_CLUSTERS`` windows the sandwich times
+    ``B/(B-1) (m-1)/(m-ncol)`` (the factor then is its mean ratio to the white-noise
+    covariance), else ``Sinv s2 fac``.
+    """
+    if B >= MIN_CLUSTERS:
+        corr = B / (B - 1) * (m - 1) / max(m - ncol, 1)
+        cov_free = sandwich() * corr
+        fac = float(np.mean(np.diag(cov_free) / np.maximum(np.diag(Sinv) * s2, 1e-300)))
+    else:
+        cov_free = Sinv * s2 * fac
+    cov = np.zeros((n_params, n_params))
+    cov[np.ix_(free, free)] = cov_free
+    return cov, np.sqrt(np.clip(np.diag(cov), 0, None)), fac
+
+
 def refine_output_error(kind: str, p0: np.ndarray, win: Windows, *,
                         channels: tuple[str, ...] | None = None,
                         free: np.ndarray | None = None, max_nfev: int = 100,
@@ -443,23 +518,14 @@ def refine_output_error(kind: str, p0: np.ndarray, win: Windows, *,
     def jac(x: np.ndarray, sig: dict[str, float]):
         """Forward differences, grouped: one simulation per model parameter and one per initial
         state (all windows perturbed at once: a window's state moves only its residuals)."""
-        f0 = resid(x, sig)
-        Jg = np.empty((m, nf))
-        for j in range(nf):
-            h = _EPS_FD * max(1.0, abs(x[j]))
-            if x[j] + h > hi[j]:
-                h = -h
-            x1 = x.copy()
-            x1[j] += h
-            Jg[:, j] = (resid(x1, sig) - f0) / h
+        def fun(x1: np.ndarray) -> np.ndarray:
+            return resid(x1, sig)
+
+        f0 = fun(x)
+        Jg = _fd_params(fun, x, f0, nf, hi)
         blocks = []
-        for j in range(len(inames)):
-            sl = slice(nf + j * B, nf + (j + 1) * B)
-            h = _EPS_FD * np.maximum(1.0, np.abs(x[sl]))
-            x1 = x.copy()
-            x1[sl] += h
-            d = ((resid(x1, sig) - f0).reshape(len(channels), B, W - 1)
-                 / h[None, :, None])
+        for j, (df, h) in enumerate(_fd_states(fun, x, f0, nf, len(inames), B)):
+            d = df.reshape(len(channels), B, W - 1) / h[None, :, None]
             cols = np.broadcast_to((nf + j * B + np.arange(B))[None, :, None], d.shape)
             blocks.append((rows_of_window.ravel(), cols.ravel(), d.ravel()))
         if dense:
@@ -486,10 +552,7 @@ def refine_output_error(kind: str, p0: np.ndarray, win: Windows, *,
                             max_nfev=max_nfev, method="trf")
         x0 = res.x
         if k < passes - 1:
-            p, w = unpack(x0)
-            sim = simulate_windows(kind, p, w)
-            sigma = {c: max(float(np.sqrt(np.mean((sim[c] - meas[c])[:, 1:] ** 2))), 1e-12)
-                     for c in channels}
+            sigma = _rms_sigma(kind, unpack, x0, meas, channels)
     assert res is not None
     J = res.jac
     r = res.fun
@@ -502,11 +565,9 @@ def refine_output_error(kind: str, p0: np.ndarray, win: Windows, *,
     try:
         inv = np.linalg.inv(JtJ)
     except np.linalg.LinAlgError as exc:
-        raise IdentificationError(
-            f"output-error fit of {kind}: singular Jacobian (parameters "
-            f"{', '.join(np.array(names)[free])} not separately identifiable from these data)"
-        ) from exc
-    if B >= MIN_CLUSTERS:
+        raise _singular(kind, free) from exc
+
+    def sandwich() -> np.ndarray:
         # cluster-robust (sandwich) covariance with the windows as clusters: valid for any
         # correlation of the residuals within a window (disturbances, model error)
         A = sparse.csr_matrix((np.ones(m), (np.arange(m),
@@ -516,16 +577,10 @@ def refine_output_error(kind: str, p0: np.ndarray, win: Windows, *,
             J * r[:, None])
         S = np.asarray((Jr.T @ A).todense()) if sparse.issparse(Jr) else Jr.T @ A.toarray()
         meat = S @ S.T
-        corr = B / (B - 1) * (m - 1) / max(m - ncol, 1)
-        cov_full = inv @ meat @ inv * corr
-        cov_free = cov_full[:nf, :nf]
-        fac = float(np.mean(np.diag(cov_free) / np.maximum(np.diag(inv[:nf, :nf]) * s2,
-                                                          1e-300)))
-    else:
-        cov_free = inv[:nf, :nf] * s2 * fac
-    cov = np.zeros((len(p0), len(p0)))
-    cov[np.ix_(free, free)] = cov_free
-    se = np.sqrt(np.clip(np.diag(cov), 0, None))
+        return (inv @ meat @ inv)[:nf, :nf]
+
+    cov, se, fac = _param_covariance(len(p0), free, inv[:nf, :nf], s2, fac, B, m, ncol,
+                                     sandwich)
     p_hat, _ = unpack(res.x)
     return OEResult(params=p_hat, cov=cov, std_errors=se, names=names,
                     cost=float(res.cost), nfev=int(res.nfev), success=bool(res.success),
@@ -557,21 +612,13 @@ def _refine_schur(kind, p0, win, channels, free, inames, sigma, lo, hi, x0, pass
         return resid(x, sig).reshape(C, B, W1).transpose(1, 0, 2).reshape(B, M)
 
     def jac(x, f0, sig):
-        G = np.empty((B, M, nf))
-        for j in range(nf):
-            h = _EPS_FD * max(1.0, abs(x[j]))
-            if x[j] + h > hi[j]:
-                h = -h
-            x1 = x.copy()
-            x1[j] += h
-            G[:, :, j] = (rb(x1, sig) - f0) / h
+        def fun(x1: np.ndarray) -> np.ndarray:
+            return rb(x1, sig)
+
+        G = _fd_params(fun, x, f0, nf, hi)
         L = np.empty((B, M, ni))
-        for j in range(ni):
-            sl = slice(nf + j * B, nf + (j + 1) * B)
-            h = _EPS_FD * np.maximum(1.0, np.abs(x[sl]))
-            x1 = x.copy()
-            x1[sl] += h
-            L[:, :, j] = (rb(x1, sig) - f0) / h[:, None]
+        for j, (df, h) in enumerate(_fd_states(fun, x, f0, nf, ni, B)):
+            L[:, :, j] = df / h[:, None]
         return G, L
 
     def normal(G, L, f):
@@ -639,10 +686,7 @@ def _refine_schur(kind, p0, win, channels, free, inames, sigma, lo, hi, x0, pass
                 message, success = "converged (cost or step tolerance)", True
                 break
         if k < passes - 1:
-            p, w = unpack(x)
-            sim = simulate_windows(kind, p, w)
-            sigma = {c: max(float(np.sqrt(np.mean((sim[c] - meas[c])[:, 1:] ** 2))), 1e-12)
-                     for c in channels}
+            sigma = _rms_sigma(kind, unpack, x, meas, channels)
     # covariance at the optimum (mu = 0)
     G, L = jac(x, f, sigma)
     A, g, Bm, Cm, h = normal(G, L, f)
@@ -661,20 +705,10 @@ def _refine_schur(kind, p0, win, channels, free, inames, sigma, lo, hi, x0, pass
             psi = np.einsum("bmi,bm->bi", G, f)
         Sinv = np.linalg.inv(S)
     except np.linalg.LinAlgError as exc:
-        raise IdentificationError(
-            f"output-error fit of {kind}: singular Jacobian (parameters "
-            f"{', '.join(np.array(names)[free])} not separately identifiable from these data)"
-        ) from exc
+        raise _singular(kind, free) from exc
     fac = max(autocorrelation_factor(b) for b in r)
-    if B >= MIN_CLUSTERS:
-        corr = B / (B - 1) * (m - 1) / max(m - ncol, 1)
-        cov_free = Sinv @ (psi.T @ psi) @ Sinv * corr
-        fac = float(np.mean(np.diag(cov_free) / np.maximum(np.diag(Sinv) * s2, 1e-300)))
-    else:
-        cov_free = Sinv * s2 * fac
-    cov = np.zeros((len(p0), len(p0)))
-    cov[np.ix_(free, free)] = cov_free
-    se = np.sqrt(np.clip(np.diag(cov), 0, None))
+    cov, se, fac = _param_covariance(len(p0), free, Sinv, s2, fac, B, m, ncol,
+                                     lambda: Sinv @ (psi.T @ psi) @ Sinv)
     p_hat, _ = unpack(x)
     return OEResult(params=p_hat, cov=cov, std_errors=se, names=names,
                     cost=float(0.5 * np.sum(f * f)), nfev=int(nfev), success=success,

@@ -54,9 +54,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from usvid.errors import IdentificationError
+from usvid.prep.filters import savgol_derivative, unwrap_angle, window_samples
 
 KINDS = ("nomoto1", "nomoto2", "norrbin", "threedof", "catamaran")
 MIN_SAMPLES = 30
@@ -153,7 +153,7 @@ def trial_series(trial, kind: str, *, smooth_s: float = 1.0,
         warnings.warn(f"trial {name}: time grid not uniform; resampled linearly to "
                       f"{1 / h:.3g} Hz", IdentificationWarning, stacklevel=3)
         tg = t[0] + h * np.arange(int(math.floor((t[-1] - t[0]) / h)) + 1)
-    win = max(int(round(smooth_s / h)) | 1, 5)
+    win = window_samples(smooth_s, h)
     if tg[-1] - tg[0] < 3 * smooth_s or len(tg) < 2 * win:
         raise IdentificationError(
             f"trial {name}: too short for identification ({tg[-1] - tg[0]:.1f} s; need at "
@@ -168,12 +168,12 @@ def trial_series(trial, kind: str, *, smooth_s: float = 1.0,
         return _channel(trial, ch, name, t, tg)
 
     def sg(x: np.ndarray, deriv: int = 0) -> np.ndarray:
-        return savgol_filter(x, win, 3, deriv=deriv, delta=h, mode="interp")
+        return savgol_derivative(x, h, smooth_s, 3, deriv=deriv)
 
     if kind in ("nomoto1", "nomoto2", "norrbin"):
         d["delta"] = need("delta")
     if trial.has("psi"):
-        d["psi"] = np.unwrap(need("psi"))
+        d["psi"] = unwrap_angle(need("psi"))
     if trial.has("r"):
         d["r"] = need("r")
     elif "psi" in d:

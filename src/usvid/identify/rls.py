@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from usvid.errors import IdentificationError
-from usvid.identify.ls import NotFittedError, check_regression_data
+from usvid.identify.ls import FittedAttributes, check_regression_data
 
 
 @njit(cache=True)
@@ -78,7 +78,7 @@ def _rls_kernel(X, y, theta0, p0, lam, reset_every, reset_below, reset_above):  
     return theta, P, hist, err, trace, n_resets
 
 
-class RecursiveLeastSquares:
+class RecursiveLeastSquares(FittedAttributes):
     """Recursive least squares estimator (see the module docstring for the recursion).
 
     Parameters
@@ -118,12 +118,6 @@ class RecursiveLeastSquares:
         self.reset_every = reset_every
         self.reset_below = reset_below
         self.reset_above = reset_above
-
-    def __getattr__(self, name: str) -> Any:
-        if name.endswith("_") and not name.startswith("_"):
-            raise NotFittedError(
-                f"{type(self).__name__} is not fitted yet: call fit(X, y) before reading {name}")
-        raise AttributeError(name)
 
     def fit(self, X: Any, y: Any, names: Sequence[str] | None = None, *,
             y_name: str = "y") -> RecursiveLeastSquares:

@@ -38,12 +38,19 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import optimize, signal, stats
+from scipy import optimize, signal
 
 from usvid.errors import IdentificationError
 from usvid.identify.d2c import d2c
-from usvid.identify.ls import LeastSquares, arx_regressors
-from usvid.identify.metrics import FitMetrics, fit_metrics
+from usvid.identify.ls import (
+    LeastSquares,
+    arx_regressors,
+    interval95,
+    numerical_jacobian,
+    quantile975,
+    standard_errors,
+)
+from usvid.identify.metrics import FitMetrics, fit_metrics, rmse
 from usvid.models.servo import SecondOrderServo
 
 PARAM_NAMES = ("omega_n", "zeta", "gain")
@@ -201,8 +208,7 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
     for d in range(dmax + 1):
         X, t = _arx_regressors(u, y, d, k0)
         theta, *_ = np.linalg.lstsq(X, t, rcond=None)
-        r = t - X @ theta
-        arx_cost[d] = np.sqrt(np.mean(r * r))
+        arx_cost[d] = rmse(t, X @ theta)
     d_arx = int(np.argmin(arx_cost))
     X, t = _arx_regressors(u, y, d_arx, k0)
     ls = LeastSquares().fit(X, t, names=["a1", "a2", "b1", "b2"], y_name="delta")
@@ -218,18 +224,11 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
                 "servo identification: the ARX model is not a second-order servo (a discrete "
                 "pole on the negative real axis or an unstable/over-damped real pair); try "
                 "refine=True")
-        G = np.empty((3, 4))
-        for j in range(4):
-            h = 1e-6 * max(abs(ls.coef_[j]), 1e-3)
-            tp = ls.coef_.copy()
-            tp[j] += h
-            tm = ls.coef_.copy()
-            tm[j] -= h
-            G[:, j] = (_physical(tp, dt) - _physical(tm, dt)) / (2 * h)
+        G = numerical_jacobian(lambda th: _physical(th, dt), ls.coef_, floor=1e-3)
         cov = G @ ls.cov_ @ G.T
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
+        se = standard_errors(cov)
         d_best, params, scan, method = d_arx, phys, arx_scan, "arx"
-        q = float(stats.norm.ppf(0.975))
+        q = quantile975()
     else:
         x0 = phys if np.all(np.isfinite(phys)) and phys[2] != 0 else np.array(
             [1.0, 0.7, float(np.mean(y) / np.mean(u)) if np.mean(u) != 0 else 1.0])
@@ -251,11 +250,11 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
         s2 = 2 * res.cost / (n - p)
         J = res.jac
         cov = s2 * np.linalg.pinv(J.T @ J)
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
+        se = standard_errors(cov)
         d_best, params, method = best, res.x, "arx+oe"
         ds = np.array(sorted(results))
         scan = np.column_stack([ds, [np.sqrt(2 * results[k].cost / n) for k in ds]])
-        q = float(stats.t.ppf(0.975, n - p))
+        q = quantile975(n - p)
     if not np.all(np.isfinite(params)):
         raise IdentificationError("servo identification failed: non-finite parameters")
     if params[2] <= 0:
@@ -267,7 +266,7 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
         omega_n=float(params[0]), zeta=float(params[1]), gain=float(params[2]),
         delay=d_best * float(dt), delay_samples=int(d_best), dt=float(dt),
         std_errors=dict(zip(PARAM_NAMES, se.tolist(), strict=True)),
-        ci95={k: (float(v - q * s), float(v + q * s))
-              for k, v, s in zip(PARAM_NAMES, params, se, strict=True)},
+        ci95={k: tuple(lh) for k, lh in zip(PARAM_NAMES, interval95(params, se, q).tolist(),
+                                            strict=True)},
         arx=arx, delay_scan=scan, fit=fit_metrics(y, sim), method=method,
         arx_delay_scan=arx_scan)

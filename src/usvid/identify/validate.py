@@ -21,7 +21,8 @@ import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.estimator import ModelEstimator, _as_list, compare_kinds
-from usvid.identify.output_error import _KIND_CODE, RESPONSE_KINDS, _response_rhs
+from usvid.identify.output_error import _KIND_CODE, RESPONSE_KINDS, _response_rk4
+from usvid.prep.filters import unwrap_angle
 
 __all__ = ["zigzag_response", "zigzag_check", "cross_validate", "compare_kinds",
            "validation_table"]
@@ -55,14 +56,7 @@ def _zigzag_kernel(code, p, amp, sw, first, rate, h, n, delay_steps):
         elif step < -lim:
             step = -lim
         dn = d + step
-        um = 0.5 * (d + dn)
-        du = (dn - d) / h
-        k1a, k1b = _response_rhs(code, p, x1, x2, d, du)
-        k2a, k2b = _response_rhs(code, p, x1 + 0.5 * h * k1a, x2 + 0.5 * h * k1b, um, du)
-        k3a, k3b = _response_rhs(code, p, x1 + 0.5 * h * k2a, x2 + 0.5 * h * k2b, um, du)
-        k4a, k4b = _response_rhs(code, p, x1 + h * k3a, x2 + h * k3b, dn, du)
-        xn = x1 + h / 6.0 * (k1a + 2.0 * k2a + 2.0 * k3a + k4a)
-        x2 = x2 + h / 6.0 * (k1b + 2.0 * k2b + 2.0 * k3b + k4b)
+        xn, x2 = _response_rk4(code, p, x1, x2, d, dn, h)
         ps = ps + 0.5 * h * (x1 + xn)
         x1 = xn
         d = dn
@@ -114,7 +108,7 @@ def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
         raise UsvidError("zigzag_check compares response models (nomoto1, nomoto2, norrbin)")
     t = tr.t
     d = tr["delta"]
-    psi = np.unwrap(tr["psi"])
+    psi = unwrap_angle(tr["psi"])
     ad = np.abs(d)
     # rudder amplitude: the median plateau level (max |delta| of a noisy record is biased high)
     amp = float(np.median(ad[ad > 0.8 * np.max(ad)])) if np.max(ad) > 0 else 0.0

@@ -50,6 +50,17 @@ def check_log_file(path: Path) -> None:
         raise LogReadError(f"{path}: empty file")
 
 
+def ignored_finding(path: Path, code: str, what: str, ignored: dict, *,
+                    data: dict | None = None) -> Finding:
+    """The info finding of records a reader skipped on purpose (types it does not use):
+    ``"<file>: ignored N <what> not used: k1 (n1), k2 (n2)"``, ``count`` N."""
+    n = sum(ignored.values())
+    return Finding("info", code,
+                   f"{path.name}: ignored {n} {what} not used: "
+                   + ", ".join(f"{k} ({v})" for k, v in sorted(ignored.items())),
+                   count=n, data=dict(data or {}))
+
+
 def _add(rejected: dict[str, int], reason: str, n: int) -> None:
     if n:
         rejected[reason] = rejected.get(reason, 0) + int(n)

@@ -37,11 +37,11 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from usvid.errors import LogReadError
-from usvid.io._assemble import apply_renames, assemble, read_log_bytes
+from usvid.io._assemble import apply_renames, assemble, ignored_finding, read_log_bytes
 from usvid.io.spec import FormatSpec
+from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
 PGNS = (127250, 127251, 127245, 128259, 129025, 129026, 127488)
@@ -186,15 +186,7 @@ def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     meta: dict = {"reader": "nmea2000"}
     if ignored:
         meta["ignored_pgns"] = {str(k): v for k, v in sorted(ignored.items())}
-        findings.append(
-            Finding(
-                "info",
-                "ignored_pgns",
-                f"{path.name}: ignored {sum(ignored.values())} frame(s) of PGNs not used: "
-                + ", ".join(f"{k} ({v})" for k, v in sorted(ignored.items())),
-                count=sum(ignored.values()),
-            )
-        )
+        findings.append(ignored_finding(path, "ignored_pgns", "frame(s) of PGNs", ignored))
     if not rows:
         detail = ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items()))
         where = f" (first bad line {first_bad})" if first_bad else ""
@@ -278,22 +270,13 @@ def candump_lines(
     interface: str = "can0",
 ) -> list[str]:
     """candump -L lines for every finite sample of ``trial`` (see :func:`write_candump`)."""
-    if t0_utc is None:
-        t0_utc = trial.meta.get("t0_utc", "2025-01-01T00:00:00+00:00")
-    t0 = pd.Timestamp(t0_utc)
-    t0 = t0.tz_localize("UTC") if t0.tzinfo is None else t0.tz_convert("UTC")
-    e0 = t0.timestamp()
+    e0 = log_start_epoch(trial, t0_utc)
     enc = _Encoder(source, interface)
-    d = trial.data
-
-    def col(name: str) -> np.ndarray | None:
-        return d[name].to_numpy(dtype=float) if name in d.columns else None
-
-    lat, lon, psi, r = col("lat"), col("lon"), col("psi"), col("r")
-    delta, dcmd = col("delta"), col("delta_cmd")
-    sog = col("sog") if "sog" in d.columns else col("U")
-    cog = col("cog")
-    n, n_p, n_s = col("n"), col("n_port"), col("n_stbd")
+    lat, lon, psi, r = (channel_or_none(trial, k) for k in ("lat", "lon", "psi", "r"))
+    delta, dcmd = channel_or_none(trial, "delta"), channel_or_none(trial, "delta_cmd")
+    sog = channel_or_none(trial, "sog" if "sog" in trial.data.columns else "U")
+    cog = channel_or_none(trial, "cog")
+    n, n_p, n_s = (channel_or_none(trial, k) for k in ("n", "n_port", "n_stbd"))
     t = trial.t
     out: list[str] = []
 

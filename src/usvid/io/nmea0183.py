@@ -46,11 +46,11 @@ from datetime import UTC, date, datetime
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from usvid.errors import LogReadError
-from usvid.io._assemble import apply_renames, assemble, read_log_bytes
+from usvid.io._assemble import apply_renames, assemble, ignored_finding, read_log_bytes
 from usvid.io.spec import FormatSpec
+from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
 KN = 1852.0 / 3600.0  # m/s per knot
@@ -576,16 +576,8 @@ def read_nmea0183(
         raise ValueError(f"engine must be 'fast' or 'pynmeagps', got {engine!r}")
     findings: list[Finding] = []
     if ignored:
-        findings.append(
-            Finding(
-                "info",
-                "ignored_sentences",
-                f"{path.name}: ignored {sum(ignored.values())} sentence(s) of types not used: "
-                + ", ".join(f"{k} ({v})" for k, v in sorted(ignored.items())),
-                count=sum(ignored.values()),
-                data={"types": dict(ignored)},
-            )
-        )
+        findings.append(ignored_finding(path, "ignored_sentences", "sentence(s) of types",
+                                        ignored, data={"types": dict(ignored)}))
     if not recs:
         detail = ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items()))
         status = _frame(blob)[4]
@@ -689,26 +681,23 @@ def sentence(body: str) -> str:
     return f"${body}*{checksum(body)}"
 
 
-def _fmt_lat(lat: float) -> tuple[str, str]:
-    a = abs(lat)
+def _fmt_deg_min(value: float, deg_digits: int, pos: str, neg: str) -> tuple[str, str]:
+    """NMEA ``d..dmm.mmmmmm`` field (``deg_digits`` degree digits) and hemisphere letter of an
+    angle [deg]."""
+    a = abs(value)
     d = int(a)
     m = (a - d) * 60.0
     if round(m, 6) >= 60.0:
         d, m = d + 1, 0.0
-    return f"{d:02d}{m:09.6f}", ("N" if lat >= 0 else "S")
+    return f"{d:0{deg_digits}d}{m:09.6f}", (pos if value >= 0 else neg)
+
+
+def _fmt_lat(lat: float) -> tuple[str, str]:
+    return _fmt_deg_min(lat, 2, "N", "S")
 
 
 def _fmt_lon(lon: float) -> tuple[str, str]:
-    a = abs(lon)
-    d = int(a)
-    m = (a - d) * 60.0
-    if round(m, 6) >= 60.0:
-        d, m = d + 1, 0.0
-    return f"{d:03d}{m:09.6f}", ("E" if lon >= 0 else "W")
-
-
-def _col(trial: Trial, name: str) -> np.ndarray | None:
-    return trial.data[name].to_numpy(dtype=float) if name in trial.data.columns else None
+    return _fmt_deg_min(lon, 3, "E", "W")
 
 
 def nmea0183_lines(
@@ -723,19 +712,15 @@ def nmea0183_lines(
     """Sentences for every finite sample of ``trial`` (see :func:`write_nmea0183`)."""
     if prefix not in ("iso", "epoch", "none"):
         raise ValueError(f"prefix must be 'iso', 'epoch' or 'none', got {prefix!r}")
-    if t0_utc is None:
-        t0_utc = trial.meta.get("t0_utc", "2025-01-01T00:00:00+00:00")
-    t0 = pd.Timestamp(t0_utc)
-    t0 = t0.tz_localize("UTC") if t0.tzinfo is None else t0.tz_convert("UTC")
-    e0 = t0.timestamp()
+    e0 = log_start_epoch(trial, t0_utc)
     t = trial.t
-    lat, lon = _col(trial, "lat"), _col(trial, "lon")
-    psi, r = _col(trial, "psi"), _col(trial, "r")
-    delta = _col(trial, "delta")
-    sog = _col(trial, "sog")
+    lat, lon = channel_or_none(trial, "lat"), channel_or_none(trial, "lon")
+    psi, r = channel_or_none(trial, "psi"), channel_or_none(trial, "r")
+    delta = channel_or_none(trial, "delta")
+    sog = channel_or_none(trial, "sog")
     if sog is None:
-        sog = _col(trial, "U")
-    cog = _col(trial, "cog")
+        sog = channel_or_none(trial, "U")
+    cog = channel_or_none(trial, "cog")
     out: list[str] = []
     for i in range(len(t)):
         ep = e0 + float(t[i])

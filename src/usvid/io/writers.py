@@ -8,12 +8,32 @@ from __future__ import annotations
 
 import io
 import json
+from datetime import datetime
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import yaml
 
 from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Trial
+
+#: Start time of a written log when neither the caller nor ``trial.meta["t0_utc"]`` gives one.
+DEFAULT_T0_UTC = "2025-01-01T00:00:00+00:00"
+
+
+def log_start_epoch(trial: Trial, t0_utc: str | datetime | None = None) -> float:
+    """Epoch seconds [s] of the trial's t = 0 for the log writers: ``t0_utc`` (ISO string or
+    datetime; naive means UTC), else ``trial.meta["t0_utc"]``, else :data:`DEFAULT_T0_UTC`."""
+    if t0_utc is None:
+        t0_utc = trial.meta.get("t0_utc", DEFAULT_T0_UTC)
+    t0 = pd.Timestamp(t0_utc)
+    t0 = t0.tz_localize("UTC") if t0.tzinfo is None else t0.tz_convert("UTC")
+    return t0.timestamp()
+
+
+def channel_or_none(trial: Trial, name: str) -> np.ndarray | None:
+    """Channel ``name`` of ``trial`` as a float array, ``None`` when the trial lacks it."""
+    return trial.data[name].to_numpy(dtype=float) if name in trial.data.columns else None
 
 
 def _si_unit(name: str) -> str:

@@ -30,6 +30,7 @@ import numpy as np
 
 from usvid.errors import UsvidError
 from usvid.models._validate import check_params
+from usvid.models.threedof import ned_state_derivative
 
 ArrayLike = float | np.ndarray
 
@@ -99,5 +100,4 @@ def catamaran_f(state: np.ndarray, inputs: np.ndarray, p: Catamaran) -> np.ndarr
     du = (m22 * v * r - d11 * u + tau_u) / m11
     dv = (-m11 * u * r - d22 * v) / m22
     dr = ((m11 - m22) * u * v - d33 * r + tau_r) / m33
-    c, sn = np.cos(psi), np.sin(psi)
-    return np.stack(np.broadcast_arrays(u * c - v * sn, u * sn + v * c, r, du, dv, dr), axis=-1)
+    return ned_state_derivative(psi, u, v, r, du, dv, dr)

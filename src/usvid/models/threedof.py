@@ -110,11 +110,7 @@ class ThreeDOF:
         c_uv = (m11 - m22)/m33); with ``strict`` a relative mismatch above ``rtol`` raises
         :class:`UsvidError` (the 8-coefficient form is then not a Fossen model).
         """
-        m11 = 1.0 / a_tau
-        m22 = a_vr * m11
-        m33 = 1.0 / c_tau
-        model = cls(m11=m11, m22=m22, m33=m33, d11=-a_u * m11, d22=-b_v * m22,
-                    d33=-c_r * m33, x_l=x_l, **kw)
+        model = cls(**fossen_from_regression(a_vr, a_u, a_tau, b_v, c_r, c_tau), x_l=x_l, **kw)
         if strict:
             implied = model.regression_coefficients()
             for name, given in (("b_ur", b_ur), ("c_uv", c_uv)):
@@ -155,6 +151,26 @@ class ThreeDOF:
         return float(T) / float(self.d11)
 
 
+def fossen_from_regression(a_vr: float, a_u: float, a_tau: float, b_v: float, c_r: float,
+                           c_tau: float) -> dict[str, float]:
+    """Diagonal Fossen masses and dampings of seed 000 eq. 37 regression coefficients (also the
+    catamaran's, seed 002): m11 = 1/a_tau, m22 = a_vr m11, m33 = 1/c_tau [kg, kg, kg m^2],
+    d11 = -a_u m11, d22 = -b_v m22 [kg/s], d33 = -c_r m33 [kg m^2/s]."""
+    m11 = 1.0 / a_tau
+    m22 = a_vr * m11
+    m33 = 1.0 / c_tau
+    return {"m11": m11, "m22": m22, "m33": m33, "d11": -a_u * m11, "d22": -b_v * m22,
+            "d33": -c_r * m33}
+
+
+def ned_state_derivative(psi: np.ndarray, u: np.ndarray, v: np.ndarray, r: np.ndarray,
+                         du: np.ndarray, dv: np.ndarray, dr: np.ndarray) -> np.ndarray:
+    """d(x, y, psi, u, v, r)/dt ``(..., 6)`` from the body-frame accelerations: NED position rates
+    ``x' = u cos psi - v sin psi``, ``y' = u sin psi + v cos psi`` [m/s], ``psi' = r``."""
+    c, sn = np.cos(psi), np.sin(psi)
+    return np.stack(np.broadcast_arrays(u * c - v * sn, u * sn + v * c, r, du, dv, dr), axis=-1)
+
+
 def thrust_value(thrust: Any, u: np.ndarray, n: ArrayLike | None) -> np.ndarray:
     """Evaluate a thrust spec: a number [N], ``Propeller`` (``.thrust(n, u)``) or
     ``PodThrust`` (``.thrust(V, n)``), at surge speed u [m/s] and shaft speed n [rps]."""
@@ -192,8 +208,7 @@ def threedof_f_tau(state: np.ndarray, tau: np.ndarray, p: ThreeDOF) -> np.ndarra
     du = f1 / m11
     dv = (m33 * f2 - m23 * f3) / det
     dr = (m22 * f3 - m32 * f2) / det
-    c, sn = np.cos(psi), np.sin(psi)
-    return np.stack(np.broadcast_arrays(u * c - v * sn, u * sn + v * c, r, du, dv, dr), axis=-1)
+    return ned_state_derivative(psi, u, v, r, du, dv, dr)
 
 
 def vector_thrust_tau(T: np.ndarray, delta: np.ndarray, x_l: ArrayLike,

@@ -81,26 +81,26 @@ def _crit(name: str, value: float | None, limit: float, unit: str) -> Criterion:
     return Criterion(name, float(value), float(limit), unit, bool(value <= limit))
 
 
-def first_overshoot_limit_10_10(L: float, U: float) -> float:
-    """Limit [deg] on the first overshoot of the 10/10 zig-zag (MSC.137(76) 5.2.3.1)."""
+def _lu_limit(L: float, U: float, low: float, high: float, a: float, b: float) -> float:
+    """Overshoot limit [deg] as a function of L/U [s]: ``low`` below 10 s, ``high`` from 30 s,
+    ``a + b L/U`` in between (the MSC.137(76) 5.2.3 form)."""
     _check_LU(L, U)
     lu = L / U
     if lu < 10:
-        return 10.0
+        return low
     if lu >= 30:
-        return 20.0
-    return 5.0 + 0.5 * lu
+        return high
+    return a + b * lu
+
+
+def first_overshoot_limit_10_10(L: float, U: float) -> float:
+    """Limit [deg] on the first overshoot of the 10/10 zig-zag (MSC.137(76) 5.2.3.1)."""
+    return _lu_limit(L, U, 10.0, 20.0, 5.0, 0.5)
 
 
 def second_overshoot_limit_10_10(L: float, U: float) -> float:
     """Limit [deg] on the second overshoot of the 10/10 zig-zag (MSC.137(76) 5.2.3.2)."""
-    _check_LU(L, U)
-    lu = L / U
-    if lu < 10:
-        return 25.0
-    if lu >= 30:
-        return 40.0
-    return 17.5 + 0.75 * lu
+    return _lu_limit(L, U, 25.0, 40.0, 17.5, 0.75)
 
 
 def _get(metrics: Any, key: str) -> Any:
