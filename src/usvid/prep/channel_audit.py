@@ -148,8 +148,12 @@ def _check_duplicates(trial: Trial, chans: list[str]) -> list[Finding]:
     if len(trial) < 2 or not chans:
         return []
     vals = trial.data[chans].to_numpy(dtype=float)
-    same = np.all((vals[1:] == vals[:-1]) | (np.isnan(vals[1:]) & np.isnan(vals[:-1])), axis=1)
-    same &= np.isfinite(vals[1:]).any(axis=1)
+    fin = np.isfinite(vals)
+    # A repeat is a row with the same channels present as the previous one, all equal, and at
+    # least two of them: in a multi-rate trial (union of sensor time stamps, NaN elsewhere) a
+    # row holding one quantised heading sample that equals the previous one is no duplicate.
+    same = np.all((vals[1:] == vals[:-1]) | (~fin[1:] & ~fin[:-1]), axis=1)
+    same &= np.all(fin[1:] == fin[:-1], axis=1) & (fin[1:].sum(axis=1) >= 2)
     if not same.any():
         return []
     a, b = _span(trial.t[1:], same)
