@@ -29,7 +29,8 @@ FormatOpt = Annotated[str, typer.Option(
 ModelOpt = Annotated[str, typer.Option(
     "--model", "-m", help="Model kind: nomoto1 | nomoto2 | norrbin | threedof | catamaran.")]
 MethodOpt = Annotated[str, typer.Option(
-    "--method", help="ls (least squares) | rls (recursive, --lam) | oe (LS + output error).")]
+    "--method", help="ls (least squares) | rls (recursive, --lam) | oe (LS + output error) | "
+    "oe-zigzag (LS + closed-loop zig-zag replay output error).")]
 ValidateOpt = Annotated[list[Path] | None, typer.Option(
     "--validate", help="Held-out log(s) to validate on (repeat the option for several).")]
 OutOpt = Annotated[Path, typer.Option("--out", "-o", help="Model file to write (JSON).")]

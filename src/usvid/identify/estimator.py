@@ -15,6 +15,8 @@ Methods
 ``"rls"``  recursive least squares with forgetting factor ``lam`` (seed 000 eq. 37-40).
 ``"oe"``   least squares, then output-error refinement by multiple shooting
            (:mod:`usvid.identify.output_error`), intervals from the Jacobian.
+``"oe-zigzag"`` least squares, then closed-loop output error replaying every training zig-zag
+           with its own switching logic (:mod:`usvid.identify.manoeuvre_oe`).
 
 Standard errors: the equation-error and output-error residuals of manoeuvring data are coloured
 (smoothing, disturbances); both methods inflate the white-noise covariance by the residual
@@ -68,7 +70,7 @@ from usvid.identify.regressors import (
 )
 from usvid.identify.rls import RecursiveLeastSquares
 
-METHODS = ("ls", "rls", "oe")
+METHODS = ("ls", "rls", "oe", "oe-zigzag")
 MIN_DELTA_STD = math.radians(0.2)  # [rad] rudder scatter below which there is no excitation
 
 
@@ -207,7 +209,10 @@ class ModelEstimator(FittedAttributes):
     Parameters
     ----------
     kind : {"nomoto1", "nomoto2", "norrbin", "threedof", "catamaran"}
-    method : {"ls", "rls", "oe"}
+    method : {"ls", "rls", "oe", "oe-zigzag"}
+        ``"oe-zigzag"``: least squares, then closed-loop zig-zag replay output error
+        (:mod:`usvid.identify.manoeuvre_oe`; zig-zag trials, response models; the model's servo
+        gets the rudder rate limit used, the vessel's helm rate when known).
     form : {"continuous", "arx"}
         Regression form for nomoto1 (nomoto2 is always ARX(2,2) + d2c).
     norrbin : {"joint", "two_step"}
@@ -476,6 +481,18 @@ class ModelEstimator(FittedAttributes):
                           "sigma": oe.sigma, "n_residuals": oe.n_residuals,
                           "window_s": self.window_s}
             diag["ls_params"] = p_ls
+        zz_rate = None
+        if self.method == "oe-zigzag":  # closed-loop zig-zag replay (manoeuvre_oe.py)
+            from usvid.identify.manoeuvre_oe import fit_zigzag_params
+
+            if self.kind not in RESPONSE_KINDS:
+                raise IdentificationError("method 'oe-zigzag' fits response models (nomoto1, "
+                                          f"nomoto2, norrbin), not {self.kind!r}")
+            zz_trials = [t for t, s in zip(trials, series, strict=True) if any(
+                s is f for f in fit_series)]
+            params, cov, diag["oe_zigzag"], oe, zz_rate = fit_zigzag_params(
+                self.kind, params, zz_trials, fit_series)
+            diag["ls_params"] = p_ls
         se = standard_errors(cov)
         q = quantile975(oe.dof if oe is not None else math.inf)
         self.params_ = {n: float(params[n]) for n in names}
@@ -508,7 +525,12 @@ class ModelEstimator(FittedAttributes):
             kind=self.kind, method=self.method, params=self.params_,
             std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_,
             model=None, data=self.data_, options=opts, diagnostics=diag)
-        self.model_ = VesselModel(dyn, servo=self.servo or IdealServo(),
+        if self.servo is None and zz_rate is None and vessel is not None:
+            from usvid.identify.manoeuvre_oe import helm_rate
+
+            zz_rate = helm_rate(vessel)  # the vessel's helm rate, for simulations of the model
+        self.model_ = VesselModel(dyn, servo=self.servo or IdealServo(
+            max_rate=math.inf if zz_rate is None else zz_rate),
                                   vessel=vessel or Vessel(),
                                   identification=result.identification())
         result.model = self.model_

@@ -97,7 +97,8 @@ def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
     switching angle define the simulated zig-zag; the switching angle is ``psi_switch`` [rad], else
     ``trial.meta["psi_switch"]``, else found by :func:`usvid.prep.find_manoeuvres` (measured and
     rounded to a standard angle). ``rate`` [rad/s] is the rudder rate limit (default: the
-    measured rate, median of the smoothed |d delta/dt| on the rudder ramps). The amplitude is
+    model servo's finite ``max_rate``, so the servo matches the fit's; else the measured
+    rate, median of the smoothed |d delta/dt| on the rudder ramps). The amplitude is
     the median plateau |delta| (samples above 80 % of the largest). Returns
     measured and simulated overshoots [deg], their differences and periods.
     """
@@ -130,6 +131,10 @@ def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
         first = segs[0].side
         t_exec = segs[0].t_execute
     sw = float(sw)
+    servo_rate = float(getattr(getattr(vars(est).get("model_"), "servo", None), "max_rate",
+                               math.inf))
+    if rate is None and math.isfinite(servo_rate):
+        rate = servo_rate  # the model's servo (the rate its fit used, or the vessel's helm rate)
     if rate is None:
         # rudder rate on the ramps: derivative of the smoothed (0.5 s) rudder angle, median over
         # the samples where it exceeds half its maximum
