@@ -255,6 +255,9 @@ class ModelEstimator(FittedAttributes):
             raise UsvidError(f"`method` must be one of {', '.join(METHODS)} (got {method!r})")
         if form not in ("continuous", "arx"):
             raise UsvidError(f"`form` must be 'continuous' or 'arx' (got {form!r})")
+        if method == "oe-zigzag" and kind not in RESPONSE_KINDS:
+            raise UsvidError("method 'oe-zigzag' (zig-zag replay) fits response models "
+                             f"(nomoto1, nomoto2, norrbin), not {kind!r}")
         if norrbin not in ("joint", "two_step"):
             raise UsvidError(f"`norrbin` must be 'joint' or 'two_step' (got {norrbin!r})")
         for nm, v in (("smooth_s", smooth_s), ("window_s", window_s)):
@@ -485,9 +488,6 @@ class ModelEstimator(FittedAttributes):
         if self.method == "oe-zigzag":  # closed-loop zig-zag replay (manoeuvre_oe.py)
             from usvid.identify.manoeuvre_oe import fit_zigzag_params
 
-            if self.kind not in RESPONSE_KINDS:
-                raise IdentificationError("method 'oe-zigzag' fits response models (nomoto1, "
-                                          f"nomoto2, norrbin), not {self.kind!r}")
             zz_trials = [t for t, s in zip(trials, series, strict=True) if any(
                 s is f for f in fit_series)]
             params, cov, diag["oe_zigzag"], oe, zz_rate = fit_zigzag_params(

@@ -1,0 +1,239 @@
+"""Closed-loop zig-zag replay output error (``method="oe-zigzag"``,
+:mod:`usvid.identify.manoeuvre_oe`): the replay kernel against the validation zig-zag, its
+continuity in the parameters, recovery on noisy virtual zig-zags of known Nomoto/Norrbin ships,
+and the HSVA KVLCC2 acceptance (train on 10/05, 15/05, 20/05; validate on 10/10 and 20/10)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from usvid.errors import IdentificationError, UsvidError
+from usvid.identify.estimator import ModelEstimator
+from usvid.identify.manoeuvre_oe import (
+    ZigZagRun,
+    helm_rate,
+    replay_zigzag,
+    zigzag_runs,
+)
+from usvid.identify.validate import zigzag_check, zigzag_response
+from usvid.models.model import VesselModel
+from usvid.models.response import Nomoto1, Norrbin
+from usvid.models.servo import IdealServo
+from usvid.prep.metrics import zigzag_metrics
+from usvid.sim.logic import Disturbance, ZigZag
+from usvid.sim.simulate import simulate
+from usvid.sim.virtual import SensorModel, virtual_trial_uniform
+from usvid.trial import Vessel
+
+DEG = math.pi / 180
+HELM = 15.8  # [deg/s] HSVA helm rate (shared/data README, spec vessel.extra)
+#: KVLCC2-like Norrbin in the T = 1 normalisation (K/T, 1, n1/T, n3/T, delta0), close to the
+#: oe-zigzag fit of the HSVA zig-zags (K 0.46, T 33 s, n1 -1, n3 2206 s^2).
+KV_T1 = np.array([0.014, 1.0, -0.03, 66.0, 0.0])
+
+
+def _rest_run(amp, sw, n, h=0.05, first=1, rate=HELM * DEG) -> ZigZagRun:
+    z = np.zeros(n)
+    return ZigZagRun(name="rest", h=h, stride=1, psi=z, r=z, delta=z, delta_amp=amp,
+                     psi_switch=sw, first=first, rate=rate, r0=0.0, rdot0=0.0, delta_init=0.0,
+                     t_execute=0.0)
+
+
+# --- kernel ------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kind,params", [
+    ("nomoto1", {"K": 0.3, "T": 12.0, "delta0": 0.0}),
+    ("norrbin", {"K": 0.3, "T": 20.0, "n1": -1.0, "n3": 1500.0, "delta0": 0.0}),  # KVLCC2-like
+])
+def test_replay_from_rest_matches_validation_zigzag(kind, params):
+    # From rest the replay is the validation zig-zag (validate.zigzag_response). That kernel
+    # switches at the first step start after the crossing (up to one step late), so it is run at
+    # a 0.005 s step as the reference; the event-located replay at 0.05 s matches its overshoots
+    # within 0.01 deg (a 0.05 s switching lag alone moves them by ~0.06 deg here).
+    amp, sw = 10 * DEG, 10 * DEG
+    ref = zigzag_response(kind, params, amp, sw, first=-1, rate=HELM * DEG, t_end=150.0,
+                          h=0.005)
+    p = np.array(list(params.values()))
+    run = _rest_run(amp, sw, 3001, first=-1)
+    mine = replay_zigzag(kind, p, run)
+    t = np.arange(3001) * 0.05
+    a = zigzag_metrics(ref["t"], ref["psi"], ref["delta"], psi_switch=sw, t_execute=0.0, first=-1)
+    b = zigzag_metrics(t, mine["psi"], mine["delta"], psi_switch=sw, t_execute=0.0, first=-1)
+    assert len(a.overshoot_deg) >= 3
+    assert b.overshoot_deg[:3] == pytest.approx(a.overshoot_deg[:3], abs=0.01)
+    # the rudder never exceeds the amplitude and moves at most at the helm rate
+    assert np.max(np.abs(mine["delta"])) <= amp + 1e-12
+    assert np.max(np.abs(np.diff(mine["delta"]))) <= HELM * DEG * 0.05 * (1 + 1e-9)
+
+
+def test_replay_is_continuous_in_parameters():
+    # event-located switching: the replayed heading after 5 reversals is a smooth function of K,
+    # forward-difference slopes at 1e-8 .. 1e-5 agree within 1 % (a switch decided at sample
+    # instants would make the heading jump by ~r h when a crossing moves to another step: the
+    # slopes would then scatter by orders of magnitude)
+    run = _rest_run(10 * DEG, 5 * DEG, 2001)
+    p = KV_T1.copy()
+
+    def end_psi(k: float) -> float:
+        q = p.copy()
+        q[0] = k
+        return float(replay_zigzag("norrbin", q, run)["psi"][-1])
+
+    f0 = end_psi(p[0])
+    slopes = [(end_psi(p[0] + d) - f0) / d for d in (1e-8, 1e-7, 1e-6, 1e-5)]
+    assert slopes == pytest.approx([slopes[0]] * 4, rel=0.01)
+    assert abs(slopes[0]) > 1.0  # and K does move the heading
+
+
+def test_course_unstable_replay_stays_bounded():
+    # n1 < 0 (course-unstable: with the rudder at 0 the yaw rate drifts to +-sqrt(-n1/n3)); the
+    # switching logic keeps the 10/5 zig-zag within +-25 deg over 400 s, as on the real ship
+    run = _rest_run(10 * DEG, 5 * DEG, 8001)
+    out = replay_zigzag("norrbin", KV_T1, run)
+    assert np.all(np.isfinite(out["psi"]))
+    assert np.max(np.abs(out["psi"])) < 25 * DEG
+    # open loop (rudder held at 0, no switching): r drifts from 0.001 to sqrt(0.03/66) rad/s
+    still = _rest_run(0.0, 1e3, 8001)
+    still.r0 = 0.001
+    free = replay_zigzag("norrbin", KV_T1, still)
+    assert free["r"][-1] == pytest.approx(math.sqrt(0.03 / 66.0), rel=1e-3)
+
+
+# --- recovery ----------------------------------------------------------------------------------
+def _virtual(dyn, amps_deg, switch_deg, seed, t_end=200.0):
+    """Noisy virtual zig-zags (SensorModel default noise: 0.5 deg compass, 0.2 deg/s gyro,
+    0.2 deg rudder; small rudder-equivalent disturbance) through a helm rate-limited servo."""
+    vessel = Vessel(length=7.0, speed=1.18, extra={"helm_rate_deg_s": HELM})
+    model = VesselModel(dyn, servo=IdealServo(max_rate=HELM * DEG), vessel=vessel)
+    amps = np.radians(np.asarray(amps_deg, float))
+    sw = np.radians(np.asarray(switch_deg, float))
+    res = simulate(model, ZigZag(delta_amp=amps, psi_switch=sw, t_start=5.0), t_end=t_end,
+                   dt=0.02, disturbance=Disturbance(intensity=0.0005, seed=seed + np.arange(3)))
+    return [virtual_trial_uniform(res, SensorModel(), seed=seed, i=i, rate_hz=20.0,
+                                  name=f"zz{i}", vessel=vessel) for i in range(len(amps))]
+
+
+@pytest.fixture(scope="module")
+def unstable_trials():
+    dyn = Norrbin(K=0.3, T=10.0, n1=-1.0, n3=60.0)
+    return _virtual(dyn, (10.0, 15.0, 20.0), (5.0, 5.0, 5.0), seed=21)
+
+
+def test_recovers_course_unstable_norrbin(unstable_trials):
+    est = ModelEstimator("norrbin", "oe-zigzag").fit(unstable_trials)
+    p = est.params_
+    assert p["n1"] == -1.0
+    # 10 % on K, T, n3: the closed-loop fit on 3 noisy zig-zags (noise and disturbance above);
+    # LS alone is biased by the noisy cubic regressor (test_identify_response) by more than that
+    assert p["K"] == pytest.approx(0.3, rel=0.10)
+    assert p["T"] == pytest.approx(10.0, rel=0.10)
+    assert p["n3"] == pytest.approx(60.0, rel=0.10)
+    assert abs(p["delta0"]) < 0.2 * DEG  # true 0; 0.2 deg ~ the rudder noise level
+    # the servo of the model is the helm rate the replay used
+    assert math.degrees(est.model_.servo.max_rate) == pytest.approx(HELM)
+    d = est.result_.diagnostics["oe_zigzag"]
+    assert d["rudder_rate_deg_s"] == pytest.approx(HELM)
+
+
+def test_recovers_nomoto1_with_measured_rate():
+    # no helm rate in the vessel: the replay uses the measured rudder rate
+    dyn = Nomoto1(K=0.25, T=8.0, delta0=0.5 * DEG)
+    trials = _virtual(dyn, (10.0, 20.0, 20.0), (10.0, 10.0, 20.0), seed=3, t_end=150.0)
+    for tr in trials:
+        tr.vessel.extra.pop("helm_rate_deg_s", None)  # (the trials share one Vessel)
+    assert helm_rate(trials[0].vessel) is None
+    est = ModelEstimator("nomoto1", "oe-zigzag").fit(trials)
+    # 5 %: linear model, three zig-zags; delta0 within 0.15 deg (rudder noise 0.2 deg per sample)
+    assert est.params_["K"] == pytest.approx(0.25, rel=0.05)
+    assert est.params_["T"] == pytest.approx(8.0, rel=0.05)
+    assert est.params_["delta0"] == pytest.approx(0.5 * DEG, abs=0.15 * DEG)
+    # measured rate: within 10 % of the true 15.8 deg/s (0.5 s smoothing rounds the ramp ends)
+    assert math.degrees(est.model_.servo.max_rate) == pytest.approx(HELM, rel=0.10)
+
+
+def test_non_zigzag_trial_and_3dof_rejected(unstable_trials):
+    from usvid.trial import Trial
+
+    tr = unstable_trials[0]
+    df = tr.data.copy()
+    df["delta"] = 5 * DEG * np.sin(2 * np.pi * df["t"] / 7.0)  # sine rudder, no zig-zag logic
+    with pytest.raises(IdentificationError, match="no zig-zag"):
+        ModelEstimator("nomoto1", "oe-zigzag").fit(Trial(data=df, name="sine", vessel=tr.vessel))
+    with pytest.raises(UsvidError, match="response models"):
+        ModelEstimator("threedof", "oe-zigzag", x_l=1.0).fit(unstable_trials)
+
+
+# --- HSVA KVLCC2 (real data) -------------------------------------------------------------------
+TRAIN = ("10_05", "15_05", "20_05")
+VALID = {"10_10_P": 9.69, "10_10_S": 9.69, "20_10_P": 11.97, "20_10_S": 11.71}
+
+
+def _paths(d: Path, names) -> list[Path]:
+    return [d / f"HSVA_CPMC_KVLCC2_Z_{n}.dat" for n in names]
+
+
+@pytest.fixture(scope="module")
+def kvlcc2_cli(hsva_dir, tmp_path_factory):
+    """``usvid identify ... --model norrbin --method oe-zigzag`` with default options."""
+    from usvid.commands.identify import identify_logs
+
+    out = tmp_path_factory.mktemp("kv") / "kv.json"
+    s = identify_logs(_paths(hsva_dir, TRAIN), "hsva_kvlcc2", "norrbin", "oe-zigzag",
+                      validate=_paths(hsva_dir, VALID), out=out)
+    return s, json.loads(out.read_text())
+
+
+def test_kvlcc2_default_cli(kvlcc2_cli):
+    s, model = kvlcc2_cli
+    assert model["servo"]["max_rate_deg_s"] == pytest.approx(HELM)  # spec vessel helm rate
+    assert s["params"]["n1"] == -1.0  # KVLCC2 is course-unstable
+    first = {}
+    for v, (name, meas) in zip(s["validation"], VALID.items(), strict=True):
+        z = v["zigzag"]
+        assert z["rudder_rate_deg_s"] == pytest.approx(HELM)  # same servo as the fit
+        assert z["measured_overshoot_deg"][0] == pytest.approx(meas, abs=0.01)
+        first[name] = z["overshoot_error_deg"][0]
+    # 20/10: within the 1.5 deg acceptance. 10/10: measured +1.60/+1.64 deg (the 1.5 deg target
+    # is NOT met, see test_kvlcc2_acceptance_10_10); 2.0 deg guards against regressions.
+    assert abs(first["20_10_P"]) <= 1.5 and abs(first["20_10_S"]) <= 1.5
+    assert abs(first["10_10_P"]) <= 2.0 and abs(first["10_10_S"]) <= 2.0
+
+
+@pytest.mark.parametrize("horizon,lead_s", [(1, 0.0), (1, 5.0)])
+def test_kvlcc2_robust_to_replay_settings(hsva_dir, horizon, lead_s, monkeypatch):
+    # the first overshoot errors stay within 2.7 deg when the shooting lead changes (measured:
+    # lead 0 s max 1.70 deg, lead 5 s max 2.64 deg; the open-loop windows of 20-60 s range over
+    # -2.2..+3.9 deg); 20/10 stays within 1.8 deg
+    from usvid.identify import manoeuvre_oe
+    from usvid.io import read_trial
+
+    orig = manoeuvre_oe.fit_zigzag_params
+
+    def patched(*a, **kw):
+        kw.update(horizon=horizon, lead_s=lead_s)
+        return orig(*a, **kw)
+
+    monkeypatch.setattr(manoeuvre_oe, "fit_zigzag_params", patched)
+    tr = [read_trial(p, "hsva_kvlcc2") for p in _paths(hsva_dir, TRAIN)]
+    est = ModelEstimator("norrbin", "oe-zigzag").fit(tr)
+    assert est.result_.diagnostics["oe_zigzag"]["lead_s"] == lead_s
+    for name, p in zip(VALID, _paths(hsva_dir, VALID), strict=True):
+        e = zigzag_check(est, read_trial(p, "hsva_kvlcc2"))["overshoot_error_deg"][0]
+        assert abs(e) <= (1.8 if name.startswith("20") else 2.7), (name, e)
+
+
+def test_zigzag_runs_of_hsva(hsva_dir):
+    # one replay per execute and per measured reversal; switching 5 deg, helm rate 15.8 deg/s
+    from usvid.io import read_trial
+
+    tr = [read_trial(p, "hsva_kvlcc2") for p in _paths(hsva_dir, ("20_05",))]
+    est = ModelEstimator("norrbin")
+    runs = zigzag_runs(tr, est._series(tr), horizon=1)
+    assert len(runs) == 9  # execute + 8 reversals in the 177 s record
+    assert {round(math.degrees(r.psi_switch), 6) for r in runs} == {5.0}
+    assert {round(math.degrees(r.rate), 6) for r in runs} == {HELM}
+    assert runs[0].delta_amp == pytest.approx(20 * DEG, abs=0.05 * DEG)
