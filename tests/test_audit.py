@@ -226,14 +226,18 @@ def test_swapped_position_axes_and_minimal_logs():
 
 
 def test_multirate_rows_with_one_repeated_sample_are_not_duplicates():
-    # a merged multi-rate log: heading rows (quantised, often equal to the previous one) and
-    # GNSS rows at other instants; NaN wherever a sensor has no sample
+    # a merged multi-rate log: heading rows (quantised, often equal to the previous one), rudder
+    # rows (saturated: angle and command repeat) and GNSS rows at other instants; NaN wherever
+    # a sensor has no sample
     t = np.arange(0, 20, 0.02)
     psi = np.round(0.01 * t, 2)  # 0.01 rad quantisation: many consecutive equal samples
     lat = np.full_like(t, np.nan)
     lat[::10] = 38.0 + 1e-6 * t[::10]
     psi[::10] = np.nan
-    tr = Trial(pd.DataFrame({"t": t, "psi": psi, "lat": lat}))
+    delta = np.where(np.arange(t.size) % 10 >= 5, 0.61, np.nan)  # five rudder rows in a row
+    psi[np.isfinite(delta)] = np.nan
+    tr = Trial(pd.DataFrame({"t": t, "psi": psi, "lat": lat, "delta": delta,
+                             "delta_cmd": delta}))
     assert "duplicate_rows" not in codes(audit(tr))
     # a dense table with a row written twice is still caught
     d = pd.DataFrame({"t": t, "psi": 0.01 * t, "r": np.full_like(t, 0.01)})

@@ -83,6 +83,18 @@ def test_gauss_markov_statistics() -> None:
     assert lag1 == pytest.approx(math.exp(-1.0 / 20.0), abs=0.02)
 
 
+def test_smooth_wander_std_and_smooth_derivative() -> None:
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 20000.0, 0.1)
+    x = C.smooth_wander(t, 1.0, 60.0, rng)
+    # 200000 samples, correlation time ~2 x 60 s: ~80 independent pieces -> std within ~15 %
+    assert np.std(x) == pytest.approx(1.0, rel=0.2)
+    # the derivative of the second-order process is of order sigma / tau = 0.017 m/s; a
+    # first-order process differentiated at 10 Hz gives ~sqrt(2 / (tau dt)) = 0.58 m/s
+    assert np.std(np.diff(x) / 0.1) < 0.05
+    assert np.std(np.diff(C.gauss_markov(t, 1.0, 60.0, rng)) / 0.1) > 0.4
+
+
 def test_shaft_speed_balances_resistance() -> None:
     from usvid.models.threedof import seed000_threedof
 

@@ -3,7 +3,8 @@
 Geodetic -> local NED (:func:`to_ned`), stale GNSS fixes (:func:`drop_stale`), multi-rate
 alignment (:func:`resample`), zero-phase filtering and derivatives (:func:`savgol_derivative`),
 body velocities, the one-call :func:`prepare`, the channel :func:`audit`, manoeuvre finding
-(:func:`find_manoeuvres`) and measured manoeuvre metrics (:func:`measured_metrics`, with the
+(:func:`find_manoeuvres`), merging the logs of several loggers (:func:`merge_trials`) and
+measured manoeuvre metrics (:func:`measured_metrics`, with the
 definitions of :mod:`usvid.prep.metrics`).
 """
 
@@ -24,6 +25,7 @@ from usvid.prep.kinematics import (
     earth_to_body,
 )
 from usvid.prep.manoeuvres import Segment, find_manoeuvres, manoeuvre_metrics, measured_metrics
+from usvid.prep.merge import merge_trials
 from usvid.prep.prepare import prepare, sort_time
 from usvid.prep.resample import infer_rate, resample
 from usvid.prep.stale import StaleReport, detect_stale, drop_stale
@@ -38,6 +40,7 @@ __all__ = [
     "detect_stale",
     "drop_stale",
     "earth_to_body",
+    "merge_trials",
     "find_manoeuvres",
     "geodetic_to_ned",
     "infer_rate",

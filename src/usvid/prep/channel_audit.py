@@ -148,12 +148,15 @@ def _check_duplicates(trial: Trial, chans: list[str]) -> list[Finding]:
     if len(trial) < 2 or not chans:
         return []
     vals = trial.data[chans].to_numpy(dtype=float)
-    fin = np.isfinite(vals)
-    # A repeat is a row with the same channels present as the previous one, all equal, and at
-    # least two of them: in a multi-rate trial (union of sensor time stamps, NaN elsewhere) a
-    # row holding one quantised heading sample that equals the previous one is no duplicate.
-    same = np.all((vals[1:] == vals[:-1]) | (~fin[1:] & ~fin[:-1]), axis=1)
-    same &= np.all(fin[1:] == fin[:-1], axis=1) & (fin[1:].sum(axis=1) >= 2)
+    # A repeat is a complete row (every channel present, at least two) equal to the previous
+    # complete row. In a multi-rate trial (union of sensor time stamps, NaN elsewhere) rows hold
+    # one sensor's sample each, and a rudder sentence repeating a saturated angle is no
+    # duplicate; such trials have no complete rows and are not checked here (their readers
+    # count repeated time stamps).
+    full = np.isfinite(vals).all(axis=1)
+    same = np.zeros(len(vals) - 1, dtype=bool)
+    if vals.shape[1] >= 2:
+        same = full[1:] & full[:-1] & np.all(vals[1:] == vals[:-1], axis=1)
     if not same.any():
         return []
     a, b = _span(trial.t[1:], same)

@@ -219,9 +219,10 @@ SENSORS = {
     "gyro_rate_hz": 50.0, "gyro_sigma_deg_s": 0.2, "gyro_bias_deg_s": 0.0,
     "rudder_rate_hz": 50.0, "rudder_sigma_deg": 0.2, "rpm_sigma": 10.0, "jitter_s": 0.002,
 }
-#: GNSS position error besides the receiver's white noise: a first-order Gauss-Markov wander
-#: per axis (std [m], correlation time [s]); metre-level like a standalone receiver, but
-#: smooth from fix to fix as real receivers are (white metre noise at 10 Hz is not realistic).
+#: GNSS position error besides the receiver's white noise: a second-order Gauss-Markov wander
+#: per axis (std [m], correlation time [s], :func:`smooth_wander`); metre-level like a
+#: standalone receiver, but smooth from fix to fix as real receivers are (white metre noise at
+#: 10 Hz, or a first-order process with its white derivative, is not realistic).
 GNSS_WANDER_M, GNSS_WANDER_TAU_S = 1.0, 60.0
 #: Course-over-ground noise [deg] (receiver Doppler course).
 COG_SIGMA_DEG = 0.5
@@ -318,7 +319,8 @@ class Campaign:
                 "Virtual sea trials of the Lanxin USV (seed 000): 3-DOF model of eq. 37, "
                 "propeller thrust of eq. 1, second-order servo with 1 s dead time, calm-sea "
                 f"disturbance ({CALM_SEA_DIST_DEG} deg rudder-equivalent), sensors: GNSS "
-                f"{SENSORS['gps_rate_hz']:g} Hz with {GNSS_WANDER_M:g} m Gauss-Markov wander "
+                f"{SENSORS['gps_rate_hz']:g} Hz with {GNSS_WANDER_M:g} m 2nd-order "
+                f"Gauss-Markov wander "
                 f"({GNSS_WANDER_TAU_S:g} s) + {SENSORS['gps_sigma_m']:g} m white, heading and "
                 f"gyro {SENSORS['gyro_rate_hz']:g} Hz, rudder {SENSORS['rudder_rate_hz']:g} Hz, "
                 f"propeller speed over NMEA 2000. Seed {self.seed}."),
@@ -407,6 +409,33 @@ def gauss_markov(t: np.ndarray, sigma: float, tau: float, rng: np.random.Generat
     return out
 
 
+def smooth_wander(t: np.ndarray, sigma: float, tau: float, rng: np.random.Generator
+                  ) -> np.ndarray:
+    """Second-order Gauss-Markov position wander at times ``t`` [s]: std ``sigma`` [m].
+
+    A first-order Gauss-Markov process has a white-noise derivative: differentiated fix to fix at
+    10 Hz, a 1 m / 60 s wander gives about 0.6 m/s of velocity noise, which no receiver shows
+    (and which makes body velocities from d(x, y)/dt meaningless). Real GNSS errors drift
+    smoothly, so the first-order process is passed once more through the same first-order lag
+    ``tau`` (output variance sigma^2 / 2 for equal time constants, hence the factor sqrt(2));
+    its derivative is then of order sigma / tau (0.02 m/s for 1 m / 60 s). A burn-in of 5 tau
+    starts both stages from their stationary state.
+    """
+    t = np.asarray(t, dtype=float)
+    if len(t) == 0:
+        return np.empty(0)
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    burn = t[0] - step * np.arange(int(np.ceil(5.0 * tau / step)), 0, -1)
+    tt = np.concatenate([burn, t])
+    x = gauss_markov(tt, sigma * math.sqrt(2.0), tau, rng)
+    phi = np.exp(-np.diff(tt) / tau)
+    y = np.empty_like(x)
+    y[0] = 0.0
+    for k in range(1, len(tt)):  # the same O(N) recursion as gauss_markov
+        y[k] = phi[k - 1] * y[k - 1] + (1.0 - phi[k - 1]) * x[k]
+    return y[len(burn):]
+
+
 def _to_logs(trial: Any, t0_utc: str, truth: tuple[np.ndarray, dict[str, np.ndarray]],
              seed: int) -> tuple[Any, Any, Any]:
     """Split a virtual trial into what each logger records: (NMEA 0183, NMEA 2000, CSV).
@@ -427,8 +456,8 @@ def _to_logs(trial: Any, t0_utc: str, truth: tuple[np.ndarray, dict[str, np.ndar
     cog = np.full(len(t), np.nan)
     ok = np.isfinite(d["x"].to_numpy()) & np.isfinite(d["y"].to_numpy())
     tf = t[ok]
-    xn = d["x"].to_numpy()[ok] + gauss_markov(tf, GNSS_WANDER_M, GNSS_WANDER_TAU_S, rng)
-    ye = d["y"].to_numpy()[ok] + gauss_markov(tf, GNSS_WANDER_M, GNSS_WANDER_TAU_S, rng)
+    xn = d["x"].to_numpy()[ok] + smooth_wander(tf, GNSS_WANDER_M, GNSS_WANDER_TAU_S, rng)
+    ye = d["y"].to_numpy()[ok] + smooth_wander(tf, GNSS_WANDER_M, GNSS_WANDER_TAU_S, rng)
     la, lo, _ = pymap3d.ned2geodetic(xn, ye, 0.0, ORIGIN_LAT_DEG, ORIGIN_LON_DEG, 0.0)
     lat[ok], lon[ok] = la, lo
     tt, ch = truth
@@ -544,43 +573,21 @@ def read_campaign_trial(ct: CampaignTrial, specs: dict[str, str] | None = None) 
     Each reader returns seconds since its own first record and ``meta["t0_utc"]``; the CSV
     export's time is seconds since the trial's t0. The merged trial has the union of time
     stamps (NaN where a channel has no sample), the readers' rejected counts summed, and their
-    findings concatenated.
+    findings concatenated (:func:`usvid.prep.merge_trials`).
     """
     from pathlib import Path
-
-    import pandas as pd
 
     from usvid.io.n2k import read_candump
     from usvid.io.nmea0183 import read_nmea0183
     from usvid.io.spec import load_spec
     from usvid.io.table import read_table
-    from usvid.trial import Trial
+    from usvid.prep.merge import merge_trials
 
     files = ct.files
     folder = Path(files["nmea0183"]).parent
     spec_paths = specs or {k: str(folder / v[0]) for k, v in SPEC_FILES.items()}
-    t0 = pd.Timestamp(ct.truth["t0_utc"])
-    parts = []
     a = read_nmea0183(files["nmea0183"], load_spec(spec_paths["nmea0183"]))
     b = read_candump(files["nmea2000"], load_spec(spec_paths["nmea2000"]))
     c = read_table(files["csv"], load_spec(spec_paths["csv"]))
-    rejected: dict[str, int] = {}
-    findings = []
-    for tr in (a, b, c):
-        off = 0.0
-        if tr.meta.get("t0_utc"):
-            off = (pd.Timestamp(tr.meta["t0_utc"]) - t0).total_seconds()
-        df = tr.data.copy()
-        df["t"] = np.round(df["t"].to_numpy(dtype=float) + off, 6)
-        parts.append(df.groupby("t", as_index=False).first())
-        for k, v in tr.rejected.items():
-            rejected[k] = rejected.get(k, 0) + int(v)
-        findings.extend(tr.findings)
-    merged = parts[0]
-    for df in parts[1:]:
-        merged = merged.merge(df, on="t", how="outer", suffixes=("", "_dup"))
-    merged = merged.sort_values("t").reset_index(drop=True)
-    merged = merged[[col for col in merged.columns if not col.endswith("_dup")]]
-    return Trial(data=merged, vessel=a.vessel, sources=[*a.sources, *b.sources, *c.sources],
-                 rejected=rejected, findings=findings, name=ct.manoeuvre.name,
-                 meta={"t0_utc": ct.truth["t0_utc"]})
+    # the CSV export counts seconds from the trial's t0; the NMEA readers carry their own epoch
+    return merge_trials([a, b, c], t0_utc=ct.truth["t0_utc"], name=ct.manoeuvre.name)
