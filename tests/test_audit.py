@@ -114,16 +114,16 @@ def test_u_v_mismatch_and_sign():
     assert "(gain 2)" in f["u_mismatch"].message  # kinematic u = 2 x logged u
 
 
-def test_speed_scale_from_a_fast_clock():
+def test_speed_scale_from_a_slow_clock():
     tr = nomoto_trial()
     d = tr.data.copy()
     d["U"] = np.hypot(1.5, 1.5 * d["r"])  # true speed over ground of the reference point
     assert "speed_scale" not in codes(audit(tr.with_data(d)))
-    d["t"] = d["t"] / 1.1  # the logger's clock runs 10 % fast: positions seem 10 % faster
+    d["t"] = d["t"] / 1.1  # the logger's clock runs slow (0.909 s per s): positions seem faster
     f = codes(audit(tr.with_data(d)))
     # 2-cm positions over 2 s and 1.5 m/s: the factor is known to well under 1 %
     assert f["speed_scale"].data["factor"] == pytest.approx(1.1, abs=0.01)
-    assert "run fast" in f["speed_scale"].message
+    assert "run slow" in f["speed_scale"].message and "advance 0.909 s" in f["speed_scale"].message
 
 
 def test_time_problems_duplicates_nan_saturation():

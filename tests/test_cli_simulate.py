@@ -66,7 +66,8 @@ def test_turning_matches_ode_solution(capsys, nomoto_file):
     assert d["steady_diameter_m"] == pytest.approx(2 * U / (K * delta), rel=1e-3)
     assert d["steady_speed_m_s"] == pytest.approx(U, rel=1e-9)
     assert d["side"] == "starboard"
-    assert d["imo"]["criteria"][0]["limit"] == pytest.approx(4.5 * 5.0)
+    # MSC.137(76) judges the circle at the maximum rudder angle only (35 deg here)
+    assert d["imo"] is None
 
 
 def test_port_turn(capsys, nomoto_file):

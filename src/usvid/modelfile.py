@@ -38,7 +38,8 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator
+from pydantic_core import PydanticCustomError
 
 from usvid.errors import ModelFileError, UsvidError
 from usvid.trial import VESSEL_FIELDS, Vessel
@@ -149,6 +150,14 @@ class ModelFileSpec(BaseModel):
     vessel: VesselSpec = Field(default_factory=VesselSpec)
     identification: IdentificationSpec | None = None
 
+    @field_validator("usvid_model", mode="before")
+    @classmethod
+    def _integer_version(cls, v: Any) -> Any:
+        # Literal[1] alone accepts true and 1.0 (both == 1); the version is the integer 1
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise PydanticCustomError("literal_error", "must be 1", {"expected": "1"})
+        return v
+
 
 _RESPONSE_PARAMS: dict[str, type[BaseModel]] = {
     "nomoto1": Nomoto1Params,
@@ -160,11 +169,18 @@ _RESPONSE_PARAMS: dict[str, type[BaseModel]] = {
 # ---------------------------------------------------------------------------------------------
 # error messages
 # ---------------------------------------------------------------------------------------------
+#: pydantic's location tags for the members of a union type (not field names)
+_UNION_TAGS = {"float", "int", "str", "bool", "list[float]", "dict[str,any]", "dict[any,any]"}
+
+
 def _loc(loc: tuple[Any, ...], prefix: str = "") -> str:
     parts = [prefix] if prefix else []
     for i, p in enumerate(loc):
         # drop the discriminator tag pydantic inserts for a tagged union (servo.second_order.x)
         if i > 0 and loc[i - 1] == "servo" and p in SERVO_KINDS:
+            continue
+        # and the member tag of a plain union (parameters.thrust.float, ...dict[str,any])
+        if i > 0 and isinstance(p, str) and p in _UNION_TAGS:
             continue
         if isinstance(p, int):
             parts[-1:] = [f"{parts[-1]}[{p}]"] if parts else [f"[{p}]"]
@@ -187,6 +203,7 @@ _BOUND_ERRORS = {"greater_than": (">", "gt"), "greater_than_equal": (">=", "ge")
 _TYPE_ERRORS = {"finite_number": "a finite number", "float_type": "a number",
                 "int_type": "a number", "float_parsing": "a number", "int_from_float": "a number",
                 "dict_type": "an object", "model_type": "an object", "list_type": "a list",
+                "model_attributes_type": "an object", "bool_type": "true or false",
                 "string_type": "a string"}
 
 

@@ -45,12 +45,24 @@ NorrbinOpt = Annotated[str, typer.Option(
 
 
 def _load(paths: list[Path], fmt: str) -> list[Any]:
+    import warnings
+
     from usvid.commands.audit import load_log
+    from usvid.identify.regressors import IdentificationWarning
     from usvid.prep import prepare
 
     out = []
     for p in paths:
         tr = load_log(p, fmt)
+        if tr.is_uniform:
+            # a single-rate log with gaps: prepare() repairs them before the estimator sees the
+            # data, so the estimator's own NaN count would under-report; name them here
+            nan = tr.data.drop(columns=["t"], errors="ignore").isna().sum()
+            nan = nan[nan > 0]
+            if len(nan):
+                counts = ", ".join(f"{c}: {n} of {len(tr)}" for c, n in nan.items())
+                warnings.warn(f"{p}: missing samples ({counts}) interpolated or derived by "
+                              "usvid.prep.prepare", IdentificationWarning, stacklevel=2)
         if not tr.is_uniform or tr.data.isna().any().any():
             tr = prepare(tr, derivatives=False)
         out.append(tr)
@@ -105,8 +117,9 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
 def _print_summary(s: dict[str, Any]) -> None:
     print(f"model {s['kind']} ({s['method']}) -> {s['model_file'] or '(not written)'}")
     for k, v in s["params"].items():
-        se = s["std_errors"].get(k, math.nan)
-        print(f"  {k:8s} = {v: .6g}  +- {1.96 * se:.3g} (95 %)")
+        lo, hi = s["ci95"].get(k, (math.nan, math.nan))
+        # the interval's own half-width: Student-t for the cluster-robust OE covariance
+        print(f"  {k:8s} = {v: .6g}  +- {(hi - lo) / 2:.3g} (95 %)")
     for ch, m in s["fit"].items():
         if isinstance(m, dict):
             print(f"  fit {ch:4s} rmse {m['rmse']:.4g}  nrmse {m['nrmse']:.3g}  r2 {m['r2']:.4f}")

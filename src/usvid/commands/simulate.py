@@ -6,7 +6,8 @@ JSON object whose keys are the ``ARCHITECTURE.md`` contract, followed by extras)
 - ``zigzag``: ``overshoot_deg`` (list, first first), ``period_s``, ``initial_turning_time_s``,
   ``time_to_check_yaw_s`` (+ ``imo`` for a 10/10 or 20/20 test when L and U are known);
 - ``turning``: ``advance_m``, ``transfer_m``, ``tactical_diameter_m``, ``steady_diameter_m``,
-  ``steady_yaw_rate_rad_s``, ``steady_speed_m_s`` (+ ``imo`` when L is known);
+  ``steady_yaw_rate_rad_s``, ``steady_speed_m_s`` (+ ``imo`` when L is known and the rudder is
+  the maximum angle, 35 deg or the servo limit: MSC.137(76) 5.2.1);
 - ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder_deg``.
 
 Metric definitions: :mod:`usvid.prep.metrics`; IMO criteria: :mod:`usvid.sim.imo`.
@@ -102,7 +103,26 @@ def _default_t_end(model: Any, u0: float) -> float:
             break
     delay = float(getattr(model.servo, "delay", 0.0))
     L = getattr(model.vessel, "length", None) or 0.0
-    return max(60.0, 20.0 * T + 10.0 * delay + 40.0 * L / u0)
+    # capped: a slow vessel (tiny --speed) would otherwise ask for days of simulated time
+    return min(MAX_T_END, max(60.0, 20.0 * T + 10.0 * delay + 40.0 * L / u0))
+
+
+def _check_finite(res: Any, dt: float) -> None:
+    """Raise :class:`SimulationError` when the trajectory is not finite (an unstable model or an
+    RK4 step too large for the model's fastest mode), instead of reporting null metrics."""
+    import numpy as np
+
+    for name in ("x", "y", "psi"):
+        if name in res.channels and not np.all(np.isfinite(res.channels[name])):
+            raise SimulationError(f"the simulation diverged ({name} is not finite) with "
+                                  f"--dt {dt:g} s; reduce --dt or check the model parameters")
+
+
+def _imo_turning_applies(model: Any, delta_deg: float) -> bool:
+    """MSC.137(76) 5.2.1 judges the turning circle at the maximum rudder angle (35 deg, or the
+    servo's limit when that is smaller); a circle at a smaller angle gets no IMO verdict."""
+    max_deg = math.degrees(float(model.servo.max_angle))
+    return min(abs(delta_deg), max_deg) >= min(35.0, max_deg) - 1e-9
 
 
 def _print_table(title: str, rows: list[tuple[str, Any, str]]) -> None:
@@ -158,6 +178,7 @@ def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
     te = _default_t_end(model, u0) if auto else float(t_end)
     while True:
         res = simulate(model, logic, t_end=te, dt=dt, u0=u0)
+        _check_finite(res, dt)
         m = res.zigzag_metrics()[0]
         if not auto or (len(m.reversal_times_s) >= 4 and len(m.overshoot_deg) >= 3) \
                 or te >= MAX_T_END:
@@ -180,6 +201,7 @@ def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt:
     te = _default_t_end(model, u0) if auto else float(t_end)
     while True:
         res = simulate(model, logic, t_end=te, dt=dt, u0=u0)
+        _check_finite(res, dt)
         psi = res["psi"][0]
         turned = abs(float(psi[-1] - psi[0]))
         if not auto or turned >= 3 * math.pi or te >= MAX_T_END:
@@ -209,6 +231,7 @@ def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float
     logic = CourseChange(target=math.radians(target_deg), controller=PID(kp=kp, ki=ki, kd=kd),
                          disturbance=dist)
     res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0)
+    _check_finite(res, dt)
     return res, res.course_metrics()[0]
 
 
@@ -237,7 +260,7 @@ def zigzag_cmd(
     """Zig-zag test: overshoot angles, period, initial turning time, time to check yaw."""
     from usvid.sim.imo import imo_zigzag_check, zigzag_kind
 
-    model, u0 = _setup(model_path, dt, speed)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     psi_deg = delta_deg if psi_deg is None else psi_deg
     _, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
                       t_end=t_end, dt=dt, u0=u0)
@@ -270,11 +293,11 @@ def turning_cmd(
     """Turning circle: advance, transfer, tactical and steady diameters, steady yaw rate/speed."""
     from usvid.sim.imo import imo_turning_check
 
-    model, u0 = _setup(model_path, dt, speed)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     _, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
     out: dict[str, Any] = m.to_dict()
     L = model.vessel.length
-    check = imo_turning_check(m, L) if L else None
+    check = imo_turning_check(m, L) if L and _imo_turning_applies(model, delta_deg) else None
     out.update(manoeuvre="turning", model=str(model_path), model_kind=model.kind,
                delta_deg=delta_deg, speed_m_s=u0, imo=check.to_dict() if check else None)
     rows = [("advance", m.advance_m, "m"), ("transfer", m.transfer_m, "m"),

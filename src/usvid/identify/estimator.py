@@ -72,6 +72,7 @@ from usvid.identify.rls import RecursiveLeastSquares
 
 METHODS = ("ls", "rls", "oe", "oe-zigzag")
 MIN_DELTA_STD = math.radians(0.2)  # [rad] rudder scatter below which there is no excitation
+REL_WEAK = 0.5  # 95 % half-width / |parameter| above which fit() warns "poorly determined"
 
 
 def _sha256(path: str) -> str | None:
@@ -235,7 +236,9 @@ class ModelEstimator(FittedAttributes):
     cond_max : float
         Collinearity limit (condition number of the equilibrated regressors).
     servo : usvid.models.servo servo object
-        Servo of the identified model (default ``IdealServo()``: 35 deg limit).
+        Servo of the identified model (default ``IdealServo``: 35 deg limit, rate limit [rad/s]
+        the one fitted by "oe-zigzag", else the vessel's ``helm_rate_deg_s`` when known, else
+        none).
     oe_channels : tuple of str
         Outputs the output-error fit compares (default psi and r; u, v, r, psi for 3-DOF).
     overlap : float
@@ -501,6 +504,7 @@ class ModelEstimator(FittedAttributes):
         ci = interval95([self.params_[n] for n in names], se, q)
         self.ci95_ = dict(zip(names, ci.tolist(), strict=True))
         diag["ci95_quantile"] = q
+        self._warn_weak(names, se, q)
         self.series_ = series
         self.oe_ = oe
         self.fit_ = self._metrics(series, self.window_s)
@@ -537,6 +541,27 @@ class ModelEstimator(FittedAttributes):
         self.result_ = result
         return self
 
+    def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> None:
+        """Warn when a parameter's 95 % half-width ``q se`` exceeds half its magnitude
+        (REL_WEAK): near-collinear regressors or too little excitation (e.g. a rudder varying so
+        slowly that r ~ K delta) leave it undetermined even below ``cond_max``. The offset
+        ``delta0`` and the fixed ``n1`` are not checked (zero is their usual value)."""
+        weak = []
+        for n, e in zip(names, se, strict=True):
+            v = self.params_[n]
+            if n in ("delta0", "n1") or not math.isfinite(e):
+                continue
+            if q * e > REL_WEAK * abs(v):
+                weak.append(f"{n} = {v:.4g} +- {q * e:.3g}")
+        if weak:
+            import warnings
+
+            warnings.warn(
+                f"{self.kind}: poorly determined parameter(s) {'; '.join(weak)} (95 %): the "
+                "data do not separate their effects (nearly collinear regressors or too little "
+                "excitation); use sharper rudder changes (zig-zags) or a simpler model",
+                IdentificationWarning, stacklevel=3)
+
     # -- use -------------------------------------------------------------------------------------
     def _metrics(self, series: list[Series], window_s: float | None) -> dict[str, Any]:
         win = self._windows(series, window_s)
@@ -548,7 +573,8 @@ class ModelEstimator(FittedAttributes):
         return out
 
     def score(self, trials: Any, *, window_s: float | None = -1.0) -> dict[str, Any]:
-        """Fit metrics (RMSE, NRMSE, R^2, max error per output channel) on ``trials``.
+        """Fit metrics (RMSE, NRMSE, R^2, max error per output channel) on ``trials``; RMSE and
+        max error in the channel's SI unit (psi [rad], r [rad/s], u, v [m/s]), NRMSE, R^2 [-].
 
         ``window_s``: -1 (default) uses the estimator's multiple-shooting window; ``None`` a free
         run over each whole trial from its measured initial state; a number that window [s].

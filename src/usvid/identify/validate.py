@@ -175,7 +175,8 @@ def cross_validate(trials: Sequence[Any], kind: str, method: str = "ls", *,
 
     For each trial i: fit on all others, score on trial i (multiple-shooting windows of the
     estimator, or a free run with ``window_s=None``). Returns ``folds`` (held-out trial, params,
-    metrics) and the mean held-out RMSE/R^2 per output channel.
+    metrics) and the mean held-out RMSE, NRMSE, R^2 and max error per output channel (RMSE and max
+    error in the channel's SI unit: psi [rad], r [rad/s], u, v [m/s]).
     """
     trials = _as_list(list(trials))
     if len(trials) < 2:

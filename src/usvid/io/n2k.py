@@ -25,8 +25,10 @@ PGNs and the Trial channels they give (canboat field ids, SI):
 
 Rudder sign: NMEA 2000 defines a positive rudder angle as the vessel's bow turning to starboard,
 the Trial convention. Rejected lines, counted per reason: ``garbage`` (not a candump line),
-``bad_frame`` (a candump line that does not decode), ``no_time``; other PGNs are ignored and
-counted in ``meta["ignored_pgns"]``.
+``truncated`` (a frame of one of these PGNs with fewer than 8 data bytes: they are all single-frame
+PGNs, and the decoder would otherwise read the missing bytes as values), ``bad_frame`` (a candump
+line that does not decode), ``no_time``, ``not_available`` (every field "not available"); other
+PGNs are ignored and counted in ``meta["ignored_pgns"]``.
 """
 
 from __future__ import annotations
@@ -162,6 +164,9 @@ def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
             pgn &= 0x3FF00
         if pgn not in PGNS:
             ignored[pgn] = ignored.get(pgn, 0) + 1
+            continue
+        if len(m.group(4)) < 16:  # every PGN read here is a single 8-byte frame
+            rej("truncated", lineno)
             continue
         try:
             msg = dec.decode(line.strip())

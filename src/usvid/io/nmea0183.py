@@ -568,6 +568,8 @@ def read_nmea0183(
     """
     path = Path(path)
     blob = read_log_bytes(path)
+    if blob.startswith(b"\xef\xbb\xbf"):  # UTF-8 byte-order mark: not part of the first line
+        blob = blob[3:]
     if engine == "fast":
         recs, rejected, ignored, nlines = _scan_fast(blob)
     elif engine == "pynmeagps":
@@ -612,6 +614,12 @@ def read_nmea0183(
         dayv = day[np.isfinite(day)]
         has_date = len(dayv) > 0
         base = float(dayv[0]) if has_date else 0.0
+        # the first dated record may come after a midnight roll-over: its date is that of the
+        # unwrapped day it lies in, so the date of day 0 is earlier by the roll-overs before it
+        dated = np.flatnonzero(np.isfinite(day) & np.isfinite(tod))
+        if len(dated):
+            j = int(dated[0])
+            base = float(day[j] - (tod_u[j] - tod[j]))
         # seconds of day (roll-overs unwrapped), interpolated by line position where absent
         tt = tod_u[have]
         ln = line_no[have]

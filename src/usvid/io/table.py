@@ -21,7 +21,7 @@ from usvid.errors import FormatSpecError, LogReadError
 from usvid.io._assemble import assemble, check_log_file, read_log_bytes
 from usvid.io.spec import ColumnSpec, FormatSpec
 from usvid.io.units import DATETIME
-from usvid.trial import Trial
+from usvid.trial import Finding, Trial
 
 _CTRL = {chr(c) for c in range(32) if c not in (9,)} | {"\ufffd", "\x7f"}
 
@@ -72,9 +72,16 @@ def _to_float(values: pd.Series | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _to_seconds(values: pd.Series | np.ndarray) -> tuple[np.ndarray, np.ndarray, str | None]:
-    """Seconds since the first valid date-time; invalid cells, and the ISO origin."""
+    """Seconds since the first valid date-time; invalid cells, and the ISO origin.
+
+    Date-times with different UTC offsets (a clock change, or "Z" next to "+01:00") are
+    converted to UTC first, date-times without an offset among them taken as UTC.
+    """
     s = pd.Series(values)
-    dt = pd.to_datetime(s, errors="coerce", format="mixed")
+    try:
+        dt = pd.to_datetime(s, errors="coerce", format="mixed")
+    except ValueError:  # pandas: "Mixed timezones detected"
+        dt = pd.to_datetime(s, errors="coerce", format="mixed", utc=True)
     bad = dt.isna().to_numpy() & s.notna().to_numpy()
     valid = dt.dropna()
     if valid.empty:
@@ -89,11 +96,22 @@ def map_columns(
     spec: FormatSpec,
     cols: dict[str, pd.Series | np.ndarray],
     rejected: dict[str, int],
+    *,
+    where: np.ndarray | None = None,
+    where_name: str = "data row",
+    findings: list[Finding] | None = None,
 ) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
-    """Convert the mapped source columns; rows with non-numeric cells are rejected (bad_value)."""
+    """Convert the mapped source columns; rows with non-numeric cells are rejected (bad_value).
+
+    ``where`` gives the position of each row in the file (``where_name``, e.g. "line" 1-based);
+    default the 1-based data row. Each column with bad cells gets a warning appended to
+    ``findings`` naming the column, the count and the first bad cell; when no row is left a
+    :class:`LogReadError` says the same.
+    """
     out: dict[str, np.ndarray] = {}
     bad_any = None
     meta: dict = {}
+    notes: list[str] = []
     for name, raw in cols.items():
         c: ColumnSpec = spec.columns[name]
         if c.unit == DATETIME:
@@ -103,8 +121,22 @@ def map_columns(
         else:
             v, bad = _to_float(raw)
         out[name] = c.convert(v)
+        if bad.any():
+            i = int(np.argmax(bad))
+            pos = int(where[i]) if where is not None else i + 1
+            cell = np.asarray(raw, dtype=object)[i]
+            note = (f"column {name} (source column {c.col!r}): {int(bad.sum())} cell(s) are not "
+                    f"{'date-times' if c.unit == DATETIME else 'numbers'} (first at "
+                    f"{where_name} {pos}: {str(cell)[:40]!r})")
+            notes.append(note)
+            if findings is not None:
+                findings.append(Finding("warning", "bad_value", f"{path.name}: {note}; those "
+                                        "rows are rejected", count=int(bad.sum()), channel=name))
         bad_any = bad if bad_any is None else (bad_any | bad)
     if bad_any is not None and bad_any.any():
+        if bad_any.all():
+            raise LogReadError(f"{path}: no usable records (bad_value: {int(bad_any.sum())}): "
+                               + "; ".join(notes))
         rejected["bad_value"] = rejected.get("bad_value", 0) + int(bad_any.sum())
         out = {k: v[~bad_any] for k, v in out.items()}
     t = out.pop("t")
@@ -127,12 +159,15 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     path = Path(path)
     blob = read_log_bytes(path)
     text = blob.decode(spec.encoding, errors="replace")
+    if text.startswith("\ufeff"):  # byte-order mark (Excel's "CSV UTF-8"): not part of the data
+        text = text[1:]
     lines = text.splitlines()
     rejected: dict[str, int] = {}
     i = spec.skip_rows
     if i >= len(lines):
         raise LogReadError(
-            f"{path}: the file has {len(lines)} lines, fewer than skip_rows = {spec.skip_rows}"
+            f"{path}: the file has {len(lines)} line(s) and skip_rows = {spec.skip_rows}: "
+            "no data rows after the skipped header lines"
         )
     names = None
     want_header = spec.header if spec.header is not None else spec.uses_names
@@ -149,14 +184,16 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
         names = _split(lines[i], spec.delimiter)
         i += 1
     rows: list[list[str]] = []
+    linenos: list[int] = []
     garbage = 0
-    for s in lines[i:]:
+    for k, s in enumerate(lines[i:], start=i + 1):
         if not usable(s):
             continue
         if any(ch in _CTRL for ch in s):
             garbage += 1
             continue
         rows.append(_split(s, spec.delimiter))
+        linenos.append(k)
     if garbage:
         rejected["garbage"] = garbage
     if not rows:
@@ -182,17 +219,24 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     if not good:
         raise LogReadError(f"{path}: no row has the expected {ncols} fields")
     cols = {name: np.array([r[p] for r in good], dtype=object) for name, p in pos.items()}
-    t, chans, meta = map_columns(path, spec, cols, rejected)
-    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta)
+    findings: list[Finding] = []
+    t, chans, meta = map_columns(path, spec, cols, rejected, where=np.asarray(linenos)[ok],
+                                 where_name="line", findings=findings)
+    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings)
 
 
-def _frame_to_trial(path: Path, spec: FormatSpec, df: pd.DataFrame, header: bool) -> Trial:
+def _frame_to_trial(path: Path, spec: FormatSpec, df: pd.DataFrame, header: bool,
+                    first_row: int = 1, where_name: str = "data row") -> Trial:
+    """``first_row``: the position in the file (``where_name``) of the frame's first row."""
     names = [str(c) for c in df.columns] if header else None
     pos = _resolve(path, spec, names, df.shape[1])
     rejected: dict[str, int] = {}
     cols = {name: df.iloc[:, p] for name, p in pos.items()}
-    t, chans, meta = map_columns(path, spec, cols, rejected)
-    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta)
+    findings: list[Finding] = []
+    t, chans, meta = map_columns(path, spec, cols, rejected,
+                                 where=first_row + np.arange(len(df)), where_name=where_name,
+                                 findings=findings)
+    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings)
 
 
 def read_excel(path: str | Path, spec: FormatSpec) -> Trial:
@@ -228,7 +272,9 @@ def read_excel(path: str | Path, spec: FormatSpec) -> Trial:
             raise LogReadError(f"{path}: cannot read sheet {spec.sheet!r} ({exc})") from None
     if df.empty:
         raise LogReadError(f"{path}: sheet {spec.sheet!r} has no data rows")
-    return _frame_to_trial(path, spec, df, header)
+    # spreadsheet row of the first data row: skipped rows, the header row, 1-based
+    first = spec.skip_rows + (2 if header else 1)
+    return _frame_to_trial(path, spec, df, header, first, f"sheet {spec.sheet!r} row")
 
 
 def read_parquet(path: str | Path, spec: FormatSpec) -> Trial:

@@ -10,6 +10,7 @@ The consistent reading (also seed 001's order of magnitude) is T = 0.332 s, K = 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -125,11 +126,14 @@ class Norrbin:
 
         Scalars only. With n1 < 0 and n3 > 0 there may be three roots (the loop of a
         course-unstable vessel); the one with the sign of ``K (delta + delta0)`` and the largest
-        magnitude is returned (the stable turn), as a simulation settles on it.
+        magnitude is returned (the stable turn), as a simulation settles on it. With
+        n1 = n3 = 0 there is none: +-inf (0 for a zero right-hand side).
         """
         rhs = float(self.K) * (float(delta) + float(self.delta0))
         n1, n3 = float(self.n1), float(self.n3)
         if n3 == 0.0:
+            if n1 == 0.0:  # T r' = K delta: r grows without bound, no steady turn
+                return math.copysign(math.inf, rhs) if rhs != 0.0 else 0.0
             return rhs / n1
         roots = np.roots([n3, 0.0, n1, -rhs])
         real = roots[np.abs(roots.imag) < 1e-9 * max(1.0, np.max(np.abs(roots)))].real

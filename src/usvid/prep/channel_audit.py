@@ -4,7 +4,7 @@
 count, time span). Only problems (and a few facts worth knowing, as ``info``) become findings.
 The checks:
 
-* time: reversals, repeated stamps, gaps (> 3 median steps and > 0.5 s);
+* time: reversals, repeated stamps, gaps (> 3 median steps and > the median step + 0.5 s);
 * duplicated rows (every channel equal to the previous row) and stale GNSS fixes (rate reported);
 * NaN runs per channel, saturation (an actuator or other non-motion channel pinned at its
   extreme, the rudder at hard-over); heading jumps (left out of the physics checks);
@@ -426,8 +426,9 @@ def _check_speed(prep: Trial, measured: set[str], speed: np.ndarray, noise: floa
             "warning", "speed_scale",
             f"the speed from the positions, |d(x, y)/dt|, is {100 * (g - 1):+.1f} % off the "
             f"measured speed '{ch}' (factor {g:.4f}, RMS scatter {100 * rel:.0f} %): either "
-            f"the time stamps run {'fast' if g > 1 else 'slow'} against the clock of the speed "
-            f"sensor or the positions are scaled; check the time column first",
+            f"the time stamps run {'slow' if g > 1 else 'fast'} against the clock of the speed "
+            f"sensor (they advance {1 / g:.3f} s per second of it) or the positions are scaled; "
+            f"check the time column first",
             count=int(ok.sum()), t_start=float(t[0]), t_end=float(t[-1]), channel=ch,
             data={"factor": g, "rel_scatter": rel}))
     return out

@@ -105,6 +105,8 @@ def lowpass(y: np.ndarray, dt: float, cutoff_hz: float, order: int = 4) -> np.nd
     squares the magnitude response (-6 dB there) and cancels the phase. NaN runs are kept.
     """
     y = np.asarray(y, dtype=float)
+    if not (dt > 0 and np.isfinite(dt)):
+        raise UsvidError(f"sample step must be > 0 s (got {dt})")
     nyq = 0.5 / dt
     if not 0 < cutoff_hz < nyq:
         raise UsvidError(f"cutoff {cutoff_hz} Hz must lie in (0, {nyq:g}) Hz at step {dt} s")

@@ -30,6 +30,9 @@ def geodetic_to_ned(
     lon = np.asarray(lon_deg, dtype=float)
     if lat.shape != lon.shape:
         raise UsvidError(f"latitude and longitude differ in shape ({lat.shape} vs {lon.shape})")
+    if lat.ndim == 0:  # one fix given as scalars: same rules, scalar-shaped results
+        n1, e1, org = geodetic_to_ned(lat.reshape(1), lon.reshape(1), origin)
+        return n1.reshape(()), e1.reshape(()), org
     ok = np.isfinite(lat) & np.isfinite(lon)
     if origin is None:
         if not ok.any():

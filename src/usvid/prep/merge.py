@@ -18,6 +18,17 @@ from usvid.errors import UsvidError
 from usvid.trial import Finding, Trial
 
 
+def _utc(value: str, what: str) -> pd.Timestamp:
+    """``value`` (ISO 8601) as a UTC time stamp; a time without zone is taken as UTC."""
+    try:
+        ts = pd.Timestamp(value)
+    except (ValueError, TypeError):
+        raise UsvidError(f"merge_trials: {what} = {value!r} is not an ISO 8601 time") from None
+    if ts is pd.NaT:
+        raise UsvidError(f"merge_trials: {what} = {value!r} is not an ISO 8601 time")
+    return ts.tz_localize("UTC") if ts.tzinfo is None else ts.tz_convert("UTC")
+
+
 def merge_trials(trials: list[Trial], *, t0_utc: str | None = None, name: str | None = None,
                  time_resolution_s: float = 1e-6) -> Trial:
     """One Trial from several logs of the same run, on a common clock.
@@ -27,6 +38,7 @@ def merge_trials(trials: list[Trial], *, t0_utc: str | None = None, name: str | 
     trials : list of Trial
         The logs. Those with ``meta["t0_utc"]`` are shifted to the common epoch; those without
         are taken to count seconds from it already (e.g. a CSV export relative to the run start).
+        A ``t0_utc`` without a time zone (an Excel date-time) is taken as UTC.
     t0_utc : str, optional
         The common epoch (ISO 8601); default the earliest ``t0_utc`` of the inputs.
     name : str, optional
@@ -46,9 +58,13 @@ def merge_trials(trials: list[Trial], *, t0_utc: str | None = None, name: str | 
     """
     if not trials:
         raise UsvidError("merge_trials: no trials given")
-    epochs = [tr.meta.get("t0_utc") for tr in trials]
-    known = [pd.Timestamp(e) for e in epochs if e]
-    t0 = pd.Timestamp(t0_utc) if t0_utc else (min(known) if known else None)
+    epochs = [
+        _utc(tr.meta["t0_utc"], f"meta['t0_utc'] of trial {tr.name or i}")
+        if tr.meta.get("t0_utc") else None
+        for i, tr in enumerate(trials)
+    ]
+    known = [e for e in epochs if e is not None]
+    t0 = _utc(t0_utc, "t0_utc") if t0_utc else (min(known) if known else None)
     rejected: dict[str, int] = {}
     findings: list[Finding] = []
     merged: pd.DataFrame | None = None
@@ -57,7 +73,7 @@ def merge_trials(trials: list[Trial], *, t0_utc: str | None = None, name: str | 
         for k, v in tr.rejected.items():
             rejected[k] = rejected.get(k, 0) + int(v)
         findings.extend(tr.findings)
-        off = (pd.Timestamp(epoch) - t0).total_seconds() if (epoch and t0 is not None) else 0.0
+        off = (epoch - t0).total_seconds() if (epoch is not None and t0 is not None) else 0.0
         df = tr.data.copy()
         df["t"] = np.round((df["t"].to_numpy(dtype=float) + off) / time_resolution_s) \
             * time_resolution_s

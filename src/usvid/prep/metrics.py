@@ -168,8 +168,11 @@ def find_execute(t: np.ndarray, delta: np.ndarray, *, frac: float = 0.25) -> tup
 def rudder_amplitude(t: np.ndarray, delta: np.ndarray, t_execute: float) -> float:
     """Rudder amplitude [rad] after ``t_execute``: half the distance between the median
     starboard and the median port rudder of a zig-zag, or the median rudder of a one-sided
-    manoeuvre (relative to the rudder at the execute). Robust to sensor noise."""
+    manoeuvre (relative to the rudder at the execute). Robust to sensor noise. NaN when the
+    rudder has no finite sample."""
     t, delta = _clean(_as_1d("t", t), _as_1d("delta", delta, len(t)))
+    if len(t) == 0:
+        return math.nan
     d0 = float(np.interp(t_execute, t, delta))
     da = delta[t >= t_execute] - d0
     if da.size == 0:
@@ -273,6 +276,9 @@ def zigzag_metrics(
         raise UsvidError(f"metrics: `psi_switch` must be > 0 (got {psi_switch!r})")
 
     tt, pp = _clean(t, psi)
+    if len(tt) < 3:
+        raise UsvidError(f"metrics: a zig-zag needs at least 3 samples with a heading "
+                         f"(got {len(tt)} of {n})")
     pp = np.unwrap(pp)
     if t_execute is None:
         t_execute = float(tt[0])
@@ -370,8 +376,14 @@ def fit_circle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     """Least-squares circle through points: centre ``(xc, yc)`` and radius [m].
 
     Algebraic (Kasa) fit ``x^2 + y^2 + a x + b y + c = 0`` solved by linear least squares, then a
-    few Gauss-Newton steps on the geometric distances ``|p - c| - R``.
+    few Gauss-Newton steps on the geometric distances ``|p - c| - R``. Points with a NaN
+    coordinate are left out; fewer than 3 finite points raise :class:`UsvidError`.
     """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 3:
+        raise UsvidError(f"metrics: a circle fit needs 3 finite points (got {int(ok.sum())})")
+    x, y = x[ok], y[ok]
     A = np.column_stack([x, y, np.ones_like(x)])
     rhs = -(x * x + y * y)
     (a, b, c), *_ = np.linalg.lstsq(A, rhs, rcond=None)

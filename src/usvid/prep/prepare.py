@@ -18,21 +18,27 @@ def sort_time(trial: Trial) -> tuple[Trial, int, int]:
     """Sort rows by time and drop repeated time stamps (first kept).
 
     Returns ``(trial, n_reversals, n_duplicates)``; a reversal is a row whose stamp is earlier
-    than its predecessor's. Rows with a NaN time are dropped and counted as reversals.
+    than its predecessor's (among the rows with a finite time). Rows with a NaN time are dropped
+    and counted in the returned trial's ``rejected["nan_time"]`` (the readers' reason).
     """
     t = trial.data["t"].to_numpy(dtype=float)
-    dt = np.diff(t)
-    n_rev = int(np.sum(dt < 0)) + int(np.sum(~np.isfinite(t)))
-    data = trial.data.loc[np.isfinite(t)]
+    ok = np.isfinite(t)
+    n_nan = int((~ok).sum())
+    n_rev = int(np.sum(np.diff(t[ok]) < 0))
+    data = trial.data.loc[ok]
     if n_rev:
         data = data.sort_values("t", kind="stable")
     tt = data["t"].to_numpy(dtype=float)
     dup = np.concatenate(([False], np.diff(tt) == 0))
     n_dup = int(dup.sum())
-    if n_rev or n_dup:
+    if n_dup:
         data = data.loc[~dup]
-    if n_rev or n_dup:
-        trial = trial.with_data(data.reset_index(drop=True))
+    if n_nan or n_rev or n_dup:
+        changes = {}
+        if n_nan:
+            changes["rejected"] = {**trial.rejected,
+                                   "nan_time": trial.rejected.get("nan_time", 0) + n_nan}
+        trial = trial.with_data(data.reset_index(drop=True), **changes)
     return trial, n_rev, n_dup
 
 
@@ -48,7 +54,8 @@ def prepare(
 ) -> Trial:
     """Uniform-grid, NED, unwrapped, differentiated trial from a raw one.
 
-    Steps: sort time (reversed/repeated stamps dropped and reported); stale GNSS fixes set missing
+    Steps: sort time (reversed stamps sorted, repeated ones dropped, both reported; rows without
+    a time dropped and counted in ``rejected["nan_time"]``); stale GNSS fixes set missing
     (:mod:`usvid.prep.stale`, rate in ``meta["stale_fixes"]``); lat/lon [deg] -> x, y [m NED]
     (pymap3d, origin = first fix or ``origin``); resampling onto a uniform grid of ``rate_hz`` [Hz]
     (default: the fastest channel; gaps longer than ``max_gap_s`` [s] stay NaN); heading unwrapped;

@@ -125,6 +125,28 @@ def _unavailable(run: Mapping[str, Any], step: str, what: str) -> str:
     return f'<p class="na">{esc(what)} not available in this run.</p>'
 
 
+#: Units of the vessel particulars (usvid.trial.Vessel and the campaign extras), SI.
+VESSEL_UNITS = {"length": "m", "speed": "m/s", "beam": "m", "draft": "m", "mass": "kg",
+                "displacement": "m^3", "block_coefficient": "-", "x_l": "m",
+                "propeller_D": "m"}
+#: Units of the fitted output channels (fit metrics ``<channel>.rmse`` ...), SI.
+CHANNEL_UNITS = {"psi": "rad", "r": "rad/s", "u": "m/s", "v": "m/s", "delta": "rad"}
+
+
+def fit_label(key: str, kind: str = "") -> str:
+    """``key`` of a fit-metric entry with its unit: ``r.rmse`` -> ``r.rmse [rad/s]``,
+    ``nrmse``/``r2`` -> ``[-]``, ``window_s`` as is (the unit is in the name), ``n`` a count.
+    A bare ``rmse``/``max_error`` of the servo model is on delta [rad]."""
+    ch, _, metric = key.rpartition(".")
+    if not ch and kind == "servo":
+        ch = "delta"
+    if metric in ("rmse", "max_error") and ch in CHANNEL_UNITS:
+        return f"{key} [{CHANNEL_UNITS[ch]}]"
+    if metric in ("nrmse", "r2"):
+        return f"{key} [-]"
+    return key
+
+
 # --- sections ----------------------------------------------------------------------------------
 def _header(run: Mapping[str, Any]) -> str:
     settings = run.get("settings", {})
@@ -135,8 +157,8 @@ def _header(run: Mapping[str, Any]) -> str:
     if run.get("summary_text"):
         out.append(f"<p>{esc(run['summary_text'])}</p>")
     if vessel:
-        rows = [[esc(k), fmt(v)] for k, v in vessel.items()]
-        out.append('<div class="keep"><h3>Vessel</h3>' + _table(["item", "value (SI)"], rows))
+        rows = [[esc(k), fmt(v), esc(VESSEL_UNITS.get(k, "SI"))] for k, v in vessel.items()]
+        out.append('<div class="keep"><h3>Vessel</h3>' + _table(["item", "value", "unit"], rows))
         out.append("</div>")
     return "\n".join(out)
 
@@ -263,7 +285,7 @@ def _models(run: Mapping[str, Any]) -> str:
             meta.append(f"model file: <code>{esc(m['file'])}</code>")
         for k, v in (m.get("fit") or {}).items():
             if isinstance(v, (int, float)):
-                meta.append(f"{esc(k)} = {fmt(v)}")
+                meta.append(f"{esc(fit_label(k, m.get('kind', '')))} = {fmt(v)}")
         if meta:
             out.append(f'<p class="sub">{"; ".join(meta)}</p>')
         out.append("</div>")
@@ -356,8 +378,9 @@ def _course_keeping(run: Mapping[str, Any]) -> str:
         rows.append([esc(r.get("label", "")), fmt(r.get("kp")), fmt(r.get("ki")),
                      fmt(r.get("kd")), fmt(r.get("itae")), fmt(r.get("iae")),
                      fmt(r.get("max_rudder_deg")), fmt(paper.get(r.get("label", "")))])
-    out.append(_table(["controller", "Kp", "Ki", "Kd", "ITAE", "IAE", "max |delta| [deg]",
-                       "seed 000 Table 3 ITAE"], rows))
+    # gains on the heading error in rad giving delta in rad (usvid.sim course keeping)
+    out.append(_table(["controller", "Kp [-]", "Ki [1/s]", "Kd [s]", "ITAE [rad s^2]",
+                       "IAE [rad s]", "max |delta| [deg]", "seed 000 Table 3 ITAE"], rows))
     return "".join(out)
 
 
@@ -379,8 +402,8 @@ def _turning_diameter(run: Mapping[str, Any]) -> str:
     if coeffs:
         rows = [[esc(k), fmt(v)] for k, v in coeffs.items()]
         if td.get("rms") is not None:
-            rows.append(["RMS objective", fmt(td["rms"])])
-        out.append(_table(["coefficient", "value"], rows))
+            rows.append(["RMS objective F of D/L (eq. 2)", fmt(td["rms"])])
+        out.append(_table(["coefficient (dimensionless)", "value [-]"], rows))
     out.append("</div>")
     return "".join(out)
 

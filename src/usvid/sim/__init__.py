@@ -3,8 +3,9 @@
 Public API
 ----------
 - :func:`simulate` ``(model, logic, *, t_end, dt=0.02, u0=None, record_every=1, seed=0,
-  psi0=0, disturbance=None, channels=None) -> SimResult`` -- RK4 over a batch (numba, parallel
-  over runs). Any model/servo/logic parameter may be a (B,) array.
+  psi0=0, disturbance=None, channels=None, initial=None) -> SimResult`` -- RK4 over a batch
+  (numba, parallel over runs). Any model/servo/logic parameter may be a (B,) array. Units: SI
+  and radians (t_end, dt [s], u0 [m/s], psi0 [rad]).
 - Logics (:mod:`usvid.sim.logic`): :class:`Turning`, :class:`ZigZag`, :class:`CourseChange` with
   :class:`PID`, :class:`Disturbance` (white noise through 0.42 s/(s^2 + 0.36 s + 0.37), seed 000),
   :class:`Commanded` (time series).

@@ -113,12 +113,16 @@ def imo_turning_check(metrics: Any, L: float) -> ImoCheck:
     """Turning ability (MSC.137(76) 5.2.1): advance <= 4.5 L, tactical diameter <= 5 L.
 
     ``metrics`` is a :class:`usvid.prep.metrics.TurningMetrics` or its ``to_dict()``; L [m].
-    Values and limits are reported in metres.
+    Values (magnitudes) and limits are reported in metres. The Standards judge the circle at the
+    maximum rudder angle; the caller decides whether the metrics are of such a circle.
     """
     _check_LU(L)
+    # magnitudes: a signed value (e.g. a port turn, or a vessel backing) must not pass by being
+    # negative
+    adv, tac = _get(metrics, "advance_m"), _get(metrics, "tactical_diameter_m")
     return ImoCheck("turning", [
-        _crit("advance", _get(metrics, "advance_m"), 4.5 * L, "m"),
-        _crit("tactical_diameter", _get(metrics, "tactical_diameter_m"), 5.0 * L, "m"),
+        _crit("advance", None if adv is None else abs(adv), 4.5 * L, "m"),
+        _crit("tactical_diameter", None if tac is None else abs(tac), 5.0 * L, "m"),
     ])
 
 

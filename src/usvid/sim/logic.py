@@ -60,6 +60,11 @@ class ZigZag:
     def __post_init__(self) -> None:
         _finite("ZigZag", delta_amp=self.delta_amp, psi_switch=self.psi_switch,
                 first=self.first, t_start=self.t_start)
+        if not np.all(np.asarray(self.delta_amp, dtype=float) >= 0):
+            # the side is ``first``; a negative amplitude would steer against the switching
+            # logic (heading never reaches +psi_switch: a silent endless turn)
+            raise SimulationError(f"ZigZag.delta_amp must be >= 0, the side is given by first "
+                                  f"(got {self.delta_amp!r})")
         if not np.all(np.asarray(self.psi_switch, dtype=float) > 0):
             raise SimulationError(f"ZigZag.psi_switch must be > 0 (got {self.psi_switch!r})")
         if not np.all(np.abs(np.asarray(self.first, dtype=float)) == 1):
@@ -96,8 +101,8 @@ class Disturbance:
     ``intensity`` [rad]: the stationary standard deviation of d. For this filter driven by white
     noise of two-sided spectral density q, var(d) = 0.42^2 q / (2 * 0.36); the simulator uses
     q = 2 * 0.36 * intensity^2 / 0.42^2 and a piecewise-constant noise of variance q/dt per step.
-    ``seed``: the generator seed (run i of a batch uses the stream (seed, i); reproducible,
-    independent of threads). May be arrays over the batch.
+    ``seed``: the generator seed, a whole number below 2^53 (run i of a batch uses the stream
+    (seed, i); reproducible, independent of threads). May be arrays over the batch.
     """
 
     intensity: ArrayLike
@@ -107,6 +112,12 @@ class Disturbance:
         _finite("Disturbance", intensity=self.intensity, seed=self.seed)
         if not np.all(np.asarray(self.intensity, dtype=float) >= 0):
             raise SimulationError(f"Disturbance.intensity must be >= 0 (got {self.intensity!r})")
+        # the kernel carries seeds as float64: whole numbers below 2^53 are exact, others would
+        # be truncated or rounded onto another seed's stream
+        sd = np.asarray(self.seed, dtype=float)
+        if not np.all((sd == np.round(sd)) & (np.abs(sd) < 2.0**53)):
+            raise SimulationError(f"Disturbance.seed must be whole numbers below 2^53 "
+                                  f"(got {self.seed!r})")
 
     def spectral_density(self) -> np.ndarray:
         """Two-sided white-noise spectral density q [1/s] giving the requested std."""

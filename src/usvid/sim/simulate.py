@@ -219,7 +219,8 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     record_every : int
         Keep every k-th step (decimation) so large batches fit in memory.
     seed : int
-        Disturbance seed when the disturbance's own seed is not given per run (added to it).
+        Offset added to the disturbance's own seed(s) (``Disturbance.seed + seed``; run i of
+        the batch then draws from the stream (that sum, i)). No effect without a disturbance.
     psi0 : float or (B,) array
         Initial heading [rad].
     disturbance : Disturbance, optional
@@ -239,6 +240,11 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     """
     if not isinstance(model, VesselModel):
         raise SimulationError(f"simulate: model must be a VesselModel (got {type(model).__name__})")
+    try:
+        dt, t_end = float(dt), float(t_end)
+    except (TypeError, ValueError):
+        raise SimulationError(f"simulate: dt and t_end must be numbers [s] "
+                              f"(got dt={dt!r}, t_end={t_end!r})") from None
     if not (dt > 0 and math.isfinite(dt)):
         raise SimulationError(f"simulate: dt must be > 0 (got {dt!r})")
     if not (t_end > 0 and math.isfinite(t_end)):
@@ -253,6 +259,10 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     kind = model.kind
     batch = _Batch()
 
+    for name, value in (("u0", u0), ("psi0", psi0), *((f"initial['{k}']", v) for k, v in
+                                                      (initial or {}).items())):
+        if value is not None and not np.all(np.isfinite(_arr(value))):
+            raise SimulationError(f"simulate: {name} must be finite (got {value!r})")
     mvals, speed = _model_values(model, u0)
     skind, svals = _servo_values(model.servo, dt)
     batch.add(*mvals, *svals, speed, psi0)
@@ -334,6 +344,8 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     wanted = list(channels) if channels is not None else list(_DEFAULT_CHANNELS[kind])
     if channels is None and dist is not None:
         wanted.append("dist")
+    if not wanted:
+        raise SimulationError("simulate: channels must name at least one channel")
     for name in wanted:
         if name not in K.CHANNELS:
             raise SimulationError(f"simulate: unknown channel '{name}' "
