@@ -239,10 +239,11 @@ TRUTH_DEFINITION = (
     "propeller of eq. 1 at the 10 kn shaft speed). Servo: the seed 000 servo (omega_n = "
     "sqrt(1.95) rad/s, zeta = 0.853, gain 1, 1 s dead time). Nomoto K, T: the 3-DOF model is "
     "not first order, so its Nomoto 'truth' is the best first-order fit: the output-error "
-    "estimator of usvid.identify (the same criterion as the identification) applied to a "
-    "noise-free, disturbance-free simulation of the 10/10 zig-zag on the 3-DOF truth with "
-    "perfect 50 Hz sensors; the deviation of the identified K, T from it is what sensor noise, "
-    "disturbance and logging cost. The yaw-rate-only output-error fit and the small-signal "
+    "estimator of usvid.identify (the same criterion and manoeuvres as the identification) "
+    "applied to noise-free, disturbance-free simulations of the 10/10 and 15/15 zig-zags on "
+    "the 3-DOF truth with perfect 50 Hz sensors; the deviation of the identified K, T from it "
+    "is what sensor noise, disturbance and logging cost. The yaw-rate-only output-error fit "
+    "(10/10 zig-zag) and the small-signal "
     "linearisation at 10 kn (Nomoto 2nd order) are listed with it in run.json. Norrbin: K, T "
     "as Nomoto, n1 = 1, n3 = alpha fitted by least squares to r + alpha r^3 = K delta over "
     "the steady part of noise-free turning tests (seed 000 eq. 36)."
@@ -356,17 +357,20 @@ def campaign_truth(model: Any, quick: bool = False) -> tuple[dict[str, dict[str,
 
     dyn = model.dynamics
     speed = float(model.vessel.speed)
-    zz = simulate(model, ZigZag(math.radians(10.0), math.radians(10.0), t_start=APPROACH_S),
-                  t_end=60.0 if quick else 120.0, dt=0.02, u0=speed)
+    # the two zig-zags of the programme (10/10 and 15/15), one batch, noise-free
+    amps = np.radians([10.0, 15.0])
+    zz = simulate(model, ZigZag(amps, amps, t_start=APPROACH_S),
+                  t_end=45.0 if quick else 120.0, dt=0.02, u0=speed)
     t = np.asarray(zz.t)
     sel = t >= APPROACH_S - 1.0
     own = fit_nomoto_output_error(t[sel], zz.channels["delta"][0, sel], zz.channels["r"][0, sel],
                                   K0=0.7, T0=0.3)
     nom = dict(own)
-    try:  # the same output-error criterion as the identification (usvid.identify, H7)
+    try:  # the same output-error criterion and data as the identification (usvid.identify)
         from usvid.identify.estimator import identify
 
-        est = identify([zz.to_trial(0, name="zigzag_10_10_truth")], "nomoto1", "oe")
+        est = identify([zz.to_trial(0, name="zigzag_10_10_truth"),
+                        zz.to_trial(1, name="zigzag_15_15_truth")], "nomoto1", "oe")
         nom = {"K": float(est.params["K"]), "T": float(est.params["T"]), "rms": own["rms"],
                "criterion": "usvid.identify oe"}
     except ImportError:  # estimator not available: the yaw-rate output-error fit above
