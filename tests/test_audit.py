@@ -243,3 +243,22 @@ def test_multirate_rows_with_one_repeated_sample_are_not_duplicates():
     d = pd.DataFrame({"t": t, "psi": 0.01 * t, "r": np.full_like(t, 0.01)})
     d.loc[500, ["psi", "r"]] = d.loc[499, ["psi", "r"]].to_numpy()
     assert codes(audit(Trial(d)))["duplicate_rows"].count == 1
+
+
+@pytest.mark.parametrize("heading_noise_deg", [0.2, 0.5])
+def test_straight_run_with_noisy_heading_is_a_weak_yaw_rate_not_a_wrong_column(heading_noise_deg):
+    # a nearly straight run (0.5 deg/s weave) with a noisy compass: d(psi)/dt correlates only
+    # 0.5-0.8 with the gyro, but its regression gain on r stays ~1 (noise in the reference does
+    # not bias it); a channel unrelated to the yaw rate would give a gain near 0
+    rng = np.random.default_rng(3)
+    t = np.arange(0, 120, 0.02)
+    r_true = np.radians(0.5) * np.sin(2 * np.pi * t / 20)
+    psi = np.cumsum(r_true) * 0.02 + rng.normal(0, np.radians(heading_noise_deg), t.size)
+    r = r_true + rng.normal(0, np.radians(0.05), t.size)
+    f = codes(audit(Trial(pd.DataFrame({"t": t, "psi": psi, "r": r}))))
+    assert "yaw_rate_column" not in f
+    assert f["yaw_rate_weak"].data["gain"] == pytest.approx(1.0, abs=0.1)
+    # the same log with an unrelated channel under the name r is still an error
+    other = np.radians(0.5) * np.sin(2 * np.pi * t / 7.3) + rng.normal(0, 0.001, t.size)
+    f = codes(audit(Trial(pd.DataFrame({"t": t, "psi": psi, "r": other}))))
+    assert f["yaw_rate_column"].severity == "error"

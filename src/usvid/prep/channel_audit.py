@@ -305,6 +305,20 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
                 data={"corr": r_match.corr, "gain": r_match.gain}))
             return out
         corr_r = r_match.corr if r_match is not None else float("nan")
+        if best is None and r_match is not None and r_match.corr >= 0.3 \
+                and 0.7 <= r_match.gain <= 1.3:
+            # same sign and unit, but loose: little yaw motion against heading/gyro noise (a
+            # straight run) lowers the correlation, not the regression gain of d(psi)/dt on r,
+            # which is ~0 for a channel unrelated to the yaw rate; no other channel fits better,
+            # so this is no wrong column
+            out.append(Finding(
+                "warning", "yaw_rate_weak",
+                f"channel 'r' follows d(psi)/dt with the right sign and unit (gain "
+                f"{r_match.gain:.3g}) but only loosely (correlation {r_match.corr:+.3f}): "
+                f"little yaw motion against the noise of heading and gyro; it is kept as the "
+                f"yaw rate", count=r_match.n, t_start=span[0], t_end=span[1], channel="r",
+                data={"corr": r_match.corr, "gain": r_match.gain}))
+            return out
         if best is not None:
             msg = (f"channel 'r' is not the yaw rate: it does not follow d(psi)/dt (correlation "
                    f"{corr_r:+.2f}); channel {describe(best)}, so '{best.name}' is the yaw rate "
