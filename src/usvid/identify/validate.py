@@ -4,7 +4,8 @@ comparison of model kinds, and simulated-vs-measured manoeuvre metrics (seed 000
 Seed 000 validates its identified models by simulating the manoeuvres of the trials (zig-zag,
 turning) and comparing with the measured ones. :func:`zigzag_check` does that for a zig-zag
 trial: it reads the trial's rudder amplitude, switching angle and first side from the record,
-simulates the same zig-zag on the model (closed loop on the heading, rudder rate limited) and
+simulates the same zig-zag on the model with :mod:`usvid.sim` (its ``ZigZag`` logic, closed
+loop on the heading, rudder rate limited) and
 compares the overshoot angles (``usvid.prep.metrics.zigzag_metrics`` on both, same definitions).
 
 Units: radians and seconds inside; the metric dictionaries carry degrees in their key names.
@@ -16,54 +17,15 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-import numba as nb
 import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.estimator import ModelEstimator, _as_list, compare_kinds
-from usvid.identify.output_error import _KIND_CODE, RESPONSE_KINDS, _response_rk4
+from usvid.identify.output_error import RESPONSE_KINDS
 from usvid.prep.filters import unwrap_angle
 
 __all__ = ["zigzag_response", "zigzag_check", "cross_validate", "compare_kinds",
            "validation_table"]
-
-
-@nb.njit(cache=True)
-def _zigzag_kernel(code, p, amp, sw, first, rate, h, n, delay_steps):
-    """Closed-loop zig-zag on a response model (numba, RK4, rudder rate limit ``rate``).
-
-    The rudder order is ``first * amp`` at t = 0, reversed whenever the heading deviation passes
-    ``+-sw`` in the direction of the current turn (standard zig-zag logic, ITTC 7.5-04-02-01).
-    """
-    t = np.arange(n) * h
-    psi = np.zeros(n)
-    r = np.zeros(n)
-    dl = np.zeros(n)
-    cmd = first * amp
-    x1 = 0.0
-    x2 = 0.0
-    d = 0.0
-    ps = 0.0
-    for k in range(n - 1):
-        if cmd * first > 0 and first * ps >= sw:
-            cmd = -first * amp
-        elif cmd * first < 0 and first * ps <= -sw:
-            cmd = first * amp
-        step = cmd - d
-        lim = rate * h
-        if step > lim:
-            step = lim
-        elif step < -lim:
-            step = -lim
-        dn = d + step
-        xn, x2 = _response_rk4(code, p, x1, x2, d, dn, h)
-        ps = ps + 0.5 * h * (x1 + xn)
-        x1 = xn
-        d = dn
-        psi[k + 1] = ps
-        r[k + 1] = x1
-        dl[k + 1] = d
-    return t, psi, r, dl
 
 
 def zigzag_response(kind: str, params: dict[str, float], delta_amp: float, psi_switch: float, *,
@@ -72,20 +34,30 @@ def zigzag_response(kind: str, params: dict[str, float], delta_amp: float, psi_s
     """Simulate a ``delta_amp``/``psi_switch`` zig-zag [rad] on a response model.
 
     Starts from r = 0, psi = 0, delta = 0 with the first rudder order at t = 0 towards ``first``
-    (+1 starboard); rudder rate limited to ``rate`` [rad/s]. For nomoto2 the 2nd-order state
-    starts at rest too. Returns ``t`` [s], ``psi`` [rad], ``r`` [rad/s], ``delta`` [rad].
-    Used when :mod:`usvid.sim` is not available; same logic as its ``ZigZag``.
+    (+1 starboard); rudder rate limited to ``rate`` [rad/s] (an ideal servo otherwise), step
+    ``h`` [s]. The simulation is :func:`usvid.sim.simulate` with its :class:`usvid.sim.ZigZag`
+    logic, so validation uses the same switching logic as ``usvid simulate zigzag``. Returns
+    ``t`` [s], ``psi`` [rad], ``r`` [rad/s], ``delta`` [rad] (1-D arrays).
     """
     if kind not in RESPONSE_KINDS:
         raise UsvidError(f"zigzag_response: kind must be one of {RESPONSE_KINDS} (got {kind!r})")
     from usvid.identify.output_error import PARAM_NAMES
+    from usvid.models.model import VesselModel
+    from usvid.models.response import Nomoto1, Nomoto2, Norrbin
+    from usvid.models.servo import DEFAULT_MAX_ANGLE, IdealServo
+    from usvid.sim import ZigZag, simulate
+    from usvid.trial import Vessel
 
-    p = np.array([params[n] for n in PARAM_NAMES[kind]], dtype=float)
-    n = int(round(t_end / h)) + 1
-    t, psi, r, d = _zigzag_kernel(_KIND_CODE[kind], p, float(delta_amp), float(psi_switch),
-                                  float(1 if first >= 0 else -1),
-                                  float(rate) if math.isfinite(rate) else 1e9, float(h), n, 0)
-    return {"t": t, "psi": psi, "r": r, "delta": d}
+    dynamics = {"nomoto1": Nomoto1, "nomoto2": Nomoto2, "norrbin": Norrbin}[kind](
+        **{n: float(params[n]) for n in PARAM_NAMES[kind]})
+    servo = IdealServo(max_angle=max(DEFAULT_MAX_ANGLE, float(delta_amp)),
+                       max_rate=float(rate) if rate > 0 else math.inf)
+    model = VesselModel(dynamics, servo=servo, vessel=Vessel(speed=1.0))
+    res = simulate(model, ZigZag(float(delta_amp), float(psi_switch), first=1 if first >= 0
+                                 else -1), t_end=float(t_end), dt=float(h),
+                   channels=("psi", "r", "delta"))
+    return {"t": np.asarray(res.t), "psi": res.channels["psi"][0], "r": res.channels["r"][0],
+            "delta": res.channels["delta"][0]}
 
 
 def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
