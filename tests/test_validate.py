@@ -112,7 +112,12 @@ def test_kvlcc2_measured_overshoots_match_published(kvlcc2):
 
 def test_kvlcc2_norrbin_first_overshoot_within_1p5_deg(kvlcc2):
     train, valid = kvlcc2
-    est = ModelEstimator("norrbin", "oe", **KV_OPTS).fit(train)
+    from usvid.identify.regressors import IdentificationWarning
+
+    # K, T and n3 are correlated on these three zig-zags (K 0.56 +- 0.45, T 39 +- 31 s): the fit
+    # says so rather than reporting them as sharp
+    with pytest.warns(IdentificationWarning, match="poorly determined"):
+        est = ModelEstimator("norrbin", "oe", **KV_OPTS).fit(train)
     # course-unstable: n1 = -1 (the linear yaw damping is negative), held by the cubic
     assert est.params_["n1"] == -1.0 and est.params_["n3"] > 0
     for name in VALID:

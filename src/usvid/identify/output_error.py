@@ -416,7 +416,8 @@ def _param_covariance(n_params: int, free: np.ndarray, Sinv: np.ndarray, s2: flo
     if B >= MIN_CLUSTERS:
         corr = B / (B - 1) * (m - 1) / max(m - ncol, 1)
         cov_free = sandwich() * corr
-        fac = float(np.mean(np.diag(cov_free) / np.maximum(np.diag(Sinv) * s2, 1e-300)))
+        with np.errstate(over="ignore"):  # a runaway parameter (nomoto2 T1 -> inf): fac = inf
+            fac = float(np.mean(np.diag(cov_free) / np.maximum(np.diag(Sinv) * s2, 1e-300)))
     else:
         cov_free = Sinv * s2 * fac
     cov = np.zeros((n_params, n_params))
