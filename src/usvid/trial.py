@@ -23,7 +23,8 @@ import pandas as pd
 
 from usvid.errors import UsvidError
 
-#: Channels of the Trial contract and their SI units (extensions may add more columns).
+#: Channels of the Trial contract (and of simulation results) and their SI units; extensions
+#: may add more columns. ``dist`` is a simulated rudder-equivalent disturbance.
 CHANNEL_UNITS: dict[str, str] = {
     "t": "s",
     "x": "m",
@@ -36,14 +37,15 @@ CHANNEL_UNITS: dict[str, str] = {
     "delta": "rad",
     "delta_cmd": "rad",
     "n": "rps",
-    "n_port": "rps",
-    "n_stbd": "rps",
+    "n_port": "rps or command",
+    "n_stbd": "rps or command",
     "tau_u": "N",
     "tau_r": "N*m",
     "lat": "deg",
     "lon": "deg",
     "cog": "rad",
     "sog": "m/s",
+    "dist": "rad",
 }
 
 

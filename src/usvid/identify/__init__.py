@@ -2,7 +2,7 @@
 
 # --- H6: estimators, d2c, servo identification, chaotic GA, turning-diameter fit ------------
 from usvid.identify.cga import CGAResult, cga
-from usvid.identify.d2c import ContinuousTF, d2c, d2c_ss, split_delay
+from usvid.models.d2c import ContinuousTF, d2c, d2c_ss, split_delay
 from usvid.identify.ls import (
     LeastSquares,
     NotFittedError,

@@ -318,7 +318,7 @@ def d2c_arx2(a1: float, a2: float, b1: float, b2: float, h: float) -> np.ndarray
     K = n0/d0, T1 T2 = 1/d0, T1 + T2 = d1/d0, K T3 = n1/d0 (seed 000 eq. 29), T1 >= T2.
     Non-real or unstable continuous poles raise IdentificationError.
     """
-    from usvid.identify.d2c import d2c
+    from usvid.models.d2c import d2c
 
     try:
         tf = d2c([b1, b2], [1.0, -a1, -a2], h)

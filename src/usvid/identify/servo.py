@@ -41,7 +41,7 @@ import numpy as np
 from scipy import optimize, signal
 
 from usvid.errors import IdentificationError
-from usvid.identify.d2c import d2c
+from usvid.models.d2c import d2c
 from usvid.identify.ls import (
     LeastSquares,
     arx_regressors,

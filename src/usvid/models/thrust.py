@@ -391,7 +391,7 @@ class TwinThrust:
 # numba scalar twins (for sim kernels)
 # ---------------------------------------------------------------------------------------------
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _kt_row_nb(k: int, J: float, P: float) -> float:
     a = _KT[k]
     J2 = J * J
@@ -400,7 +400,7 @@ def _kt_row_nb(k: int, J: float, P: float) -> float:
             + a[6] * J * P + a[7] * J2 * P + a[8] * J * P2 + a[9] * J2 * P2)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def kt_nb(J: float, P_D: float, theta: float) -> float:
     """Scalar numba twin of :func:`kt` (seed 000 eq. 9, 10, Table 2) [-]."""
     w0 = (theta - 0.8) * (theta - 1.1) / 0.18
@@ -456,9 +456,81 @@ def twin_thrust_nb(cmd: float, fwd: np.ndarray, rev: np.ndarray, offset: float, 
     return -_polyval_nb(rev, -x)
 
 
+# ---------------------------------------------------------------------------------------------
+# thrust laws as flat rows for the integration core
+# ---------------------------------------------------------------------------------------------
+#: Length of a thrust-law row (mode + up to 19 coefficients).
+THRUST_ROW = 20
+#: Nested thrust-law classes by their model-file ``kind`` name.
+THRUST_LAWS: dict[str, type] = {}  # filled at the end of the module
+
+
+def thrust_row(thrust: object, constant: ArrayLike | None = None) -> list[ArrayLike]:
+    """The flat row of a thrust law read by :func:`thrust_nb` (values may be (B,) arrays).
+
+    ``thrust``: a number T [N] (constant thrust), ``None`` (then ``constant`` [N] is used),
+    :class:`Propeller` (mode 1), :class:`PodThrust` (mode 2), :class:`TwinThrust` (mode 4);
+    ``("per_command", k)``: T = k c, k [N per command unit] (mode 3).
+    """
+    row: list[ArrayLike] = [0.0] * THRUST_ROW
+    if thrust is None:
+        if constant is None:
+            raise UsvidError("parameters.thrust is not set (give a thrust [N] or a thrust law)")
+        row[1] = constant
+    elif isinstance(thrust, Propeller):
+        row[0] = 1.0
+        row[1:7] = [thrust.D, thrust.pitch_ratio, thrust.disk_ratio, thrust.t_P, thrust.w_P,
+                    thrust.rho]
+    elif isinstance(thrust, PodThrust):
+        row[0] = 2.0
+        row[1:3] = [thrust.c, thrust.d]
+    elif isinstance(thrust, tuple) and thrust[0] == "per_command":
+        row[0] = 3.0
+        row[1] = thrust[1]
+    elif isinstance(thrust, TwinThrust):
+        fwd, rev, off, sc, lo, hi, db = thrust.nb_args()
+        if fwd.size > 6 or rev.size > 6:
+            raise UsvidError("twin_thrust polynomials above degree 5 are not supported")
+        row[0] = 4.0
+        row[1:8] = [float(fwd.size), float(rev.size), off, sc, lo, hi, db]  # 8.. zero-padded
+        row[8:8 + fwd.size] = list(fwd)
+        row[14:14 + rev.size] = list(rev)
+    elif hasattr(thrust, "thrust"):
+        raise UsvidError(f"thrust law {type(thrust).__name__} is not supported by the simulator "
+                         "(use a number, propeller, pod_thrust or twin_thrust)")
+    else:
+        row[1] = thrust  # a constant thrust [N]
+    return row
+
+
+@numba.njit(cache=True, inline="always")
+def thrust_nb(t: tuple, u: float, n: float) -> float:
+    """Thrust [N] of a packed thrust law ``t`` (the THRUST_ROW values of :func:`thrust_row`,
+    as a tuple) at surge speed u [m/s] and shaft speed / command n; the formulas of
+    :meth:`Propeller.thrust`, :meth:`PodThrust.thrust` and :meth:`TwinThrust.thrust`."""
+    mode = t[0]
+    if mode == 0.0:
+        return t[1]
+    if mode == 1.0:
+        return propeller_thrust_nb(n, u, t[1], t[2], t[3], t[4], t[5], t[6])
+    if mode == 2.0:
+        return pod_thrust_nb(u, n, t[1], t[2])
+    if mode == 3.0:
+        return t[1] * n
+    dev = n - t[3]
+    x = 0.0 if abs(dev) <= t[7] else min(max(dev * t[4], t[5]), t[6])
+    ax = abs(x)
+    if x >= 0.0:  # coefficients zero-padded to degree 5
+        return t[8] + ax * (t[9] + ax * (t[10] + ax * (t[11] + ax * (t[12] + ax * t[13]))))
+    return -(t[14] + ax * (t[15] + ax * (t[16] + ax * (t[17] + ax * (t[18] + ax * t[19])))))
+
+
 __all__ = [
     "C_STERN", "KT_DISK_RATIOS", "KT_TERMS", "SEED000_TABLE2", "PodThrust", "Propeller",
     "TwinThrust", "advance_ratio", "froude_number", "hollo_thrust_deduction", "holtrop_c10",
     "kt", "kt_nb", "kt_regression", "lagrange_weights", "pod_thrust_nb", "propeller_thrust_nb",
-    "twin_thrust_nb", "wake_fraction",
+    "twin_thrust_nb", "wake_fraction", "THRUST_ROW", "THRUST_LAWS", "thrust_row",
+    "thrust_nb",
 ]
+
+THRUST_LAWS.update(propeller=Propeller, pod_thrust=PodThrust, twin_thrust=TwinThrust)

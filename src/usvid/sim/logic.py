@@ -50,16 +50,28 @@ class Turning:
 @dataclass
 class ZigZag:
     """Zig-zag ``delta_amp``/``psi_switch`` [rad] (IMO/ITTC), first rudder side ``first`` (+1
-    starboard, -1 port), starting at ``t_start`` [s] (rudder 0 before)."""
+    starboard, -1 port), starting at ``t_start`` [s] (rudder 0 before).
+
+    The reference heading of the deviation is the heading at ``t_start`` unless ``psi_ref``
+    [rad] is given. ``command`` (+1/-1, default 0) starts the run in the middle of a zig-zag
+    with that side's command in force (closed-loop replays of measured zig-zags): the logic
+    then reverses at the next crossing of the switching angle on that side.
+    """
 
     delta_amp: ArrayLike
     psi_switch: ArrayLike
     first: ArrayLike = 1
     t_start: ArrayLike = 0.0
+    psi_ref: ArrayLike | None = None
+    command: ArrayLike = 0.0
 
     def __post_init__(self) -> None:
         _finite("ZigZag", delta_amp=self.delta_amp, psi_switch=self.psi_switch,
-                first=self.first, t_start=self.t_start)
+                first=self.first, t_start=self.t_start, command=self.command)
+        if self.psi_ref is not None:
+            _finite("ZigZag", psi_ref=self.psi_ref)
+        if not np.all(np.isin(np.asarray(self.command, dtype=float), (-1.0, 0.0, 1.0))):
+            raise SimulationError(f"ZigZag.command must be -1, 0 or +1 (got {self.command!r})")
         if not np.all(np.asarray(self.delta_amp, dtype=float) >= 0):
             # the side is ``first``; a negative amplitude would steer against the switching
             # logic (heading never reaches +psi_switch: a silent endless turn)
@@ -146,15 +158,21 @@ class CourseChange:
 
 @dataclass
 class Commanded:
-    """Time series of commands on times ``t`` [s] (linear interpolation onto the step grid;
-    held at the end values outside). ``delta_cmd`` [rad]; ``n`` [rps] shaft speed (ThreeDOF);
-    ``n_port``/``n_stbd`` thruster commands (Catamaran). Arrays (N,) or (B, N)."""
+    """Time series of inputs on times ``t`` [s], interpolated linearly onto the step grid (held
+    at the end values outside). Arrays (N,) or (B, N).
+
+    ``delta`` [rad]: a measured steering angle, fed to the hull directly (the servo is bypassed)
+    and linear between the step instants (first-order hold: a replay of a measured rudder);
+    ``delta_cmd`` [rad]: a command through the servo, held over each step; ``n`` [rps] shaft
+    speed; ``n_port``/``n_stbd`` thruster commands (both linear between step instants).
+    """
 
     t: np.ndarray
     delta_cmd: np.ndarray | None = None
     n: np.ndarray | None = None
     n_port: np.ndarray | None = None
     n_stbd: np.ndarray | None = None
+    delta: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t, dtype=float)
@@ -162,7 +180,10 @@ class Commanded:
             raise SimulationError("Commanded.t must be a finite 1-D array")
         if t.size > 1 and np.any(np.diff(t) <= 0):
             raise SimulationError("Commanded.t must be strictly increasing")
-        for name in ("delta_cmd", "n", "n_port", "n_stbd"):
+        if self.delta is not None and self.delta_cmd is not None:
+            raise SimulationError("Commanded: give delta (measured angle) or delta_cmd "
+                                  "(command through the servo), not both")
+        for name in ("delta_cmd", "n", "n_port", "n_stbd", "delta"):
             v = getattr(self, name)
             if v is None:
                 continue

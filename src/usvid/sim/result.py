@@ -10,14 +10,8 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import SimulationError
-from usvid.trial import Trial, Vessel
+from usvid.trial import CHANNEL_UNITS, Trial, Vessel
 
-#: SI units of the recorded channels.
-CHANNEL_UNITS = {
-    "x": "m", "y": "m", "psi": "rad", "u": "m/s", "v": "m/s", "r": "rad/s", "U": "m/s",
-    "delta": "rad", "delta_cmd": "rad", "n": "rps", "n_port": "command", "n_stbd": "command",
-    "dist": "rad",
-}
 
 
 @dataclass
@@ -48,7 +42,31 @@ class SimResult:
     logic: Any
     dt: float
     record_every: int = 1
+    status: np.ndarray | None = None
+    t_fail: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        """True when every run was integrated to its end (none diverged)."""
+        return self.status is None or not bool(np.any(self.status))
+
+    @property
+    def message(self) -> str:
+        """What happened: "ok", or which runs diverged (state not finite or |r| beyond
+        100 rad/s) and when."""
+        if self.success:
+            return "ok"
+        bad = np.flatnonzero(self.status)
+        first = int(bad[0])
+        tf = float(self.t_fail[first]) if self.t_fail is not None else float("nan")
+        return (f"{bad.size} of {self.batch_size} run(s) diverged (state not finite or |r| > "
+                f"100 rad/s), the first (run {first}) at t = {tf:.3g} s; the step dt = "
+                f"{self.dt:g} s may be too large for the model, or the model unstable")
+
+    def units(self) -> dict[str, str]:
+        """SI unit of every recorded channel."""
+        return {k: CHANNEL_UNITS.get(k, "") for k in self.channels}
 
     @property
     def batch_size(self) -> int:
