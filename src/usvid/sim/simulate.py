@@ -286,7 +286,7 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
             raise SimulationError(f"simulate: initial['{name}'] is not an initial state "
                                   f"(use {', '.join(_INITIAL)}; u0= and psi0= for u, psi)")
         if name == "v" and kind.constant_speed:
-            raise SimulationError("simulate: initial['v'] needs a model with sway (not a "
+            raise SimulationError("simulate: initial['v'] needs a 3-DOF model with sway (not a "
                                   "constant-speed response model)")
     speed = approach_speed(model, u0)
     dist = disturbance
