@@ -23,9 +23,9 @@ import control
 from usvid.identify.estimator import identify
 from usvid.models.export import to_transfer_function
 from usvid.prep import audit, prepare
-from usvid.report.validation import vessel_model
+from usvid.demo.analysis import vessel_model
 from usvid.sim import ZigZag, simulate
-from usvid.sim.campaign import generate_campaign, read_campaign_trial
+from usvid.demo.campaign import generate_campaign, read_campaign_trial
 from usvid.sim.imo import imo_zigzag_check
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from usvid.sim import campaign as C
+from usvid.demo import campaign as C
 
 
 def test_programme_is_seed000_plus_extras() -> None:

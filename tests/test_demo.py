@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from usvid.cli import main
-from usvid.report import browser
+import browser
 from usvid.report.html import external_urls
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -25,7 +25,7 @@ REPO = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def demo_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict]:
     """Two quick demos with the same seed: one through the CLI (--json), one through the API."""
-    from usvid.report.demo import run_demo
+    from usvid.demo.pipeline import run_demo
 
     a = tmp_path_factory.mktemp("demo_a")
     b = tmp_path_factory.mktemp("demo_b")
@@ -68,8 +68,8 @@ def test_demo_json_and_run_contents(demo_runs) -> None:
     run = json.loads((a / "run.json").read_text())
     assert run["usvid_run"] == 1 and run["truth_definition"]
     assert len(run["validation"]) >= 8 and run["course_keeping"]["runs"][0]["label"] == "PD"
-    # model files load back through usvid.modelfile
-    from usvid.modelfile import load_model
+    # model files load back through usvid.io.modelfile
+    from usvid.io.modelfile import load_model
 
     for kind in ("nomoto1", "norrbin", "threedof"):
         assert load_model(a / "models" / f"{kind}.json").kind == kind
@@ -151,7 +151,7 @@ def test_ctrl_c_leaves_no_half_written_output(tmp_path: Path) -> None:
 def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
     """A missing library part is 'unavailable' (named), a dependent step 'skipped', an exception
     'failed' (exit code 1); the run continues and the report says which step is missing."""
-    from usvid.report.demo import DemoPipeline, need
+    from usvid.demo.pipeline import DemoPipeline, need
 
     p = DemoPipeline(tmp_path, seed=0)
 
@@ -192,7 +192,7 @@ def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
 def test_finite_pair_trims_and_fills() -> None:
     import numpy as np
 
-    from usvid.report.demo import _finite_pair
+    from usvid.demo.pipeline import _finite_pair
 
     a = np.array([np.nan, 1.0, np.nan, 3.0, 4.0, np.nan])
     b = np.array([0.0, 10.0, 20.0, np.nan, 40.0, 50.0])
@@ -203,7 +203,7 @@ def test_finite_pair_trims_and_fills() -> None:
 
 
 def test_norrbin_turns_everywhere_by_hand() -> None:
-    from usvid.report.demo import norrbin_turns_everywhere
+    from usvid.demo.pipeline import norrbin_turns_everywhere
 
     # n1 r + n3 r^3 peaks at r* = sqrt(n1/(-3 n3)) with 2/3 n1 r*; K delta_max = 0.7 * 0.6109
     # = 0.4276. n3 = -1: r* = 0.5774, peak 0.3849 < 0.4276 -> no steady 35 deg turn

@@ -70,7 +70,7 @@ def test_identify_writes_model_file_and_json(logs, tmp_path, capsys):
     assert ident["method"] == "oe"
     assert ident["data"] == [str(a)]
     assert len(ident["data_sha256"][str(a)]) == 64
-    from usvid.modelfile import load_model
+    from usvid.io.modelfile import load_model
 
     m = load_model(out)
     assert m.dynamics.K == pytest.approx(s["params"]["K"])

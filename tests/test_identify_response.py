@@ -163,7 +163,7 @@ def test_identify_functional_and_model_file(nomoto_trials):
     assert ident["method"] == "ls"
     assert set(ident["std_errors"]) == {"K", "T", "delta0"}
     assert ident["fit"]["psi"]["r2"] > 0.99
-    from usvid.modelfile import model_from_dict
+    from usvid.io.modelfile import model_from_dict
 
     m = model_from_dict(d)
     assert m.dynamics.K == pytest.approx(res.params["K"])

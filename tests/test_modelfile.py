@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from usvid.errors import ModelFileError, UsvidError
-from usvid.modelfile import load_model, model_from_dict, model_to_dict, save_model
+from usvid.io.modelfile import load_model, model_from_dict, model_to_dict, save_model
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -12,7 +12,7 @@ import pytest
 
 from usvid.cli import main
 from usvid.errors import UsvidError
-from usvid.report import browser
+import browser
 from usvid.report.html import build_html, esc, external_urls
 from usvid.report.run import REPORT_FILE, load_run, save_run, write_report
 

@@ -47,7 +47,7 @@ SpeedOpt = Annotated[float | None, typer.Option(
 
 
 def _load(path: Path) -> Any:
-    from usvid.modelfile import load_model
+    from usvid.io.modelfile import load_model
 
     return load_model(path)
 

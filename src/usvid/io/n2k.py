@@ -333,7 +333,7 @@ def write_candump(
     rate 0.25 rpm. Time stamps: microseconds, t = 0 at ``t0_utc`` (default
     ``trial.meta["t0_utc"]`` or 2025-01-01).
     """
-    from usvid.commands._common import write_atomic
+    from usvid.files import write_atomic
 
     lines = candump_lines(trial, t0_utc=t0_utc, source=source, interface=interface)
     return write_atomic(path, "\n".join(lines) + "\n")

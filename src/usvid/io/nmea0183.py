@@ -786,7 +786,7 @@ def write_nmea0183(
     ``t0_utc`` (default ``trial.meta["t0_utc"]`` or 2025-01-01). Quantisation: positions 1e-6
     arc-minutes (< 2 mm), heading/rate/rudder 1e-3 deg (deg/min), speed 1e-3 kn.
     """
-    from usvid.commands._common import write_atomic
+    from usvid.files import write_atomic
 
     lines = nmea0183_lines(
         trial,

@@ -61,7 +61,7 @@ def write_csv(trial: Trial, path: str | Path, *, spec_path: str | Path | None = 
     Full float precision (``repr``), NaN as empty fields. With ``spec_path`` also writes the YAML
     format spec that reads it back.
     """
-    from usvid.commands._common import write_atomic
+    from usvid.files import write_atomic
 
     buf = io.StringIO()
     trial.data.to_csv(buf, index=False, float_format="%.17g", na_rep="")
@@ -76,7 +76,7 @@ def write_parquet(trial: Trial, path: str | Path) -> Path:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from usvid.commands._common import write_atomic
+    from usvid.files import write_atomic
 
     table = pa.Table.from_pandas(pd.DataFrame(trial.data), preserve_index=False)
     meta = dict(table.schema.metadata or {})

@@ -338,6 +338,41 @@ class ModelKind:
         """Length of the packed parameter rows (and of the right-hand side's tuple)."""
         return int(self.pack(self.dynamics.example(), 1.0).shape[0])
 
+    def derivatives(self, dynamics: Dynamics, states: Any, *, delta: Any = 0.0,
+                    n: Any = math.nan, n_port: Any = math.nan, n_stbd: Any = math.nan,
+                    speed: Any = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The kind's right-hand side evaluated with numpy inputs (for checks by hand and
+        plots; simulation integrates the same function in the core).
+
+        ``states`` (..., n_states) the kind's states; ``delta`` [rad] the effective steering
+        angle, ``n`` [rps], ``n_port``/``n_stbd`` commands (NaN: the kind's nominal), ``speed``
+        [m/s] the constant speed of a response kind; all broadcast against ``states[..., 0]``.
+        Returns (u, v [m/s], r [rad/s], d states/dt (..., n_states)).
+        """
+        x = np.asarray(states, dtype=float)
+        if x.shape[-1] != self.n_states:
+            raise UsvidError(f"{self.name}: states must have {self.n_states} columns "
+                             f"({', '.join(self.states)}), got shape {x.shape}")
+        shape = np.broadcast_shapes(x.shape[:-1], np.shape(delta), np.shape(n),
+                                    np.shape(n_port), np.shape(n_stbd))
+        xs = np.broadcast_to(x, (*shape, self.n_states)).reshape(-1, self.n_states)
+        ins = [np.broadcast_to(np.asarray(a, float), shape).ravel()
+               for a in (delta, n, n_port, n_stbd)]
+        P = self.pack(dynamics, speed)
+        B = xs.shape[0]
+        P = np.broadcast_to(P, (P.shape[0], max(B, P.shape[1])))
+        uvr = np.empty((B, 3))
+        dz = np.empty((B, self.n_states))
+        for b in range(B):
+            s = list(xs[b]) + [0.0] * (MAX_STATES - self.n_states)
+            d = ins[0][b]
+            out = self.rhs(tuple(P[:, b if P.shape[1] > 1 else 0]), s[0], s[1], s[2], s[3], d,
+                           math.cos(d), math.sin(d), ins[1][b], ins[2][b], ins[3][b])
+            uvr[b] = out[:3]
+            dz[b] = out[3:3 + self.n_states]
+        return (uvr[:, 0].reshape(shape), uvr[:, 1].reshape(shape), uvr[:, 2].reshape(shape),
+                dz.reshape((*shape, self.n_states)))
+
     def make(self, **params: Any) -> Dynamics:
         """The parameter set of this kind (validated)."""
         return self.dynamics(**params)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
 
 from usvid.errors import UsvidError
 from usvid.models._validate import check_params
@@ -28,7 +29,7 @@ class IdealServo:
 
     def __post_init__(self) -> None:
         check_params("servo", {"max_angle": self.max_angle}, positive=("max_angle",))
-        if not self.max_rate > 0:
+        if not np.all(np.asarray(self.max_rate) > 0):
             raise_bad_rate(self.max_rate)
 
     def delay_samples(self, dt: float) -> int:
@@ -53,7 +54,7 @@ class FirstOrderServo:
     def __post_init__(self) -> None:
         check_params("servo", {"T": self.T, "max_angle": self.max_angle},
                      nonnegative=("T",), positive=("max_angle",))
-        if not self.max_rate > 0:
+        if not np.all(np.asarray(self.max_rate) > 0):
             raise_bad_rate(self.max_rate)
 
     def delay_samples(self, dt: float) -> int:
@@ -87,7 +88,7 @@ class SecondOrderServo:
                       "delay": self.delay, "max_angle": self.max_angle},
                      positive=("omega_n", "gain", "max_angle"),
                      nonnegative=("zeta", "delay"))
-        if not self.max_rate > 0:
+        if not np.all(np.asarray(self.max_rate) > 0):
             raise_bad_rate(self.max_rate)
 
     @classmethod

@@ -48,7 +48,6 @@ from typing import Any
 
 import numba
 import numpy as np
-
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from usvid.models.kind import S0, ModelKind
@@ -263,8 +262,9 @@ def _lane(b, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_ever
          Z[b, S0 + 1] if NS > 1 else 0.0, Z[b, S0 + 2] if NS > 2 else 0.0,
          Z[b, S0 + 3] if NS > 3 else 0.0,
          Z[b, ID], Z[b, ID + 1], Z[b, ID + 2], Z[b, ID + 3])
-    cmdin = z[7]
-    cmdlog = z[7]
+    # at rest on the initial angle: the command in force is the one that holds it
+    cmdin = z[7] / srv[4] if skind == 2 else z[7]
+    cmdlog = cmdin
     ramp = 0.0
     rend = math.inf
     cur = 0.0

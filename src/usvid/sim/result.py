@@ -13,7 +13,6 @@ from usvid.errors import SimulationError
 from usvid.trial import CHANNEL_UNITS, Trial, Vessel
 
 
-
 @dataclass
 class SimResult:
     """Batch simulation result.

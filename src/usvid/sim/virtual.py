@@ -231,7 +231,7 @@ def virtual_trial(source: Any, sensors: SensorModel | None = None, seed: int = 0
     truth_file: dict[str, Any] | None = None
     if member is not None:
         try:
-            from usvid.modelfile import model_to_dict
+            from usvid.io.modelfile import model_to_dict
 
             truth_file = model_to_dict(member)
         except Exception:  # not a VesselModel, or not writable as one file: keep the object only

@@ -243,7 +243,7 @@ def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
         if "n" not in s:
             raise IdentificationError("model 'threedof' needs channel 'n' [rps] (or tau_u/tau_r, "
                                       "or a thrust channel)")
-        model = ThreeDOF(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, thrust=fixed["thrust"])
+        model = ThreeDOF(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, x_l=0.0, thrust=fixed["thrust"])
         T = model.thrust_at(s["u"], s["n"])
     s["tau_u"] = T * np.cos(s["delta"])
     s["tau_r"] = fixed["x_l"] * T * np.sin(s["delta"])

@@ -1,9 +1,9 @@
-"""``usvid demo``: the whole chain on the virtual Lanxin sea-trial campaign (seed 000).
+"""``usvid demo``: the whole chain on the virtual Lanxin sea-trial campaign (Mu et al. 2018).
 
 Steps (each timed, each recorded in ``run.json`` with its status):
 
 1. ``campaign``   generate the seeded virtual trials as NMEA 0183 / candump / CSV log files
-                  (:mod:`usvid.sim.campaign`) under ``OUT/logs`` (moved in place when complete);
+                  (:mod:`usvid.demo.campaign`) under ``OUT/logs`` (moved in place when complete);
 2. ``read``       read them back with :mod:`usvid.io` (the logs are the only input from here on);
 3. ``audit``      channel audit (:func:`usvid.prep.audit`) and preparation to a uniform grid;
 4. ``identify``   servo (second order + dead time), Nomoto 1st order, Norrbin in seed 000's two
@@ -16,15 +16,13 @@ Steps (each timed, each recorded in ``run.json`` with its status):
 7. ``turning_diameter``  the seed 004 relative turning-diameter model fitted by the chaotic GA;
 8. ``write``      model files (``OUT/models/*.json``), ``run.json`` and ``report.html``.
 
-A step whose library part is missing is recorded as ``unavailable`` (with the missing name) and
-the steps that need its output as ``skipped``; an exception inside a present step is recorded as
-``failed`` with its message. Nothing is faked. Every output is written atomically, so an
-interrupted demo never leaves a half-written file.
+A step whose input is missing because an earlier step failed is recorded as ``skipped``; an
+exception inside a step is recorded as ``failed`` with its message. Nothing is faked. Every
+output is written atomically, so an interrupted demo never leaves a half-written file.
 """
 
 from __future__ import annotations
 
-import importlib
 import math
 import os
 import shutil
@@ -37,8 +35,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
-from usvid.commands._common import to_json, write_atomic
+from usvid import __version__
+from usvid.demo.analysis import course_keeping, turning_diameter_fit, validate_against
+from usvid.demo.campaign import generate_campaign, read_campaign_trial
+from usvid.files import to_json, write_atomic
+from usvid.identify.estimator import identify
+from usvid.identify.servo import identify_second_order_servo
+from usvid.io.modelfile import save_model
+from usvid.models.registry import get as get_kind
+from usvid.prep import audit, prepare
+from usvid.report.run import save_run, write_report
 
 #: seed 000 section 6.1 controller gains and Table 3 ITAE.
 PID_GAINS = {"PD": (0.7, 0.0, 1.0), "PID": (0.7, 0.00095, 1.0)}
@@ -50,26 +61,8 @@ COURSE_DIST_DEG = 1.0
 COURSE_T_END_S = 60.0
 
 
-class Unavailable(Exception):
-    """A library part the step needs is not there (yet)."""
-
-
 class Skipped(Exception):
     """A step's input is missing because an earlier step did not complete."""
-
-
-def need(module: str, name: str | None = None) -> Any:
-    """Import ``module`` (and get ``name`` from it) or raise :class:`Unavailable` naming it."""
-    try:
-        mod = importlib.import_module(module)
-    except ImportError as exc:
-        raise Unavailable(f"{module} is not available ({exc})") from exc
-    if name is None:
-        return mod
-    try:
-        return getattr(mod, name)
-    except AttributeError as exc:
-        raise Unavailable(f"{module}.{name} is not available") from exc
 
 
 @dataclass
@@ -91,9 +84,6 @@ class _Progress:
         self.enabled = enabled
         self._progress = None
         if enabled:
-            from rich.console import Console
-            from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
             self.console = Console(stderr=True)
             self._progress = Progress(SpinnerColumn(), TextColumn("{task.description}"),
                                       TimeElapsedColumn(), console=self.console, transient=False)
@@ -115,11 +105,9 @@ class _Progress:
     def done(self, task: Any, label: str, status: str, seconds: float, message: str) -> None:
         if self._progress is None:
             return
-        mark = {"ok": "[green]done[/]", "unavailable": "[yellow]unavailable[/]",
-                "skipped": "[yellow]skipped[/]", "failed": "[red]FAILED[/]"}[status]
+        mark = {"ok": "[green]done[/]", "skipped": "[yellow]skipped[/]",
+                "failed": "[red]FAILED[/]"}[status]
         short = (message[:90] + "...") if len(message) > 93 else message
-        from rich.markup import escape
-
         self._progress.update(task, completed=1,
                               description=f"{label}: {mark} [dim]{escape(short)}[/]")
 
@@ -129,8 +117,6 @@ class DemoPipeline:
 
     def __init__(self, out: Path, seed: int = 1, quick: bool = False,
                  progress: bool = False) -> None:
-        from usvid import __version__
-
         self.out = Path(out)
         self.seed = int(seed)
         self.quick = bool(quick)
@@ -152,10 +138,6 @@ class DemoPipeline:
         status, message, tb = "ok", "", None
         try:
             message = fn() or ""
-        except Unavailable as exc:
-            status, message = "unavailable", str(exc)
-        except ImportError as exc:  # a library part imported deeper down is missing
-            status, message = "unavailable", f"{exc.name or 'a module'} is not available ({exc})"
         except Skipped as exc:
             status, message = "skipped", str(exc)
         except KeyboardInterrupt:
@@ -181,12 +163,11 @@ class DemoPipeline:
 
     # -- 1. campaign -------------------------------------------------------------------------
     def step_campaign(self) -> str:
-        generate = need("usvid.sim.campaign", "generate_campaign")
         logs = self.out / "logs"
         self.out.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=".logs.", suffix=".tmp", dir=self.out))
         try:
-            camp = generate(tmp, seed=self.seed, quick=self.quick)
+            camp = generate_campaign(tmp, seed=self.seed, quick=self.quick)
             if logs.exists():
                 shutil.rmtree(logs)
             os.replace(tmp, logs)
@@ -203,10 +184,9 @@ class DemoPipeline:
     # -- 2. read ------------------------------------------------------------------------------
     def step_read(self) -> str:
         (camp,) = self.require("campaign")
-        read = need("usvid.sim.campaign", "read_campaign_trial")
         trials = {}
         for ct in camp.trials:
-            trials[ct.manoeuvre.name] = read(ct)
+            trials[ct.manoeuvre.name] = read_campaign_trial(ct)
         self.state["raw"] = trials
         n = sum(len(t) for t in trials.values())
         rej = sum(sum(t.rejected.values()) for t in trials.values())
@@ -215,8 +195,6 @@ class DemoPipeline:
     # -- 3. audit + prepare --------------------------------------------------------------------
     def step_audit(self) -> str:
         (raw,) = self.require("raw")
-        audit = need("usvid.prep", "audit")
-        prepare = need("usvid.prep", "prepare")
         prepared, entries, n_find = {}, [], 0
         for name, tr in raw.items():
             findings = audit(tr)
@@ -231,95 +209,73 @@ class DemoPipeline:
     # -- 4. identify ---------------------------------------------------------------------------
     def step_identify(self) -> str:
         (trials, camp) = self.require("trials", "campaign")
-        identify = need("usvid.identify.estimator", "identify")
         zz, zz_val = trials["zigzag_10_10"], trials["zigzag_15_15"]
         turns = [trials[k] for k in sorted(trials) if k.startswith("turning_")]
         truth = camp.truth
         models, notes = [], []
-        L, U = camp.vessel["length"], camp.vessel["speed"]
-        vessel = {"length": L, "speed": U}
 
-        # servo: second order + dead time from commanded vs actual angle (seed 000 sec. 5.1.3)
-        servo_id = need("usvid.identify.servo", "identify_second_order_servo")
+        # servo: second order + dead time from commanded vs actual angle (Mu et al. 2018,
+        # sec. 5.1.3); the identified models carry the same fit (the estimator's "auto" servo)
         dt = float(np.median(np.diff(zz.t)))
-        sid = servo_id(*_finite_pair(zz["delta_cmd"], zz["delta"]), dt)
+        sid = identify_second_order_servo(*_finite_pair(zz["delta_cmd"], zz["delta"]), dt)
         servo = {"kind": "second_order", "omega_n": float(sid.omega_n), "zeta": float(sid.zeta),
                  "gain": float(sid.gain), "delay": float(sid.delay), "max_angle_deg": 35.0}
         self.state["servo"] = servo
         models.append(_model_entry(
-            "servo", "Servo: 2nd order + dead time (seed 000 eq. 12)",
+            "servo", "Servo: 2nd order + dead time (Mu et al. 2018, eq. 12)",
             "delta/delta_cmd = gain wn^2/(s^2 + 2 zeta wn s + wn^2) e^(-delay s)",
             {k: servo[k] for k in ("omega_n", "zeta", "gain", "delay")},
             {**getattr(sid, "ci95", {}), "delay": None}, truth.get("servo", {}),
             {"omega_n": "rad/s", "zeta": "-", "gain": "-", "delay": "s"},
             getattr(sid, "method", "arx+oe"), _fit_dict(getattr(sid, "fit", None)),
             "models/servo.json"))
-
-        servo_file = {"kind": "second_order", "omega_n": servo["omega_n"], "zeta": servo["zeta"],
-                      "gain": servo["gain"], "delay": servo["delay"], "max_angle_deg": 35.0}
         ident: dict[str, Any] = {}
-        # Nomoto 1st order from the zig-zag tests (seed 000 sec. 5.1.2 step 1). Seed 000 had one
-        # 10/10 zig-zag; the campaign has a 15/15 too, and fitting both halves the variance of T
-        # (over seeds 1-8 the 10/10 alone gave T within -5.5..+3.3 % of the truth, both within
-        # -1.7..+4.4 % of the 10/10-only truth). The turning tests stay held out for Nomoto.
-        nom = identify([zz, zz_val], "nomoto1", "oe")
-        ident["nomoto1"] = nom
-        # Norrbin, seed 000's two steps: K, T from the zig-zags, alpha from the turning tests
-        nor = identify([zz, zz_val], "norrbin", "oe", norrbin="two_step", turning=turns)
-        ident["norrbin"] = nor
-        # 3-DOF (seed 000 eq. 37): u, v, r, n, delta -> tau from the propeller (eq. 1, 14).
-        # Seed 000 used the zig-zag alone; here every trial (with the speed steps that separate
-        # a_u from a_tau), least squares refined by output error.
-        prop = camp.propeller
-        x_l = camp.x_l
+        # Nomoto 1st order from the zig-zag tests. Mu et al. 2018 had one 10/10 zig-zag; the
+        # campaign has a 15/15 too, and fitting both halves the variance of T. The turning
+        # tests stay held out for Nomoto.
+        ident["nomoto1"] = identify([zz, zz_val], "nomoto1", "oe")
+        # Norrbin, Mu et al. 2018's two steps: K, T from the zig-zags, alpha from the turns
+        ident["norrbin"] = identify([zz, zz_val], "norrbin", "oe", norrbin="two_step",
+                                    turning=turns)
+        # 3-DOF (eq. 37): every trial (the speed steps separate the surge damping from the
+        # thrust), least squares refined by output error; the thruster arm and the propeller
+        # come from the logs' format spec (vessel block), as for any user
         tdof_data = [zz, zz_val, *turns] + ([trials["speed_steps"]] if "speed_steps" in trials
                                             else [])
-        tdof = identify(tdof_data, "threedof", "oe", thrust=lambda n, u: prop.thrust(n, u),
-                        x_l=x_l)
-        ident["threedof"] = tdof
-        labels = {"nomoto1": ("Nomoto 1st order (seed 000 eq. 38)", "T r' + r = K delta"),
-                  "norrbin": ("Norrbin, two-step (seed 000 eq. 35-36, 39)",
-                              "T r' + n1 r + n3 r^3 = K delta (n1 = 1, n3 = alpha)"),
-                  "threedof": ("3-DOF, regression form (seed 000 eq. 37)",
-                               "u' = a_vr v r + a_u u + a_tau tau_u; v' = b_ur u r + b_v v; "
-                               "r' = c_uv u v + c_r r + c_tau tau_r")}
-        units = {"K": "1/s", "T": "s", "n1": "-", "n3": "s^2/rad^2", "delta0": "rad",
-                 "a_vr": "-", "a_u": "1/s", "a_tau": "1/kg", "b_ur": "-", "b_v": "1/s",
-                 "c_uv": "1/m", "c_r": "1/s", "c_tau": "1/(kg m^2)"}
+        ident["threedof"] = identify(tdof_data, "threedof", "oe")
         for kind, res in ident.items():
-            d = _relative_sources(res.to_dict(), self.out)
-            d["servo"] = dict(servo_file)
-            d["vessel"] = dict(vessel)
-            self.state.setdefault("model_files", {})[kind] = d
+            _relative_sources(res.model.identification, self.out)
+            self.state.setdefault("model_files", {})[kind] = res.model
+            spec = get_kind(kind)
+            units = {p.name: p.unit for p in spec.dynamics.param_specs()}
             models.append(_model_entry(
-                kind, labels[kind][0], labels[kind][1], dict(res.params), dict(res.ci95),
-                truth.get(kind, {}), {k: units.get(k, "") for k in res.params}, res.method,
-                _fit_dict(res.fit), f"models/{kind}.json"))
+                kind, f"{spec.title} ({spec.reference})", spec.equation, dict(res.params),
+                dict(res.ci95), truth.get(kind, {}), {k: units.get(k, "") for k in res.params},
+                res.method, _fit_dict(res.fit), f"models/{kind}.json"))
         lin = camp.truth_extra.get("nomoto_linearised")
-        own = camp.truth_extra.get("nomoto_yaw_rate_oe")
         for m in models:
-            if m["kind"] == "nomoto1" and lin and own:
+            if m["kind"] == "nomoto1" and lin:
                 m["note"] = (
-                    f"For comparison: yaw-rate-only output-error fit to the noise-free 3-DOF "
-                    f"zig-zag K = {own['K']:.4g} 1/s, T = {own['T']:.4g} s; small-signal "
-                    f"linearisation at {lin['u0']:.3g} m/s (Nomoto 2nd order, seed 000 eq. 29) "
+                    f"For comparison: the small-signal linearisation of the 3-DOF model at "
+                    f"{lin['u0']:.3g} m/s (Nomoto 2nd order, Mu et al. 2018, eq. 29) "
                     f"K = {lin['K']:.4g} 1/s, T1 = {lin['T1']:.4g} s, T2 = {lin['T2']:.4g} s, "
                     f"T3 = {lin['T3']:.4g} s (T1 + T2 - T3 = {lin['T']:.4g} s).")
             if m["kind"] == "threedof":
-                m["note"] = ("Identified from all seven trials (seed 000 used the 10/10 zig-zag "
-                             "alone, which cannot separate a_u from a_tau at one shaft speed).")
+                m["note"] = ("Identified from all seven trials (Mu et al. 2018 used the 10/10 "
+                             "zig-zag alone, which cannot separate the surge damping from the "
+                             "thrust at one shaft speed).")
         self.state["identified"] = ident
         self.run["models"] = models
-        nb = _norrbin_curve(nor, turns)
+        nb = _norrbin_curve(ident["norrbin"], turns)
         if nb:
             self.run["norrbin_fit"] = nb
-        notes.append(f"K = {nom.params['K']:.4g} 1/s, T = {nom.params['T']:.4g} s")
+        nom = ident["nomoto1"].params
+        notes.append(f"K = {nom['K']:.4g} 1/s, T = {nom['T']:.4g} s")
         return "; ".join(notes)
 
     # -- 5. validate ---------------------------------------------------------------------------
     def step_validate(self) -> str:
-        (trials, ident, servo, camp) = self.require("trials", "identified", "servo", "campaign")
-        validate = need("usvid.report.validation", "validate_against")
+        (trials, ident, camp) = self.require("trials", "identified", "campaign")
         entries = []
         kinds = ["nomoto1", "threedof"]
         if "norrbin" in ident and norrbin_turns_everywhere(ident["norrbin"].params):
@@ -329,18 +285,17 @@ class DemoPipeline:
                 continue
             for tname in ("zigzag_15_15", "zigzag_10_10", "turning_35", "turning_10"):
                 if tname in trials:
-                    entries.append(validate(ident[model_kind].model, servo, trials[tname],
-                                            camp.manoeuvre(tname), model_kind, camp))
+                    entries.append(validate_against(ident[model_kind].model, trials[tname],
+                                                    camp.manoeuvre(tname), model_kind, camp))
         self.run["validation"] = entries
         return f"{len(entries)} comparisons"
 
     # -- 6. course keeping ---------------------------------------------------------------------
     def step_course_keeping(self) -> str:
-        (ident, servo, camp) = self.require("identified", "servo", "campaign")
-        course = need("usvid.report.validation", "course_keeping")
+        (ident, camp) = self.require("identified", "campaign")
         kind = ("norrbin" if "norrbin" in ident
                 and norrbin_turns_everywhere(ident["norrbin"].params) else "nomoto1")
-        cc = course(ident[kind].model, servo, camp, seed=self.seed, gains=PID_GAINS,
+        cc = course_keeping(ident[kind].model, camp, seed=self.seed, gains=PID_GAINS,
                     target_deg=COURSE_TARGET_DEG, dist_deg=COURSE_DIST_DEG,
                     t_end=COURSE_T_END_S)
         cc["model"] = kind
@@ -353,17 +308,15 @@ class DemoPipeline:
 
     # -- 7. turning diameter -------------------------------------------------------------------
     def step_turning_diameter(self) -> str:
-        need("usvid.identify.turning_diameter", "fit_turning_diameter")
-        fit_td = need("usvid.report.validation", "turning_diameter_fit")
-        td = fit_td(seed=self.seed, quick=self.quick)
+        td = turning_diameter_fit(seed=self.seed, quick=self.quick)
         self.run["turning_diameter"] = td
         return f"RMS {td['rms']:.4g} (published eq. 3: {td.get('rms_published', float('nan')):.4g})"
 
     # -- 8. write ------------------------------------------------------------------------------
     def write_models(self) -> list[Path]:
         paths = []
-        for kind, d in sorted(self.state.get("model_files", {}).items()):
-            paths.append(write_atomic(self.out / "models" / f"{kind}.json", to_json(d) + "\n"))
+        for kind, model in sorted(self.state.get("model_files", {}).items()):
+            paths.append(save_model(model, self.out / "models" / f"{kind}.json"))
         servo = self.state.get("servo")
         if servo is not None:
             paths.append(write_atomic(self.out / "models" / "servo.json",
@@ -371,8 +324,6 @@ class DemoPipeline:
         return paths
 
     def execute(self) -> DemoResult:
-        from usvid.report.run import save_run, write_report
-
         t_start = time.perf_counter()
         with self.progress:
             self.step("campaign", "Generate virtual Lanxin campaign (logs)", self.step_campaign)
@@ -427,10 +378,9 @@ def norrbin_turns_everywhere(params: dict[str, float],
     return (2.0 / 3.0) * n1 * r_star > abs(K) * delta_max
 
 
-def _relative_sources(d: dict[str, Any], base: Path) -> dict[str, Any]:
-    """Model-file dict with its data paths relative to the run folder (so that the same seed
-    gives byte-identical model files wherever the run is written)."""
-    ident = d.get("identification") or {}
+def _relative_sources(ident: dict[str, Any], base: Path) -> dict[str, Any]:
+    """A model's identification record with its data paths relative to the run folder (so that
+    the same seed gives byte-identical model files wherever the run is written)."""
 
     def rel(p: str) -> str:
         try:
@@ -442,7 +392,7 @@ def _relative_sources(d: dict[str, Any], base: Path) -> dict[str, Any]:
         ident["data"] = [rel(p) for p in ident["data"]]
     if isinstance(ident.get("data_sha256"), dict):
         ident["data_sha256"] = {rel(k): v for k, v in ident["data_sha256"].items()}
-    return d
+    return ident
 
 
 def acceptance(run: dict[str, Any]) -> dict[str, Any]:
@@ -542,9 +492,6 @@ def summary_rows(run: dict[str, Any]) -> list[tuple[str, str, str, str, str, str
 
 def print_summary(result: DemoResult) -> None:
     """The final rich table (stderr): identified parameters next to the truth, step status."""
-    from rich.console import Console
-    from rich.table import Table
-
     console = Console()
     table = Table(title="Identified parameters vs simulation truth")
     for col in ("model", "parameter", "identified", "95 % interval", "truth", "error"):

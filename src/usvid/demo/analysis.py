@@ -7,29 +7,19 @@ Units: SI and radians inside; the returned dicts carry degrees where the key say
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any
 
 import numpy as np
 
+from usvid.identify.turning_diameter import fit_turning_diameter, load_turning_table
+from usvid.models.turning_diameter import relative_turning_diameter
+from usvid.prep.metrics import turning_metrics, zigzag_metrics
+from usvid.sim import PID, CourseChange, Disturbance, Turning, ZigZag, simulate
+from usvid.sim.imo import imo_turning_check, imo_zigzag_check, zigzag_kind
+
 #: Samples per second kept for the figures in run.json (the logs are 50 Hz).
 PLOT_RATE_HZ = 5.0
-
-
-def vessel_model(dynamics: Any, servo: dict[str, Any], vessel: dict[str, Any]) -> Any:
-    """A :class:`~usvid.models.model.VesselModel` from identified dynamics and servo dict
-    (``omega_n`` [rad/s], ``zeta``, ``gain``, ``delay`` [s], ``max_angle_deg``)."""
-    from usvid.models.model import VesselModel
-    from usvid.models.servo import SecondOrderServo
-    from usvid.trial import Vessel
-
-    dyn = getattr(dynamics, "dynamics", dynamics)
-    sv = SecondOrderServo(omega_n=servo["omega_n"], zeta=servo["zeta"], gain=servo["gain"],
-                          delay=servo["delay"],
-                          max_angle=math.radians(servo.get("max_angle_deg", 35.0)))
-    return VesselModel(dynamics=dyn, servo=sv,
-                       vessel=Vessel(length=vessel["length"], speed=vessel["speed"]))
 
 
 def _execute_time(t: np.ndarray, cmd: np.ndarray, amp: float) -> float:
@@ -45,8 +35,8 @@ def _decimate(t: np.ndarray, arrays: dict[str, np.ndarray]) -> tuple[list, dict[
              for k, a in arrays.items()})
 
 
-def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre: Any,
-                     model_kind: str, camp: Any) -> dict[str, Any]:
+def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
+                     camp: Any) -> dict[str, Any]:
     """Simulate the identified model through the trial's manoeuvre and compare.
 
     The simulation starts from the measured initial heading and speed; zig-zag and turning use
@@ -56,9 +46,6 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
     (x, y [m]; psi, r, delta in deg, deg/s, deg; u, v [m/s]), measured and simulated manoeuvre
     metrics, IMO criteria of the measured trial, RMS errors.
     """
-    from usvid.prep.metrics import turning_metrics, zigzag_metrics
-    from usvid.sim import Turning, ZigZag, simulate
-    from usvid.sim.imo import imo_turning_check, imo_zigzag_check, zigzag_kind
 
     t = trial.t
     L = float(camp.vessel["length"])
@@ -74,10 +61,6 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
     first = slice(0, max(int(1.0 / float(np.median(np.diff(t)))), 2))
     psi0 = float(np.nanmean(psi_meas[first]))
     u0 = float(np.nanmean(u_meas[first]))
-    dyn = getattr(dynamics, "dynamics", dynamics)
-    if model_kind == "threedof":
-        dyn = dataclasses.replace(dyn, thrust=camp.propeller, n=float(np.nanmean(trial["n"])))
-    model = vessel_model(dyn, servo, camp.vessel)
     if manoeuvre.kind == "zigzag":
         logic: Any = ZigZag(amp, math.radians(manoeuvre.psi_deg), t_start=t_exec)
     else:
@@ -152,7 +135,7 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
     return entry
 
 
-def course_keeping(dynamics: Any, servo: dict[str, Any], camp: Any, *, seed: int,
+def course_keeping(model: Any, camp: Any, *, seed: int,
                    gains: dict[str, tuple[float, float, float]], target_deg: float = 100.0,
                    dist_deg: float = 2.0, t_end: float = 120.0) -> dict[str, Any]:
     """PD vs PID course change 0 -> ``target_deg`` on the identified model under the seed 000
@@ -162,9 +145,7 @@ def course_keeping(dynamics: Any, servo: dict[str, Any], camp: Any, *, seed: int
     Returns the ``run.json`` course_keeping entry (decimated psi, delta [deg], disturbance
     [deg], ITAE [rad s^2], IAE [rad s], max rudder [deg] per controller).
     """
-    from usvid.sim import PID, CourseChange, Disturbance, simulate
 
-    model = vessel_model(dynamics, servo, camp.vessel)
     dist = Disturbance(math.radians(dist_deg), seed=seed)
     runs, t, d = [], None, None
     for label, (kp, ki, kd) in gains.items():
@@ -198,8 +179,6 @@ def course_keeping(dynamics: Any, servo: dict[str, Any], camp: Any, *, seed: int
 def turning_diameter_fit(seed: int = 0, quick: bool = False) -> dict[str, Any]:
     """Seed 004 eq. 1 fitted to seed 004 Table 2 by the chaotic GA (seed 004's settings; fewer
     generations when ``quick``), next to the published eq. 3. Returns the ``run.json`` entry."""
-    from usvid.identify.turning_diameter import fit_turning_diameter, load_turning_table
-    from usvid.models.turning_diameter import relative_turning_diameter
 
     Fr, delta, DL = load_turning_table(None)
     opts = {"generations": 150} if quick else None

@@ -25,9 +25,30 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from datetime import datetime, timedelta
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
+import pymap3d
+import yaml
+from scipy.optimize import brentq
+
+from usvid.files import write_atomic
+from usvid.identify.estimator import identify
+from usvid.io.n2k import read_candump, write_candump
+from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
+from usvid.io.spec import load_spec
+from usvid.io.table import read_table
+from usvid.models import seed000_threedof
+from usvid.models.model import VesselModel
+from usvid.models.servo import SecondOrderServo
+from usvid.models.thrust import Propeller
+from usvid.prep.merge import merge_trials
+from usvid.sim import Commanded, Disturbance, Turning, ZigZag, simulate
+from usvid.sim.virtual import SensorModel, run_channels, virtual_trial
+from usvid.trial import Trial, Vessel
 
 KNOT = 1852.0 / 3600.0  # [m/s]
 
@@ -40,6 +61,14 @@ LANXIN = {
 LANXIN_PROPELLER = {"D": 0.46, "pitch_ratio": 0.3, "disk_ratio": 0.516, "t_P": 0.05, "w_P": 0.04}
 #: Thruster arm behind the pivot [m] (not printed in seed 000; about half the length).
 LANXIN_X_L = 3.5
+#: The particulars a 3-DOF model needs besides the data, as the format specs carry them
+#: (``vessel.extra``; see :mod:`usvid.models.kinds.threedof`).
+LANXIN_PARTICULARS = {
+    "x_l": LANXIN_X_L, "propeller_diameter": LANXIN_PROPELLER["D"],
+    "propeller_pitch_ratio": LANXIN_PROPELLER["pitch_ratio"],
+    "propeller_disk_ratio": LANXIN_PROPELLER["disk_ratio"],
+    "thrust_deduction": LANXIN_PROPELLER["t_P"], "wake_fraction": LANXIN_PROPELLER["w_P"],
+}
 #: Identified servo of seed 000 section 5.1.3: 1.95 / (s^2 + 2.38125 s + 1.95), 1 s dead time.
 LANXIN_SERVO = {"omega_n": math.sqrt(1.95), "zeta": 2.38125 / (2.0 * math.sqrt(1.95)),
                 "gain": 1.0, "delay": 1.0}
@@ -108,7 +137,6 @@ def speed_step_schedule(n0: float, duration_s: float) -> tuple[np.ndarray, np.nd
 # --- the truth model ---------------------------------------------------------------------------
 def lanxin_propeller() -> Any:
     """The Lanxin propeller as a :class:`usvid.models.thrust.Propeller`."""
-    from usvid.models.thrust import Propeller
 
     return Propeller(**LANXIN_PROPELLER)
 
@@ -116,9 +144,7 @@ def lanxin_propeller() -> Any:
 def shaft_speed_for(speed: float = LANXIN["speed"], x_l: float = LANXIN_X_L) -> float:
     """Shaft speed n [rps] at which the eq. 37 model holds ``speed`` [m/s] straight ahead:
     solves ``d11 u = T(n, u)`` (seed 000 eq. 1 and eq. 17 with u' = 0, v = r = 0)."""
-    from scipy.optimize import brentq
 
-    from usvid.models.threedof import seed000_threedof
 
     d11 = float(seed000_threedof(x_l=x_l).d11)
     prop = lanxin_propeller()
@@ -129,10 +155,6 @@ def shaft_speed_for(speed: float = LANXIN["speed"], x_l: float = LANXIN_X_L) -> 
 def lanxin_model(x_l: float = LANXIN_X_L, speed: float = LANXIN["speed"]) -> Any:
     """The truth :class:`~usvid.models.model.VesselModel`: eq. 37 3-DOF + propeller at the
     10 kn shaft speed + the seed 000 servo (second order, 1 s dead time, +-35 deg)."""
-    from usvid.models.model import VesselModel
-    from usvid.models.servo import SecondOrderServo
-    from usvid.models.threedof import seed000_threedof
-    from usvid.trial import Vessel
 
     n0 = shaft_speed_for(speed, x_l)
     dyn = seed000_threedof(x_l=x_l, thrust=lanxin_propeller(), n=n0)
@@ -167,38 +189,6 @@ def linearised_response(model: Any, speed: float | None = None) -> dict[str, flo
     T1, T2 = (s1 + disc) / 2.0, (s1 - disc) / 2.0
     T3 = 1.0 / (-a11)
     return {"K": K, "T1": T1, "T2": T2, "T3": T3, "T": T1 + T2 - T3, "u0": u0}
-
-
-def fit_nomoto_output_error(t: np.ndarray, delta: np.ndarray, r: np.ndarray,
-                            K0: float = 0.5, T0: float = 1.0) -> dict[str, float]:
-    """Least-squares output-error fit of ``T r' + r = K delta`` to (t [s], delta [rad], r
-    [rad/s]) on a uniform grid; zero-order hold on delta, r(0) from the data.
-
-    Used to define the Nomoto truth from noise-free simulation (not an estimator for noisy
-    logs). Returns K [1/s], T [s] and the RMS residual [rad/s].
-    """
-    from scipy.optimize import least_squares
-    from scipy.signal import lfilter
-
-    t = np.asarray(t, float)
-    delta = np.asarray(delta, float)
-    r = np.asarray(r, float)
-    dt = float(np.median(np.diff(t)))
-
-    def sim(p: np.ndarray) -> np.ndarray:
-        K, T = p
-        a = math.exp(-dt / T)
-        # r[k+1] = a r[k] + (1 - a) K delta[k] (exact for piecewise-constant delta);
-        # transposed direct form: y[0] = zi[0] = r[0].
-        return lfilter([0.0, (1.0 - a) * K], [1.0, -a], delta, zi=np.array([r[0]]))[0]
-
-    def resid(p: np.ndarray) -> np.ndarray:
-        return sim(p) - r
-
-    sol = least_squares(resid, x0=[K0, T0], bounds=([1e-6, 1e-3], [100.0, 1e3]), xtol=1e-12,
-                        ftol=1e-12)
-    return {"K": float(sol.x[0]), "T": float(sol.x[1]),
-            "rms": float(np.sqrt(np.mean(sol.fun ** 2)))}
 
 
 @dataclass
@@ -352,49 +342,38 @@ def norrbin_alpha(K: float, delta: np.ndarray, r: np.ndarray) -> float:
 def campaign_truth(model: Any, quick: bool = False) -> tuple[dict[str, dict[str, float]],
                                                               dict[str, Any]]:
     """Truth parameters of every identified model kind (see :data:`TRUTH_DEFINITION`)."""
-    from usvid.models.model import VesselModel
-    from usvid.sim import Turning, ZigZag, simulate
 
     dyn = model.dynamics
     speed = float(model.vessel.speed)
-    # the two zig-zags of the programme (10/10 and 15/15), one batch, noise-free
+    # the two zig-zags of the programme (10/10 and 15/15), one batch, noise-free: the Nomoto
+    # truth is the estimator's own output-error fit to them (perfect sensors)
     amps = np.radians([10.0, 15.0])
     zz = simulate(model, ZigZag(amps, amps, t_start=APPROACH_S),
                   t_end=45.0 if quick else 120.0, dt=0.02, u0=speed)
-    t = np.asarray(zz.t)
-    sel = t >= APPROACH_S - 1.0
-    own = fit_nomoto_output_error(t[sel], zz.channels["delta"][0, sel], zz.channels["r"][0, sel],
-                                  K0=0.7, T0=0.3)
-    nom = dict(own)
-    try:  # the same output-error criterion and data as the identification (usvid.identify)
-        from usvid.identify.estimator import identify
-
-        est = identify([zz.to_trial(0, name="zigzag_10_10_truth"),
-                        zz.to_trial(1, name="zigzag_15_15_truth")], "nomoto1", "oe")
-        nom = {"K": float(est.params["K"]), "T": float(est.params["T"]), "rms": own["rms"],
-               "criterion": "usvid.identify oe"}
-    except ImportError:  # estimator not available: the yaw-rate output-error fit above
-        nom["criterion"] = "yaw-rate output error (lfilter)"
+    est = identify([zz.to_trial(0, name="zigzag_10_10_truth"),
+                    zz.to_trial(1, name="zigzag_15_15_truth")], "nomoto1", "oe")
+    nom = {"K": float(est.params["K"]), "T": float(est.params["T"]),
+           "criterion": "usvid.identify oe"}
     turns = simulate(model, Turning(np.radians([10.0, 15.0, 25.0, 35.0]), t_start=APPROACH_S),
                      t_end=60.0, dt=0.02, u0=speed)
     d_ss, r_ss = _steady_turns(turns)
     alpha = norrbin_alpha(nom["K"], d_ss, r_ss)
     lin = linearised_response(model, speed)
-    reg = dyn.regression_coefficients()
     servo = model.servo
     truth = {
-        "threedof": {k: float(v) for k, v in reg.items()},
+        "threedof": {k: float(getattr(dyn, k)) for k in ("m11", "m22", "m33", "d11", "d22",
+                                                          "d33")},
         "nomoto1": {"K": nom["K"], "T": nom["T"], "delta0": 0.0},
         "norrbin": {"K": nom["K"], "T": nom["T"], "n1": 1.0, "n3": alpha, "delta0": 0.0},
         "servo": {"omega_n": float(servo.omega_n), "zeta": float(servo.zeta),
                   "gain": float(servo.gain), "delay": float(servo.delay)},
     }
-    extra = {"nomoto_linearised": lin, "nomoto_yaw_rate_oe": own,
-             "nomoto_truth_criterion": nom["criterion"],
+    extra = {"nomoto_linearised": lin, "nomoto_truth_criterion": nom["criterion"],
+             "threedof_regression": {k: float(v) for k, v in
+                                     dyn.regression_coefficients().items()},
              "steady_turns": {"delta_deg": np.degrees(d_ss).tolist(),
                               "r_deg_s": np.degrees(r_ss).tolist()},
              "shaft_speed_rps": float(dyn.n), "x_l": float(dyn.x_l)}
-    del VesselModel
     return truth, extra
 
 
@@ -447,10 +426,7 @@ def _to_logs(trial: Any, t0_utc: str, truth: tuple[np.ndarray, dict[str, np.ndar
     Adds the GNSS wander (:data:`GNSS_WANDER_M`) to the positions and a Doppler course over
     ground (true course ``psi + atan2(v, u)`` plus :data:`COG_SIGMA_DEG` noise) at the fixes.
     """
-    import pandas as pd
-    import pymap3d
 
-    from usvid.trial import Trial
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 7]))
     d = trial.data
@@ -501,16 +477,8 @@ def generate_campaign(out_dir: Any, seed: int = 1, quick: bool = False) -> Campa
     ``NAME.csv`` (logger export), plus the three format specs ``lanxin_*.yaml``. Deterministic
     for a given ``seed`` (disturbance and sensor noise are seeded; file times are fixed).
     """
-    from datetime import datetime, timedelta
-    from pathlib import Path
 
-    import yaml
 
-    from usvid.commands._common import write_atomic
-    from usvid.io.n2k import write_candump
-    from usvid.io.nmea0183 import write_nmea0183
-    from usvid.sim import Commanded, Disturbance, Turning, ZigZag, simulate
-    from usvid.sim.virtual import SensorModel, run_channels, virtual_trial
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -521,7 +489,7 @@ def generate_campaign(out_dir: Any, seed: int = 1, quick: bool = False) -> Campa
     for key, (fname, spec) in SPEC_FILES.items():
         spec = dict(spec)
         spec["vessel"] = {"length": LANXIN["length"], "speed": speed, "beam": LANXIN["beam"],
-                          "draft": LANXIN["draft"]}
+                          "draft": LANXIN["draft"], "extra": LANXIN_PARTICULARS}
         specs[key] = str(write_atomic(out / fname, yaml.safe_dump(spec, sort_keys=False)))
     sensors = SensorModel(**SENSORS)
     results = {}
@@ -579,13 +547,7 @@ def read_campaign_trial(ct: CampaignTrial, specs: dict[str, str] | None = None) 
     stamps (NaN where a channel has no sample), the readers' rejected counts summed, and their
     findings concatenated (:func:`usvid.prep.merge_trials`).
     """
-    from pathlib import Path
 
-    from usvid.io.n2k import read_candump
-    from usvid.io.nmea0183 import read_nmea0183
-    from usvid.io.spec import load_spec
-    from usvid.io.table import read_table
-    from usvid.prep.merge import merge_trials
 
     files = ct.files
     folder = Path(files["nmea0183"]).parent

@@ -8,10 +8,9 @@ Schema (``ARCHITECTURE.md``, "Model file")::
      "vessel": {"length": 7.0, "speed": 1.18},
      "identification": {"data": ["..."], "method": "...", "std_errors": {}, "fit": {}}}
 
-* ``kind`` and its SI ``parameters``: ``nomoto1`` (K [1/s], T [s], delta0 [rad]); ``nomoto2``
-  (K, T1, T2, T3, delta0); ``norrbin`` (K, T, n1, n3, delta0; seed 000's alpha is n3 with n1 = 1);
-  ``threedof`` and ``catamaran``: the fields of :class:`usvid.models.threedof.ThreeDOF` and
-  :class:`usvid.models.catamaran.Catamaran` (numbers; their ``thrust`` as a nested object, see
+* ``kind`` (a registered kind, :mod:`usvid.models.registry`) and its SI ``parameters``: the
+  fields of the kind's parameter set, generated from its declarations (name, unit, bounds);
+  sub-models such as ``thrust`` as a number or a nested ``{"kind": ...}`` object (see
   :func:`_thrust_to_dict`).
 * ``servo.kind``: ``ideal``, ``first_order`` (T [s]), ``second_order`` (omega_n [rad/s], zeta,
   gain, delay [s]); each with ``max_angle_deg`` (default 35) and ``max_rate_deg_s`` (default
@@ -42,6 +41,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
 from usvid.errors import ModelFileError, UsvidError
+from usvid.files import jsonable, write_atomic
+from usvid.models import registry
+from usvid.models.model import VesselModel
+from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo
+from usvid.models.thrust import THRUST_LAWS
 from usvid.trial import VESSEL_FIELDS, Vessel
 
 __all__ = [
@@ -55,7 +59,7 @@ __all__ = [
 ]
 
 FORMAT_VERSION = 1
-MODEL_KINDS = ("nomoto1", "nomoto2", "norrbin", "threedof", "catamaran")
+MODEL_KINDS = registry.names()
 SERVO_KINDS = ("ideal", "first_order", "second_order")
 
 _STRICT = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
@@ -116,35 +120,10 @@ class IdentificationSpec(BaseModel):
     fit: dict[str, Any] = Field(default_factory=dict)
 
 
-class Nomoto1Params(BaseModel):
-    model_config = _STRICT
-    K: Num
-    T: Pos
-    delta0: Num = 0.0
-
-
-class Nomoto2Params(BaseModel):
-    model_config = _STRICT
-    K: Num
-    T1: Pos
-    T2: Pos
-    T3: Num = 0.0
-    delta0: Num = 0.0
-
-
-class NorrbinParams(BaseModel):
-    model_config = _STRICT
-    K: Num
-    T: Pos
-    n1: Num = 1.0
-    n3: Num = 0.0
-    delta0: Num = 0.0
-
-
 class ModelFileSpec(BaseModel):
     model_config = _STRICT
     usvid_model: Literal[1]
-    kind: Literal["nomoto1", "nomoto2", "norrbin", "threedof", "catamaran"]
+    kind: str
     parameters: dict[str, Any]
     servo: ServoSpec = Field(default_factory=lambda: IdealServoSpec(kind="ideal"))
     vessel: VesselSpec = Field(default_factory=VesselSpec)
@@ -159,11 +138,13 @@ class ModelFileSpec(BaseModel):
         return v
 
 
-_RESPONSE_PARAMS: dict[str, type[BaseModel]] = {
-    "nomoto1": Nomoto1Params,
-    "nomoto2": Nomoto2Params,
-    "norrbin": NorrbinParams,
-}
+    @field_validator("kind")
+    @classmethod
+    def _known_kind(cls, v: str) -> str:
+        if v not in registry.names():
+            raise PydanticCustomError("literal_error", "must be one of {expected}",
+                                      {"expected": ", ".join(registry.names())})
+        return v
 
 
 # ---------------------------------------------------------------------------------------------
@@ -241,30 +222,14 @@ def _raise(exc: ValidationError, source: str, prefix: str = "") -> typing.NoRetu
 # ---------------------------------------------------------------------------------------------
 # 3-DOF and catamaran parameters: derived from the dataclasses of usvid.models
 # ---------------------------------------------------------------------------------------------
-def _dynamics_class(kind: str) -> type:
-    if kind == "nomoto1":
-        from usvid.models.response import Nomoto1 as cls
-    elif kind == "nomoto2":
-        from usvid.models.response import Nomoto2 as cls
-    elif kind == "norrbin":
-        from usvid.models.response import Norrbin as cls
-    elif kind == "threedof":
-        try:
-            from usvid.models.threedof import ThreeDOF as cls
-        except ImportError as exc:  # pragma: no cover - the module ships with usvid
-            raise ModelFileError("model kind 'threedof' is not available") from exc
-    elif kind == "catamaran":
-        try:
-            from usvid.models.catamaran import Catamaran as cls
-        except ImportError as exc:  # pragma: no cover
-            raise ModelFileError("model kind 'catamaran' is not available") from exc
-    else:  # pragma: no cover - the schema's Literal catches it first
-        raise ModelFileError(f"unknown model kind {kind!r}")
-    return cls
-
-
 def _field_type(f: dataclasses.Field) -> Any:
-    """The JSON type of a dataclass field, read from its (string) annotation."""
+    """The JSON type of a dataclass field: from a kind's parameter declaration (a number, or a
+    number / nested object for a sub-model), else read from its (string) annotation."""
+    meta = f.metadata.get("usvid")
+    if meta is not None:
+        if meta.get("submodel"):
+            return float | dict[str, Any] | None
+        return float | None if meta.get("default") is None else float
     text = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", repr(f.type))
     text = text.replace("typing.", "")
     optional = "None" in text or f.default is None
@@ -283,17 +248,8 @@ def _field_type(f: dataclasses.Field) -> Any:
 
 
 def _nested_classes() -> dict[str, type]:
-    """Thrust/propulsion dataclasses allowed as a nested ``{"kind": ..., ...}`` object."""
-    out: dict[str, type] = {}
-    try:
-        import usvid.models.thrust as th
-    except ImportError:  # pragma: no cover
-        return out
-    for name in dir(th):
-        obj = getattr(th, name)
-        if isinstance(obj, type) and dataclasses.is_dataclass(obj):
-            out[_snake(name)] = obj
-    return out
+    """Thrust laws allowed as a nested ``{"kind": ..., ...}`` object."""
+    return dict(THRUST_LAWS)
 
 
 def _snake(name: str) -> str:
@@ -417,8 +373,6 @@ def validate_model_dict(d: Any, source: str = "model") -> ModelFileSpec:
 
 
 def _make_servo(spec: Any, source: str) -> Any:
-    from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo
-
     common = {"max_angle": math.radians(spec.max_angle_deg),
               "max_rate": math.inf if spec.max_rate_deg_s is None
               else math.radians(spec.max_rate_deg_s)}
@@ -434,11 +388,8 @@ def _make_servo(spec: Any, source: str) -> Any:
 
 
 def _make_dynamics(kind: str, params: dict[str, Any], source: str) -> Any:
-    cls = _dynamics_class(kind)
-    if kind in _RESPONSE_PARAMS:
-        spec = _RESPONSE_PARAMS[kind]
-    else:
-        spec = _dataclass_params_model(cls, f"{cls.__name__}Params")
+    cls = registry.get(kind).dynamics
+    spec = _dataclass_params_model(cls, f"{cls.__name__}Params")
     kwargs = _validated_kwargs(spec, params, "parameters", source)
     try:
         return cls(**kwargs)
@@ -456,8 +407,6 @@ def model_from_dict(d: Any, source: str = "model") -> Any:
 
     ``source`` (usually the file name) prefixes every error message.
     """
-    from usvid.models.model import VesselModel
-
     spec = validate_model_dict(d, source)
     dynamics = _make_dynamics(spec.kind, spec.parameters, source)
     servo = _make_servo(spec.servo, source)
@@ -513,9 +462,7 @@ def model_to_dict(model: Any) -> dict[str, Any]:
         ident = model.identification
         if hasattr(ident, "to_dict"):
             ident = ident.to_dict()
-        from usvid.commands._common import _jsonable
-
-        out["identification"] = _jsonable(_jsonify(dict(ident)))  # NaN -> null
+        out["identification"] = jsonable(_jsonify(dict(ident)))  # NaN -> null
     return out
 
 
@@ -543,9 +490,8 @@ def load_model(path: str | Path) -> Any:
 
 
 def save_model(model: Any, path: str | Path) -> Path:
-    """Write ``model`` (a ``VesselModel``) as a model file, atomically. Returns the path."""
-    from usvid.commands._common import write_atomic
-
+    """Write ``model`` (a ``VesselModel``) as a model file, atomically. Returns the path.
+    The one writer of model files (the CLI and the estimator's ``to_dict`` use it)."""
     d = model_to_dict(model)
     text = json.dumps(d, indent=2, allow_nan=False) + "\n"
     return write_atomic(path, text)
