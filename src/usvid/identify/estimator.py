@@ -51,7 +51,12 @@ from usvid.identify.equation_error import fit_equation_error, two_step_norrbin
 from usvid.identify.ls import FittedAttributes, interval95, quantile975, standard_errors
 from usvid.identify.metrics import fit_metrics
 from usvid.identify.output_error import OEResult, refine_output_error
-from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
+from usvid.identify.replay import (
+    helm_rate,
+    measured_rudder_rate,
+    refine_zigzag_oe,
+    zigzag_runs,
+)
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import identify_second_order_servo
 from usvid.io.modelfile import model_to_dict
@@ -462,7 +467,17 @@ class ModelEstimator(FittedAttributes):
             warnings.warn(f"servo not identified ({'; '.join(errors)}); an ideal servo is used",
                           IdentificationWarning, stacklevel=3)
         rate = zz_rate if zz_rate is not None else helm_rate(vessel)
-        return IdealServo(max_rate=math.inf if rate is None else rate), {}
+        source = "zig-zag replay fit" if zz_rate is not None else "vessel.extra.helm_rate_deg_s"
+        if rate is None:  # measured on the rudder ramps of the training trials
+            rates = [measured_rudder_rate(tr.t, tr["delta"]) for tr in trials
+                     if tr.has("delta") and np.ptp(tr["delta"]) > 2 * MIN_DELTA_STD]
+            rates = [r for r in rates if math.isfinite(r)]
+            rate = float(np.median(rates)) if rates else None
+            source = "measured rudder ramps"
+        if rate is None:
+            return IdealServo(), {}
+        return IdealServo(max_rate=rate), {"kind": "ideal", "max_rate_deg_s": math.degrees(rate),
+                                           "rate_from": source}
 
     def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> None:
         """Warn when a parameter's 95 % half-width ``q se`` exceeds half its magnitude

@@ -13,13 +13,14 @@ from usvid.models.kinds.norrbin import Norrbin
 from usvid.models.kinds.threedof import SEED000_EQ37, ThreeDOF
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
+from usvid.models import registry
 from usvid.models.registry import names as kind_names
 from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo, seed000_servo
 
 __all__ = [
     "SEED000_EQ37", "Catamaran", "FirstOrderServo", "IdealServo", "Nomoto1", "Nomoto2",
     "Norrbin", "SecondOrderServo", "ThreeDOF", "VesselModel", "get_kind", "kind_names",
-    "seed000_servo", "seed000_threedof",
+    "registry", "seed000_servo", "seed000_threedof",
 ]
 
 
