@@ -87,7 +87,13 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
         raise LogReadError(f"{p}: no such file")
     if p.is_dir():
         raise LogReadError(f"{p}: is a folder, not a log file")
+    if p.is_dir() and (fs is None or fs.reader == "rosbag"):
+        pass  # a ROS 2 bag is a folder
     reader = fs.reader if fs is not None else detect_reader(p)
+    if reader == "rosbag":
+        from usvid.io.rosbag import read_rosbag
+
+        return read_rosbag(p, fs)
     if reader == "nmea0183":
         return read_nmea0183(p, fs)
     if reader == "nmea2000":
