@@ -94,6 +94,18 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
         from usvid.io.rosbag import read_rosbag
 
         return read_rosbag(p, fs)
+    if reader == "ulog":
+        from usvid.io.ulog import read_ulog
+
+        return read_ulog(p, fs)
+    if reader == "dataflash":
+        from usvid.io.ardupilot import read_dataflash
+
+        return read_dataflash(p, fs)
+    if reader == "tlog":
+        from usvid.io.ardupilot import read_tlog
+
+        return read_tlog(p, fs)
     if reader == "nmea0183":
         return read_nmea0183(p, fs)
     if reader == "nmea2000":

@@ -105,6 +105,7 @@ SPEC_KEYS = (
     "time_source",
     "n2k_format",
     "description",
+    "variants",
     "columns",
     "vessel",
 )
@@ -173,6 +174,7 @@ class FormatSpec:
     description: str = ""
     vessel: Vessel = field(default_factory=Vessel)
     source: str = "<spec>"
+    variants: dict[str, FormatSpec] = field(default_factory=dict)
 
     @property
     def uses_names(self) -> bool:
@@ -436,6 +438,7 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
                 )
 
     vessel = _vessel(d["vessel"], source) if "vessel" in d else Vessel()
+    variants = _variants(d, reader, source)
     return FormatSpec(
         reader=reader,
         columns=columns,
@@ -451,7 +454,27 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
         description=desc,
         vessel=vessel,
         source=source,
+        variants=variants,
     )
+
+
+def _variants(d: dict, reader: str, source: str) -> dict[str, FormatSpec]:
+    """``variants: {READER: {columns: ...}}``: the same setup logged in another format (e.g. an
+    ArduPilot DataFlash preset's MAVLink tlog columns); each inherits ``description`` and
+    ``vessel`` and is used when the log turns out to be of that reader's format."""
+    v = d.get("variants", {}) or {}
+    if not isinstance(v, dict):
+        raise _err(source, "variants", f"expected a mapping reader -> spec, got {v!r}")
+    out = {}
+    for k, sub in v.items():
+        if k not in MESSAGE_READERS or k == reader or reader not in MESSAGE_READERS:
+            raise _err(source, f"variants.{k}", f"expected another message-log reader than "
+                                                f"{reader} (one of {', '.join(MESSAGE_READERS)})")
+        if not isinstance(sub, dict) or "reader" in sub or "variants" in sub:
+            raise _err(source, f"variants.{k}", "expected a mapping without 'reader'/'variants'")
+        base = {x: d[x] for x in ("description", "vessel") if x in d}
+        out[k] = parse_spec({**base, **sub, "reader": k}, source=f"{source} (variants.{k})")
+    return out
 
 
 def load_spec(path: str | Path) -> FormatSpec:
