@@ -18,8 +18,8 @@ to UTC (``meta["t0_utc"]``, GPS - UTC = 18 s).
 MAVLink tlog: records of an 8-byte big-endian receive time [us since 1970] followed by one
 MAVLink 1 or 2 packet; pymavlink parses them (checksums checked) one by one, the library's own
 loop. Columns name a MAVLink message (``GLOBAL_POSITION_INT``, ``ATTITUDE``, ``GPS_RAW_INT``,
-``SERVO_OUTPUT_RAW``, ``ESC_TELEMETRY_1_TO_4``...) and a field (``lat``, ``yaw``, ``rpm[0]``); values
-are as on the wire (``lat`` in 1e-7 deg: use ``scale``). Time: the record's receive time.
+``SERVO_OUTPUT_RAW``, ``ESC_TELEMETRY_1_TO_4``...) and a field (``lat``, ``yaw``, ``rpm[0]``);
+values are as on the wire (``lat`` in 1e-7 deg: use ``scale``). Time: the record's receive time.
 
 Frames: ArduPilot works in NED / FRD, so ``ATT.Yaw``, ``ATTITUDE.yaw`` are headings and ``GyrZ`` /
 ``yawspeed`` clockwise yaw rates as the Trial's. Rejected records: ``bad_header`` (DataFlash
@@ -493,7 +493,8 @@ def write_dataflash(trial: Trial, path: str | Path, *, t0_utc: str | None = None
     messages, little-endian, multipliers of the format characters). Messages: ``PARM``
     (FRAME_CLASS = 2 boat, SERVO1/3_FUNCTION: 26/70 ground steering + throttle, or 73/74 left /
     right throttle), ``GPS`` (``Lat``/``Lng`` 1e-7 deg, ``Spd`` = ``sog`` or ``U``, ``GCrs`` [deg],
-    ``GWk``/``GMS`` from ``t0_utc + t``), ``ATT`` (``Yaw`` = ``psi`` [cdeg]), ``IMU`` (``GyrZ`` = ``r``),
+    ``GWk``/``GMS`` from ``t0_utc + t``), ``ATT`` (``Yaw`` = ``psi`` [cdeg]), ``IMU``
+    (``GyrZ`` = ``r``),
     ``STER`` (``SteerOut`` / ``SteerIn`` = ``delta`` / ``delta_cmd`` over 35 deg, +-4500),
     ``RCOU`` (``C1`` = rudder PWM 1500 +- 400 us over +-35 deg; skid steer: ``C1``/``C3`` =
     1500 + 400 ``n_port``/``n_stbd``), ``ESC`` (``RPM`` = 60 ``n`` [0.01 rpm]). ``TimeUS`` = t +
@@ -576,8 +577,8 @@ def write_tlog(trial: Trial, path: str | Path, *, t0_utc: str | None = None,
     packet. Messages (ArduPilot dialect): ``PARAM_VALUE`` (FRAME_CLASS, SERVO1/3_FUNCTION as
     :func:`write_dataflash`), ``GLOBAL_POSITION_INT`` and ``GPS_RAW_INT`` (``lat``/``lon`` 1e-7 deg,
     ``vel`` = ``sog`` [cm/s], ``cog`` [cdeg]), ``ATTITUDE`` (``yaw`` = ``psi`` [rad, -pi..pi],
-    ``yawspeed`` = ``r``; NaN where a sample is missing), ``SERVO_OUTPUT_RAW`` (``servo1_raw`` rudder
-    PWM as :func:`write_dataflash`; skid steer ``servo1/3_raw``), ``ESC_TELEMETRY_1_TO_4``
+    ``yawspeed`` = ``r``; NaN where a sample is missing), ``SERVO_OUTPUT_RAW`` (``servo1_raw``
+    rudder PWM as :func:`write_dataflash`; skid steer ``servo1/3_raw``), ``ESC_TELEMETRY_1_TO_4``
     (``rpm[0]`` = 60 ``n``, whole rpm).
     """
     from usvid.commands._common import write_atomic
