@@ -7,6 +7,9 @@ messages that carry the field and the raw field values (one column, or 4 for a q
 ``w, x, y, z``, or 2 for a velocity vector ``x, y``). :func:`build_trial` converts them (see
 :mod:`usvid.io.spec` for the conversions) and merges them: the rows of the trial are the union of
 all message times, NaN where a channel has no sample (the multi-rate Trial contract, as for NMEA).
+A NaN field value (ROS, MAVLink and PX4 write NaN for "not available") is no sample of that
+channel; a message time at which no channel has a finite value is counted by
+:func:`usvid.io._assemble.assemble` as ``rejected["nan_row"]``.
 """
 
 from __future__ import annotations
@@ -208,10 +211,7 @@ def build_trial(path: Path, spec: FormatSpec, series: list[Series], state: ReadS
         if out is None:
             out = chans[s.col.name] = np.full(len(t_all), np.nan)
         idx = np.searchsorted(t_all, s.t_ns)
-        ok = np.isfinite(vals)
-        bad = int((~ok).sum())
-        if bad:
-            state.reject(f"not_finite:{s.col.name}", bad)
+        ok = np.isfinite(vals)  # NaN = "not available" in ROS, MAVLink, ULog: no sample
         out[idx[ok]] = vals[ok]
     meta = {"reader": reader, **state.meta}
     if clock_epoch_ns is not None:

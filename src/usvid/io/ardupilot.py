@@ -292,6 +292,52 @@ def _read_df_text(path: Path, spec: FormatSpec) -> Trial:
     return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
 
 
+def servo1_function(path: Path, reader: str) -> float | None:
+    """The log's SERVO1_FUNCTION parameter (26 ground steering, 73 left throttle...) from the
+    DataFlash ``PARM`` messages or the tlog's ``PARAM_VALUE`` (first 20000 messages), or None."""
+    require(reader)
+    if reader == "dataflash" and is_dataflash_bin(Path(path).open("rb").read(3)):
+        dfr, _ = _df_index(Path(path))
+        try:
+            tid = dfr.name_to_id.get("PARM")
+            if tid is None:
+                return None
+            with _quiet():
+                dfr._rewind()
+                while True:
+                    m = dfr.recv_match(type="PARM")
+                    if m is None:
+                        return None
+                    if m.Name == "SERVO1_FUNCTION":
+                        return float(m.Value)
+        finally:
+            with contextlib.suppress(Exception):
+                dfr.filehandle.close()
+    from pymavlink import mavutil
+
+    with _quiet():
+        if reader == "dataflash":
+            mlog = mavutil.mavlink_connection(str(path))
+            want, key, val = "PARM", "Name", "Value"
+        else:
+            mlog = mavutil.mavlink_connection(str(path), notimestamps=False)
+            want, key, val = "PARAM_VALUE", "param_id", "param_value"
+        try:
+            for _ in range(20000):
+                try:
+                    m = mlog.recv_msg()
+                except Exception:  # noqa: BLE001
+                    continue
+                if m is None:
+                    return None
+                if m.get_type() == want and getattr(m, key, "") == "SERVO1_FUNCTION":
+                    return float(getattr(m, val))
+        finally:
+            with contextlib.suppress(Exception):
+                mlog.close()
+    return None
+
+
 # ----------------------------------------------------------------------------------------------
 # MAVLink tlog reader
 # ----------------------------------------------------------------------------------------------
