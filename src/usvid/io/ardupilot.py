@@ -389,6 +389,9 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                 stamps[typ].append(int(round(m._timestamp * 1e6)) * 1000)
                 for col, st in getters:
                     values[col.name].append(_mav_raw(m, st, col))
+            left = mlog.mav.buf_len() if hasattr(mlog.mav, "buf_len") else 0
+            if left:  # a packet cut by the end of the file
+                state.reject("truncated")
         finally:
             with contextlib.suppress(Exception):
                 mlog.close()

@@ -12,9 +12,10 @@ on ``q`` reads ``q[0..3]`` = (w, x, y, z), the rotation from the body FRD to the
 (``meta["t0_utc"]``).
 
 Bad input: a file that is not a ULog, or is cut inside the definitions, is a
-:class:`usvid.errors.LogReadError`; pyulog skips damaged data sections by searching for the next
-sync marker and flags the log, counted as ``rejected["corrupt_data"]`` with a warning finding;
-logger dropouts are counted as ``rejected["dropout"]``.
+:class:`usvid.errors.LogReadError`; a message cut by the end of the file is counted as
+``rejected["truncated"]`` (pyulog stops there quietly); pyulog skips damaged data sections by
+searching for the next sync marker and flags the log, counted as ``rejected["corrupt_data"]``
+with a warning finding; logger dropouts are counted as ``rejected["dropout"]``.
 """
 
 from __future__ import annotations
@@ -51,6 +52,18 @@ def is_ulog(head: bytes) -> bool:
     return head.startswith(ULOG_MAGIC)
 
 
+class _ShortReadFile(io.BufferedReader):
+    """A read-only file that remembers a short read (a message cut by the end of the file)."""
+
+    short = False
+
+    def read(self, size: int | None = -1) -> bytes:
+        data = super().read(size)
+        if size is not None and size > 0 and 0 < len(data) < size:
+            self.short = True
+        return data
+
+
 def _names(col: ColumnSpec, data: dict) -> list[str]:
     """pyulog column names of ``col`` (4 for a quaternion, 2 for a vector)."""
     f = str(col.col)
@@ -80,13 +93,19 @@ def read_ulog(path: str | Path, spec: FormatSpec) -> Trial:
     topics = sorted({c.topic for c in spec.columns.values()} | set(_GPS_TOPICS))
     quiet = io.StringIO()
     try:
-        with contextlib.redirect_stdout(quiet), contextlib.redirect_stderr(quiet):
-            ulog = ULog(str(path), message_name_filter_list=topics,
-                        disable_str_exceptions=True)
+        with (contextlib.redirect_stdout(quiet), contextlib.redirect_stderr(quiet),
+              _ShortReadFile(io.FileIO(path, "rb")) as fh):
+            ulog = ULog(fh, message_name_filter_list=topics, disable_str_exceptions=True)
+            cut = fh.short
     except Exception as exc:  # pyulog raises plain Exceptions / struct errors on bad files
         raise LogReadError(f"{path}: not a readable ULog ({type(exc).__name__}: "
                            f"{' '.join(str(exc).split())[:120]})") from None
     state = ReadState()
+    if cut:  # pyulog stops quietly at a message cut by the end of the file
+        state.reject("truncated")
+        state.findings.append(Finding(
+            "warning", "log_damaged", f"{path.name}: the last message is cut by the end of the "
+            "file (truncated log)", count=1))
     if ulog.file_corruption:
         state.reject("corrupt_data")
         state.findings.append(Finding(
