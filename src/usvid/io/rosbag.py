@@ -199,7 +199,7 @@ def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> T
     series = []
     for col in cols:
         t = np.asarray(stamps[col.topic], dtype=np.int64)
-        raw = np.asarray(values[col.name], dtype=float).reshape(len(t), -1)
+        raw = np.asarray(values[col.name], dtype=float).reshape(len(t), width(col))
         series.append(Series(col, t, raw if width(col) > 1 else raw[:, 0]))
     first = min((int(s.t_ns[0]) for s in series if len(s.t_ns)), default=0)
     epoch = 0 if first > 315_532_800 * 10**9 else None  # log time is epoch time (after 1980)
