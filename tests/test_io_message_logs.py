@@ -383,3 +383,13 @@ def test_shipped_presets_parse():
         s = shipped_spec(name)
         assert s.columns
     assert shipped_spec("ardupilot_rover").variants["tlog"].reader == "tlog"
+
+
+def test_n2k_format_names_only_what_is_read():
+    from usvid.io import parse_spec
+
+    assert parse_spec({"reader": "nmea2000", "n2k_format": "candump3"}).n2k_format == "candump3"
+    with pytest.raises(FormatSpecError, match="n2k_format: unknown NMEA 2000 format 'pcdin'"):
+        parse_spec({"reader": "nmea2000", "n2k_format": "pcdin"}, source="s.yaml")
+    with pytest.raises(FormatSpecError, match="only used by reader nmea2000"):
+        parse_spec({"reader": "nmea0183", "n2k_format": "candump3"}, source="s.yaml")

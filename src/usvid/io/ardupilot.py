@@ -296,7 +296,9 @@ def servo1_function(path: Path, reader: str) -> float | None:
     """The log's SERVO1_FUNCTION parameter (26 ground steering, 73 left throttle...) from the
     DataFlash ``PARM`` messages or the tlog's ``PARAM_VALUE`` (first 20000 messages), or None."""
     require(reader)
-    if reader == "dataflash" and is_dataflash_bin(Path(path).open("rb").read(3)):
+    with open(path, "rb") as fh:
+        head = fh.read(3)
+    if reader == "dataflash" and is_dataflash_bin(head):
         dfr, _ = _df_index(Path(path))
         try:
             tid = dfr.name_to_id.get("PARM")
