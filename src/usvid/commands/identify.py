@@ -35,7 +35,8 @@ from usvid.prep import prepare
 LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify from.",
                                                show_default=False)]
 FormatOpt = Annotated[str, typer.Option(
-    "--format", "-f", help="Trial format spec: a YAML path or a shipped spec name.")]
+    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto "
+    "(detect the format by content and pick the shipped preset).")]
 ModelOpt = Annotated[str, typer.Option(
     "--model", "-m", help="Model kind: " + " | ".join(kind_names()) + ".")]
 MethodOpt = Annotated[str, typer.Option(
@@ -151,7 +152,7 @@ def register(app: typer.Typer) -> None:
     """Register ``usvid identify``."""
 
     @app.command("identify")
-    def identify_cmd(logs: LogsArg, fmt: FormatOpt, model: ModelOpt, out: OutOpt,
+    def identify_cmd(logs: LogsArg, model: ModelOpt, out: OutOpt, fmt: FormatOpt = "auto",
                      method: MethodOpt = "ls", validate: ValidateOpt = None,
                      json_out: JsonOpt = False, window_s: WindowOpt = 20.0,
                      overlap: OverlapOpt = 0.0, lam: LamOpt = 1.0,

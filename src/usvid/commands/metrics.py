@@ -71,7 +71,7 @@ def register(app: typer.Typer) -> None:
     """Register ``usvid metrics``."""
 
     @app.command("metrics")
-    def metrics_cmd(log: LogArg, fmt: FormatOpt, json_out: JsonOpt = False,
+    def metrics_cmd(log: LogArg, fmt: FormatOpt = "auto", json_out: JsonOpt = False,
                     psi_deg: PsiOpt = None, min_turn_deg: TurnOpt = 180.0) -> None:
         """Find zig-zags and turning circles in a log and print their measured metrics."""
         from usvid.commands._common import emit_json
