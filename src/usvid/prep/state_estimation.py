@@ -815,7 +815,8 @@ def estimate_states(
     tune : bool
         Search the q not given by maximum likelihood (module docstring).
     tune_rows : int
-        Rows used by the search at most (longer trials are decimated for the search only).
+        Measured rows the search uses at most (a longer trial is searched on
+        :data:`TUNE_BLOCKS` contiguous blocks spread over it; the final pass uses every row).
     exclude : sequence of str
         Measurement channels not to use (e.g. ``("u",)`` to hold a logged u out for checking).
     cog_min_speed : float
@@ -936,6 +937,9 @@ def estimate_states(
                                    "check the units of psi and r and the noise settings")
     xs, sd = _smooth(t, xf, Pf, q)
     del Pf
+    if not (np.all(np.isfinite(xs)) and np.all(np.isfinite(sd))):
+        raise StateEstimationError(f"trial {name}: the smoother diverged (non-finite state); "
+                                   "check the units of psi and r and the noise settings")
     t_done = time.perf_counter()
     states = {n: xs[:, i].copy() for i, n in enumerate(STATE_NAMES)}
     std = {n: sd[:, i].copy() for i, n in enumerate(STATE_NAMES)}
