@@ -556,7 +556,8 @@ def _smooth(t, xf, Pf, q):  # pragma: no cover - numba
 
 
 def white_noise_std(t: np.ndarray, y: np.ndarray) -> float:
-    """Std of the white noise on samples ``y`` at times ``t`` [s], from third divided differences.
+    """Std of the white noise on samples ``y`` at times ``t`` [s], from third divided differences
+    (the variate-difference method, Tintner 1940, on a non-uniform grid).
 
     For each four consecutive finite samples, ``d = sum_i w_i y_i / sqrt(sum_i w_i^2)`` with
     ``w_i = 1 / prod_{j != i} (t_i - t_j)``: d is zero for any quadratic in t and has variance
