@@ -29,10 +29,12 @@ from usvid.prep.merge import merge_trials
 from usvid.prep.prepare import prepare, sort_time
 from usvid.prep.resample import infer_rate, resample
 from usvid.prep.stale import StaleReport, detect_stale, drop_stale
+from usvid.prep.state_estimation import StateEstimate, estimate_states
 
 __all__ = [
     "Segment",
     "StaleReport",
+    "StateEstimate",
     "audit",
     "body_to_earth",
     "body_velocity_from_cog",
@@ -40,6 +42,7 @@ __all__ = [
     "detect_stale",
     "drop_stale",
     "earth_to_body",
+    "estimate_states",
     "merge_trials",
     "find_manoeuvres",
     "geodetic_to_ned",
