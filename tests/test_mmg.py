@@ -483,3 +483,186 @@ def test_priors_kvlcc2():
     mmg.MMGParameters(L=7.0, B=1.27, d=0.46, m=RHO * 3.27, rho=RHO, **pr)
     with pytest.raises(UsvidError):
         mmg.priors(7.0, 1.27, 0.46, 0.81, RHO * 3.27, added_mass="motora")
+
+
+# ---------------------------------------------------------------------------------------------
+# Cross-check against shipmmg (independent implementation of Y&Y 2015)
+# ---------------------------------------------------------------------------------------------
+# Mapping (shipmmg 0.0.11, shipmmg/mmg_3dof.py read in the venv):
+# * Same axes and signs as usvid: x forward, y starboard, psi and r clockwise, positive delta
+#   turns to starboard (its 35 deg turn goes to +y); state v is the midship sway velocity of
+#   eq. 4 and its d_u, d_v, d_r solve eq. 4 exactly as ours. Units are whatever is consistent:
+#   we pass SI (rho = 1025, kg) where its own KVLCC2 test uses t and kN.
+# * Its dimensional inputs: m_x, m_y, J_z, x_R, x_H in kg/m; x_P, l_R non-dimensional
+#   (fractions of L, used in beta_P and beta_R); eta = D_p / H_R.
+# * Two modelling differences, not sign conventions: (1) the wake w_P = w_P0 exp(-4 beta_P^2)
+#   instead of eq. 16 with C_1, C_2: we run wake_model='gaussian', C_w = 4; (2) U and beta are
+#   formed with v - x_G r (v' = v/U with the same U), where Y&Y 2015 use v_m itself: with the
+#   published x_G = 0.25 m this changes the zig-zag overshoots by 0.2 deg, so the strict check
+#   runs x_G = 0 in both; the published x_G is checked within 1 % on the turning circle and
+#   within 0.3 deg on the zig-zag (see there).
+# * Rudder: shipmmg integrates delta as a state with d(delta)/dt from a natural cubic spline
+#   through the sampled rudder list; we evaluate the same spline. In its zig-zag it ramps the
+#   rudder at delta_rad_rate from the last sample, switches at the first sample past the
+#   heading target and restarts the next stage from the state one sample earlier (with psi of
+#   the crossing sample) at the crossing sample's time: replicated below, sample for sample.
+# * Its zig-zag calls solve_ivp with default tolerances (rtol 1e-3), which moves the second
+#   overshoot by 0.5 deg; we patch shipmmg's solve_ivp to rtol 1e-9 and use the same for ours.
+
+U0 = 1.179          # approach speed of Y&Y 2015's KVLCC2 model [m/s] (Fn 0.142)
+RUDDER_RATE = math.radians(15.8)
+
+
+def _shipmmg_params(p: mmg.MMGParameters):
+    sm = pytest.importorskip("shipmmg.mmg_3dof")
+    q = p.q_mass
+    basic = sm.Mmg3DofBasicParams(
+        L_pp=p.L, B=p.B, d=p.d, x_G=p.x_G, D_p=p.D_p, m=p.m, I_zG=p.I_zG, A_R=p.A_R, η=p.eta,
+        m_x=p.m_x * q, m_y=p.m_y * q, J_z=p.J_z * q * p.L ** 2, f_α=p.f_alpha, ϵ=p.epsilon,
+        t_R=p.t_R, x_R=p.x_R * p.L, a_H=p.a_H, x_H=p.x_H * p.L, γ_R_minus=p.gamma_R_minus,
+        γ_R_plus=p.gamma_R_plus, l_R=p.l_R, κ=p.kappa, t_P=p.t_P, w_P0=p.w_P0, x_P=p.x_P)
+    man = sm.Mmg3DofManeuveringParams(
+        k_0=p.k_0, k_1=p.k_1, k_2=p.k_2, R_0_dash=p.R_0, X_vv_dash=p.X_vv, X_vr_dash=p.X_vr,
+        X_rr_dash=p.X_rr, X_vvvv_dash=p.X_vvvv, Y_v_dash=p.Y_v, Y_r_dash=p.Y_r,
+        Y_vvv_dash=p.Y_vvv, Y_vvr_dash=p.Y_vvr, Y_vrr_dash=p.Y_vrr, Y_rrr_dash=p.Y_rrr,
+        N_v_dash=p.N_v, N_r_dash=p.N_r, N_vvv_dash=p.N_vvv, N_vvr_dash=p.N_vvr,
+        N_vrr_dash=p.N_vrr, N_rrr_dash=p.N_rrr)
+    return sm, basic, man
+
+
+def _equilibrium_rps(P: np.ndarray, u0: float) -> float:
+    from scipy.optimize import brentq
+
+    return brentq(lambda n: mmg.mmg_accelerations(P, 0, u0, 0.0, 0.0, 0.0, n)[0], 3.0, 40.0)
+
+
+def _rhs(P, n, delta_of_t):
+    def f(t, y):
+        u, v, r, _, _, psi = y
+        du, dv, dr = mmg.mmg_accelerations(P, 0, u, v, r, float(delta_of_t(t)), n)
+        c, s = math.cos(psi), math.sin(psi)
+        return [du, dv, dr, u * c - v * s, u * s + v * c, r]
+    return f
+
+
+def _turning_metrics(x, y, psi, L):
+    """(advance/L, tactical diameter/L): x at 90 deg heading change, y at 180 deg."""
+    i90 = int(np.argmax(psi >= math.pi / 2))
+    i180 = int(np.argmax(psi >= math.pi))
+    assert i90 > 0 and i180 > 0
+    adv = np.interp(math.pi / 2, psi[i90 - 1:i90 + 1], x[i90 - 1:i90 + 1])
+    td = np.interp(math.pi, psi[i180 - 1:i180 + 1], y[i180 - 1:i180 + 1])
+    return adv / L, td / L
+
+
+def _turning_pair(p):
+    from scipy.integrate import solve_ivp
+    from scipy.interpolate import CubicSpline
+
+    sm, basic, man = _shipmmg_params(p)
+    P = _lane(p)
+    n = _equilibrium_rps(P, U0)
+    t = np.linspace(0.0, 250.0, 25001)                        # dt = 0.01 s
+    dl = np.minimum(RUDDER_RATE * t, math.radians(35.0))     # 15.8 deg/s to 35 deg
+    sol = sm.simulate_mmg_3dof(basic, man, t, dl, np.full(t.size, n), u0=U0, ρ=p.rho,
+                               rtol=1e-9, atol=1e-10)
+    ys = sol.sol(t)
+    spl = CubicSpline(t, dl, bc_type="natural", extrapolate=True)
+    mine = solve_ivp(_rhs(P, n, spl), (0.0, t[-1]), [U0, 0, 0, 0, 0, 0], dense_output=True,
+                     rtol=1e-9, atol=1e-10).sol(t)
+    return (_turning_metrics(ys[3], ys[4], ys[5], p.L),
+            _turning_metrics(mine[3], mine[4], mine[5], p.L))
+
+
+def _zigzag_mine(P, n, amp, rate, t, u0):
+    """shipmmg.zigzag_test_mmg_3dof's stage logic with our accelerations (see the notes)."""
+    from scipy.integrate import solve_ivp
+    from scipy.interpolate import CubicSpline
+
+    N = t.size
+    res = np.zeros((7, N))  # delta, u, v, r, x, y, psi
+    sgn, nxt, psi_sw = -1.0, 0, 0.0
+    while nxt < N:
+        sgn, i0 = -sgn, nxt
+        d0 = 0.0 if i0 == 0 else res[0, i0 - 1]
+        y0 = [u0, 0.0, 0.0, 0.0, 0.0, 0.0] if i0 == 0 else [*res[1:6, i0 - 1], psi_sw]
+        ts = t[i0:]
+        dl = np.clip(d0 + sgn * rate * (ts - ts[0]), -amp, amp)
+        spl = CubicSpline(ts, dl, bc_type="natural", extrapolate=True)
+        Y = solve_ivp(_rhs(P, n, spl), (ts[0], ts[-1]), y0, dense_output=True, rtol=1e-9,
+                      atol=1e-10).sol(ts)
+        over = np.nonzero(Y[5] >= amp if sgn > 0 else Y[5] <= -amp)[0]
+        j = int(over[0]) if over.size else ts.size
+        res[0, i0:i0 + j] = dl[:j]
+        res[1:, i0:i0 + j] = Y[:, :j]
+        if not over.size:
+            break
+        psi_sw, nxt = Y[5, j], i0 + j
+    return res
+
+
+def _overshoots(psi_rad, amp_deg):
+    """First and second overshoot [deg] of a zig-zag started to starboard."""
+    psi = np.degrees(np.asarray(psi_rad))
+    i1 = int(np.argmax(psi >= amp_deg))
+    i2 = i1 + int(np.argmax(psi[i1:] <= -amp_deg))
+    i3 = i2 + int(np.argmax(psi[i2:] >= amp_deg))
+    assert 0 < i1 < i2 < i3
+    return psi[i1:i2].max() - amp_deg, -psi[i2:i3].min() - amp_deg
+
+
+def _zigzag_pair(p, monkeypatch):
+    import functools
+
+    from scipy.integrate import solve_ivp
+
+    sm, basic, man = _shipmmg_params(p)
+    monkeypatch.setattr(sm, "solve_ivp", functools.partial(solve_ivp, rtol=1e-9, atol=1e-10))
+    P = _lane(p)
+    n = _equilibrium_rps(P, U0)
+    t = np.linspace(0.0, 100.0, 12501)                        # dt = 0.008 s as shipmmg's test
+    amp = math.radians(20.0)
+    out = sm.zigzag_test_mmg_3dof(basic, man, amp, amp, t, np.full(t.size, n),
+                                  δ_rad_rate=RUDDER_RATE, u0=U0, ρ=p.rho)
+    mine = _zigzag_mine(P, n, amp, RUDDER_RATE, t, U0)
+    return _overshoots(out[6], 20.0), _overshoots(mine[6], 20.0)
+
+
+def test_shipmmg_turning_circle_35deg():
+    pytest.importorskip("shipmmg")
+    p = mmg.kvlcc2("paper").replace(wake_model="gaussian", C_w=4.0, x_G=0.0)
+    (adv_s, td_s), (adv_m, td_m) = _turning_pair(p)
+    print(f"\n35 deg turn, x_G = 0: advance/L shipmmg {adv_s:.6f} usvid {adv_m:.6f}; "
+          f"tactical diameter/L shipmmg {td_s:.6f} usvid {td_m:.6f}")
+    # Issue 9 asks for 1 %; identical models with 1e-9 integration agree to ~1e-8, so 0.1 %
+    # would still pass with margin while catching any real difference in the forces.
+    assert adv_m == pytest.approx(adv_s, rel=1e-3)
+    assert td_m == pytest.approx(td_s, rel=1e-3)
+    # published x_G = 0.25 m: shipmmg's v - x_G r in U and beta costs < 0.2 % here
+    p25 = p.replace(x_G=0.25)
+    (adv_s, td_s), (adv_m, td_m) = _turning_pair(p25)
+    print(f"35 deg turn, x_G = 0.25: advance/L shipmmg {adv_s:.6f} usvid {adv_m:.6f}; "
+          f"tactical diameter/L shipmmg {td_s:.6f} usvid {td_m:.6f}")
+    assert adv_m == pytest.approx(adv_s, rel=0.01)
+    assert td_m == pytest.approx(td_s, rel=0.01)
+
+
+def test_shipmmg_zigzag_20_20(monkeypatch):
+    pytest.importorskip("shipmmg")
+    p = mmg.kvlcc2("paper").replace(wake_model="gaussian", C_w=4.0, x_G=0.0)
+    (o1s, o2s), (o1m, o2m) = _zigzag_pair(p, monkeypatch)
+    print(f"\n20/20 zig-zag, x_G = 0: overshoots shipmmg {o1s:.6f}, {o2s:.6f} deg; "
+          f"usvid {o1m:.6f}, {o2m:.6f} deg")
+    # issue 9: within 0.1 deg; the same model and step logic agree to ~1e-4 deg
+    assert o1m == pytest.approx(o1s, abs=0.01)
+    assert o2m == pytest.approx(o2s, abs=0.01)
+    # Published x_G = 0.25 m: what still differs is multiplied by x_G, i.e. the eq. 4 coupling
+    # (the same formulas in both) and shipmmg's v - x_G r in U and beta. The latter moves the
+    # overshoots by about 0.2 deg (10.43/15.27 deg shipmmg against 10.63/15.45 deg here). The
+    # 0.3 deg bound still checks the coupling: a sign error in x_G m moves them by 6-8 deg and
+    # dropping x_G by 2.6-3.7 deg.
+    (o1s, o2s), (o1m, o2m) = _zigzag_pair(p.replace(x_G=0.25), monkeypatch)
+    print(f"20/20 zig-zag, x_G = 0.25: overshoots shipmmg {o1s:.6f}, {o2s:.6f} deg; "
+          f"usvid {o1m:.6f}, {o2m:.6f} deg")
+    assert o1m == pytest.approx(o1s, abs=0.3)
+    assert o2m == pytest.approx(o2s, abs=0.3)
