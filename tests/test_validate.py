@@ -19,7 +19,7 @@ from usvid.identify.validate import (
 from usvid.models.model import VesselModel
 from usvid.models.response import Nomoto1, Norrbin
 from usvid.models.servo import IdealServo
-from usvid.sim.logic import ZigZag
+from usvid.sim import ZigZag
 from usvid.sim.simulate import simulate
 from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel

@@ -6,9 +6,9 @@ Public API
   psi0=0, disturbance=None, channels=None, initial=None) -> SimResult`` -- RK4 over a batch
   (numba, parallel over runs). Any model/servo/logic parameter may be a (B,) array. Units: SI
   and radians (t_end, dt [s], u0 [m/s], psi0 [rad]).
-- Logics (:mod:`usvid.sim.logic`): :class:`Turning`, :class:`ZigZag`, :class:`CourseChange` with
-  :class:`PID`, :class:`Disturbance` (white noise through 0.42 s/(s^2 + 0.36 s + 0.37), seed 000),
-  :class:`Commanded` (time series).
+- Logics (:mod:`usvid.manoeuvres.logic`, re-exported here): :class:`Turning`,
+  :class:`ZigZag`, :class:`CourseChange` with :class:`PID`, :class:`Disturbance` (white noise
+  through 0.42 s/(s^2 + 0.36 s + 0.37), seed 000), :class:`Commanded` (time series).
 - :class:`SimResult` (:mod:`usvid.sim.result`): ``t``, ``channels`` (B, N) arrays,
   ``batch_size``, ``zigzag_metrics()``, ``turning_metrics()``, ``course_metrics()``,
   ``to_trial(i)``, ``course`` and ``zigzag_online`` accumulators.
@@ -17,7 +17,7 @@ Public API
   criteria) are separate modules.
 """
 
-from usvid.sim.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
+from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
 from usvid.sim.result import CHANNEL_UNITS, SimResult
 from usvid.sim.simulate import (
     simulate,

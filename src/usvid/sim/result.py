@@ -10,8 +10,8 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import SimulationError
+from usvid.manoeuvres.logic import Turning, ZigZag
 from usvid.trial import CHANNEL_UNITS, Trial, Vessel
-
 
 
 @dataclass
@@ -27,7 +27,7 @@ class SimResult:
         (rudder-equivalent disturbance) where relevant.
     course : dict with ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder`` [rad], each (B,),
         accumulated at every integration step (not the recorded grid). ITAE/IAE are 0 unless
-        the logic is a :class:`~usvid.sim.logic.CourseChange`.
+        the logic is a :class:`~usvid.manoeuvres.logic.CourseChange`.
     zigzag_online : dict with ``overshoot`` (B, 8) [rad] and ``reversal_t`` (B, 9) [s]
         (execute time then reversal times) tracked at every step by a ZigZag logic; NaN where
         not reached / not completed. :meth:`zigzag_metrics` is the full (interpolated) version.
@@ -95,7 +95,6 @@ class SimResult:
     def zigzag_metrics(self, **kw: Any) -> list[Any]:
         """One :class:`usvid.prep.metrics.ZigZagMetrics` per run (needs psi, delta recorded)."""
         from usvid.prep.metrics import zigzag_metrics
-        from usvid.sim.logic import ZigZag
 
         out = []
         for i in range(self.batch_size):
@@ -115,7 +114,6 @@ class SimResult:
     def turning_metrics(self, **kw: Any) -> list[Any]:
         """One :class:`usvid.prep.metrics.TurningMetrics` per run (needs x, y, psi)."""
         from usvid.prep.metrics import turning_metrics
-        from usvid.sim.logic import Turning
 
         out = []
         for i in range(self.batch_size):

@@ -1,0 +1,4 @@
+"""usvid.manoeuvres: standard manoeuvres, one definition each.
+
+Layer: above :mod:`usvid.prep`, below :mod:`usvid.sim`.
+"""
