@@ -21,12 +21,12 @@ from pathlib import Path
 import control
 
 from usvid.identify.estimator import identify
+from usvid.manoeuvres.imo import imo_zigzag_check
 from usvid.models.export import to_transfer_function
 from usvid.prep import audit, prepare
 from usvid.report.validation import vessel_model
 from usvid.sim import ZigZag, simulate
 from usvid.sim.campaign import generate_campaign, read_campaign_trial
-from usvid.sim.imo import imo_zigzag_check
 
 
 def main(out: Path) -> None:

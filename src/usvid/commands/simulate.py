@@ -10,7 +10,7 @@ JSON object whose keys are the ``ARCHITECTURE.md`` contract, followed by extras)
   the maximum angle, 35 deg or the servo limit: MSC.137(76) 5.2.1);
 - ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder_deg``.
 
-Metric definitions: :mod:`usvid.prep.metrics`; IMO criteria: :mod:`usvid.sim.imo`.
+Metric definitions: :mod:`usvid.manoeuvres.metrics`; IMO criteria: :mod:`usvid.manoeuvres.imo`.
 """
 
 from __future__ import annotations
@@ -258,7 +258,7 @@ def zigzag_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Zig-zag test: overshoot angles, period, initial turning time, time to check yaw."""
-    from usvid.sim.imo import imo_zigzag_check, zigzag_kind
+    from usvid.manoeuvres.imo import imo_zigzag_check, zigzag_kind
 
     model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     psi_deg = delta_deg if psi_deg is None else psi_deg
@@ -291,7 +291,7 @@ def turning_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Turning circle: advance, transfer, tactical and steady diameters, steady yaw rate/speed."""
-    from usvid.sim.imo import imo_turning_check
+    from usvid.manoeuvres.imo import imo_turning_check
 
     model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     _, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)

@@ -13,6 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from usvid.manoeuvres.imo import imo_turning_check, imo_zigzag_check, zigzag_kind
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
+from usvid.sim import Turning, ZigZag, simulate
+
 #: Samples per second kept for the figures in run.json (the logs are 50 Hz).
 PLOT_RATE_HZ = 5.0
 
@@ -56,10 +60,6 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
     (x, y [m]; psi, r, delta in deg, deg/s, deg; u, v [m/s]), measured and simulated manoeuvre
     metrics, IMO criteria of the measured trial, RMS errors.
     """
-    from usvid.prep.metrics import turning_metrics, zigzag_metrics
-    from usvid.sim import Turning, ZigZag, simulate
-    from usvid.sim.imo import imo_turning_check, imo_zigzag_check, zigzag_kind
-
     t = trial.t
     L = float(camp.vessel["length"])
     amp = math.radians(manoeuvre.delta_deg)

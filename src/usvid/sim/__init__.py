@@ -13,8 +13,8 @@ Public API
   ``batch_size``, ``zigzag_metrics()``, ``turning_metrics()``, ``course_metrics()``,
   ``to_trial(i)``, ``course`` and ``zigzag_online`` accumulators.
 - Convenience: :func:`simulate_zigzag`, :func:`simulate_turning`, :func:`simulate_course_change`.
-- :mod:`usvid.sim.virtual` (sensor models, virtual trials) and :mod:`usvid.sim.imo` (IMO
-  criteria) are separate modules.
+- :mod:`usvid.sim.virtual` (sensor models, virtual trials) is a separate module; the IMO
+  criteria are in :mod:`usvid.manoeuvres.imo`.
 """
 
 from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag

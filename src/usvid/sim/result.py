@@ -11,6 +11,7 @@ import pandas as pd
 
 from usvid.errors import SimulationError
 from usvid.manoeuvres.logic import Turning, ZigZag
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.trial import CHANNEL_UNITS, Trial, Vessel
 
 
@@ -93,9 +94,8 @@ class SimResult:
 
     # --- metrics --------------------------------------------------------------------------
     def zigzag_metrics(self, **kw: Any) -> list[Any]:
-        """One :class:`usvid.prep.metrics.ZigZagMetrics` per run (needs psi, delta recorded)."""
-        from usvid.prep.metrics import zigzag_metrics
-
+        """One :class:`usvid.manoeuvres.metrics.ZigZagMetrics` per run (needs psi, delta
+        recorded)."""
         out = []
         for i in range(self.batch_size):
             args: dict[str, Any] = {}
@@ -112,9 +112,7 @@ class SimResult:
         return out
 
     def turning_metrics(self, **kw: Any) -> list[Any]:
-        """One :class:`usvid.prep.metrics.TurningMetrics` per run (needs x, y, psi)."""
-        from usvid.prep.metrics import turning_metrics
-
+        """One :class:`usvid.manoeuvres.metrics.TurningMetrics` per run (needs x, y, psi)."""
         out = []
         for i in range(self.batch_size):
             args: dict[str, Any] = {}

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from usvid.errors import UsvidError
-from usvid.prep.metrics import (
+from usvid.manoeuvres.metrics import (
     find_execute,
     fit_circle,
     parabolic_peak,

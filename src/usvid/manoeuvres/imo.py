@@ -112,7 +112,7 @@ def _get(metrics: Any, key: str) -> Any:
 def imo_turning_check(metrics: Any, L: float) -> ImoCheck:
     """Turning ability (MSC.137(76) 5.2.1): advance <= 4.5 L, tactical diameter <= 5 L.
 
-    ``metrics`` is a :class:`usvid.prep.metrics.TurningMetrics` or its ``to_dict()``; L [m].
+    ``metrics`` is a :class:`usvid.manoeuvres.metrics.TurningMetrics` or its ``to_dict()``; L [m].
     Values (magnitudes) and limits are reported in metres. The Standards judge the circle at the
     maximum rudder angle; the caller decides whether the metrics are of such a circle.
     """
@@ -129,7 +129,7 @@ def imo_turning_check(metrics: Any, L: float) -> ImoCheck:
 def imo_zigzag_check(metrics: Any, L: float, U: float, kind: str = "10/10") -> ImoCheck:
     """Zig-zag criteria (MSC.137(76) 5.2.2 and 5.2.3) for a ``"10/10"`` or ``"20/20"`` test.
 
-    ``metrics`` is a :class:`usvid.prep.metrics.ZigZagMetrics` or its ``to_dict()``; L [m],
+    ``metrics`` is a :class:`usvid.manoeuvres.metrics.ZigZagMetrics` or its ``to_dict()``; L [m],
     U [m/s]. For 10/10: first and second overshoot limits as functions of L/U, and the initial
     turning ability: track length (``initial_turning_distance_m`` when known, else
     ``U * initial_turning_time_s``) until the heading changed 10 deg <= 2.5 L. For 20/20: first

@@ -7,14 +7,14 @@ import math
 import pytest
 
 from usvid.errors import UsvidError
-from usvid.prep.metrics import TurningMetrics, ZigZagMetrics
-from usvid.sim.imo import (
+from usvid.manoeuvres.imo import (
     first_overshoot_limit_10_10,
     imo_turning_check,
     imo_zigzag_check,
     second_overshoot_limit_10_10,
     zigzag_kind,
 )
+from usvid.manoeuvres.metrics import TurningMetrics, ZigZagMetrics
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,5 @@
-"""usvid.prep.manoeuvres: zig-zags and turning circles found in a long log, and measured."""
+"""usvid.manoeuvres.detect and .measure: zig-zags and turning circles found in a long log, and
+measured."""
 
 from __future__ import annotations
 
@@ -8,9 +9,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from usvid.prep import find_manoeuvres, measured_metrics
-from usvid.prep.manoeuvres import manoeuvre_metrics, nominal_switch
-from usvid.prep.metrics import turning_metrics, zigzag_metrics
+from usvid.manoeuvres.detect import find_manoeuvres, nominal_switch
+from usvid.manoeuvres.measure import manoeuvre_metrics, measured_metrics
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.trial import Trial
 
 K, T, U = 0.2, 8.0, 1.5  # Nomoto gain [1/s], time constant [s]; speed [m/s]
