@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from usvid.errors import UsvidError
+from usvid.manoeuvres.detect import find_execute
 from usvid.manoeuvres.metrics import (
-    find_execute,
     fit_circle,
     parabolic_peak,
     turning_metrics,
@@ -125,8 +125,10 @@ def test_find_execute_step_and_ramp():
     t = np.arange(0, 10, 0.1)
     delta = np.clip((t - 2.0) * 0.2, 0, 0.35)  # ramps from t = 2 s
     te, side = find_execute(t, -delta)
-    # last sample within 10 % of the amplitude: 2 s + 0.035 / 0.2 = 2.175 -> sample 2.1 s
-    assert te == pytest.approx(2.1, abs=1e-9)
+    # the ramp starts at t = 2 s: the line through the last sample within 10 % of the plateau
+    # (2.1 s, 0.02 rad) and the first beyond 50 % (2.9 s, 0.18 rad) reaches zero there (the
+    # earlier rule returned the 10 % sample itself, 2.1 s)
+    assert te == pytest.approx(2.0, abs=1e-9)
     assert side == -1.0
 
 

@@ -149,7 +149,8 @@ def test_metrics_nan_inputs_raise_usvid_error_or_nan() -> None:
     import pytest
 
     from usvid.errors import UsvidError
-    from usvid.manoeuvres.metrics import fit_circle, rudder_amplitude, zigzag_metrics
+    from usvid.manoeuvres.detect import rudder_amplitude
+    from usvid.manoeuvres.metrics import fit_circle, zigzag_metrics
 
     t = np.arange(5.0)
     # before the fix: numpy ValueError (np.interp on an empty array)

@@ -1,8 +1,33 @@
-"""Find standard manoeuvres (zig-zags, turning circles) inside a log, and measure them.
+"""Manoeuvre detection: the one definition in usvid of every manoeuvre quantity read from a
+record, and the standard manoeuvres (zig-zags, turning circles) found inside a log.
 
-The rudder (or, without a rudder, the thruster differential port - starboard, seed 002:
-tau_r = (T_port - T_stbd) b/2) is cut into *pulses*: runs where the smoothed command keeps one sign
-beyond ``min_level``. Then
+Definitions (used by the metrics of measured and simulated manoeuvres, ``usvid metrics``,
+identification, validation and the report). Time [s], angles [rad], rates [rad/s]; a command
+other than a rudder angle (a thruster differential) in its own unit. IMO MSC.137(76) and ITTC
+7.5-04-02-01 measure a manoeuvre from the *execute*, the instant the rudder order is given.
+
+* **rudder execute and side** (:func:`find_execute`): the rudder before the first deflection,
+  ``delta_0``, is its median over the :data:`APPROACH_S` seconds before the deflection; the side
+  is the sign of the deflection from ``delta_0`` (+1 starboard). The execute is where the rising
+  edge leaves ``delta_0``: the straight line through the last sample within 10 % of the plateau
+  level and the first sample beyond 50 % of it, extended back to ``delta_0`` (a rate-limited
+  ramp gives its start exactly, a sampled step the last sample before the step).
+* **plateau level and rudder amplitude** (:func:`plateau_level`, :func:`rudder_amplitude`): the
+  median of the deflection samples beyond half the largest deflection (noise-robust; the largest
+  sample of a noisy record is biased high). A zig-zag's amplitude is the mean of its starboard
+  and port plateau levels (half the distance between them: a rudder zero offset cancels).
+* **rudder rate** (:func:`rudder_rate`): the median |d delta/dt| on the ramps.
+* **switching angle** (:func:`nominal_switch`; measured by :func:`find_manoeuvres`): the median
+  heading deviation from the heading at the execute where the rudder leaves its plateaux, rounded
+  down to a standard angle.
+* **zig-zag reversals** (:func:`zigzag_crossings`): the alternate crossings of
+  ``+psi_switch, -psi_switch, ...`` by the heading deviation, interpolated between samples.
+* **steady turn** (:func:`steady_turn`): the last 360 deg of a turning circle, or the part after
+  the 180 deg instant; its mean yaw rate, speed and rudder.
+
+Finding manoeuvres (:func:`find_manoeuvres`). The rudder (or, without a rudder, the thruster
+differential port - starboard, seed 002: tau_r = (T_port - T_stbd) b/2) is cut into *pulses*:
+runs where the smoothed command keeps one sign beyond ``min_level``. Then
 
 * a **zig-zag** is a chain of at least two pulses of alternating sign and similar level, joined by
   short transitions, whose reversals all happen at about the same heading deviation from the
@@ -31,6 +56,9 @@ from usvid.errors import UsvidError
 from usvid.prep.filters import savgol_derivative, savgol_smooth, unwrap_angle
 from usvid.prep.prepare import prepare
 from usvid.trial import Trial
+
+#: The approach before a manoeuvre [s]: the rudder over it is the reference ``delta_0``.
+APPROACH_S = 5.0
 
 #: Thruster command pairs (port, starboard) used as a turning command when there is no rudder.
 THRUSTER_PAIRS: tuple[tuple[str, str], ...] = (
@@ -119,6 +147,292 @@ def _runs(mask: np.ndarray) -> np.ndarray:
     return np.column_stack([np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)])
 
 
+
+
+# --------------------------------------------------------------------------------------------
+# array helpers
+# --------------------------------------------------------------------------------------------
+def as_1d(name: str, a: Any, n: int | None = None) -> np.ndarray:
+    """``a`` as a 1-D float array of ``n`` samples (:class:`UsvidError` naming ``name``)."""
+    arr = np.asarray(a, dtype=float)
+    if arr.ndim != 1:
+        raise UsvidError(f"metrics: `{name}` must be a 1-D array (got shape {arr.shape})")
+    if n is not None and arr.shape[0] != n:
+        raise UsvidError(f"metrics: `{name}` has {arr.shape[0]} samples, `t` has {n}")
+    return arr
+
+
+def clean(t: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Drop samples where any array is not finite (a multi-rate trial has NaN gaps)."""
+    ok = np.isfinite(t)
+    for a in arrays:
+        ok &= np.isfinite(a)
+    return (t[ok],) + tuple(a[ok] for a in arrays)
+
+
+def crossing_time(t: np.ndarray, z: np.ndarray, level: float, start: int, upward: bool
+                  ) -> float:
+    """First time [s] at or after sample ``start`` where ``z`` crosses ``level`` upwards
+    (``upward``) or downwards: linear interpolation between the two samples that bracket the
+    crossing (a sample already beyond ``level`` at ``start`` gives its own time); NaN when none.
+    """
+    seg = z[start:]
+    hit = np.flatnonzero(seg >= level) if upward else np.flatnonzero(seg <= level)
+    if hit.size == 0:
+        return math.nan
+    j = start + int(hit[0])
+    if j == 0:
+        return float(t[0])
+    z0, z1 = z[j - 1], z[j]
+    already = (z0 >= level) if upward else (z0 <= level)
+    if already or z1 == z0:
+        return float(t[j])
+    f = (level - z0) / (z1 - z0)
+    return float(t[j - 1] + f * (t[j] - t[j - 1]))
+
+
+# --------------------------------------------------------------------------------------------
+# the one definition of each manoeuvre quantity
+# --------------------------------------------------------------------------------------------
+def plateau_level(deflection: Any) -> float:
+    """Plateau level of a deflection (a rudder [rad] or command pulse, positive towards its
+    side): the median of its samples beyond half the largest one, so the ramps and the upward
+    bias of the largest noisy sample are left out. 0 when nothing is positive, NaN when no
+    sample is finite."""
+    d = np.asarray(deflection, dtype=float)
+    d = d[np.isfinite(d)]
+    if d.size == 0:
+        return math.nan
+    peak = float(d.max())
+    if peak <= 0:
+        return 0.0
+    return float(np.median(d[d >= 0.5 * peak]))
+
+
+def _approach(t: np.ndarray, delta: np.ndarray, t_ref: float, i_ref: int, lo: int = 0) -> float:
+    """``delta_0``: median rudder over the :data:`APPROACH_S` before ``t_ref`` [s] (samples
+    ``lo`` <= i < ``i_ref``); the rudder at ``t_ref`` when no sample precedes it."""
+    a = max(int(np.searchsorted(t, t_ref - APPROACH_S)), lo)
+    before = delta[a:i_ref]
+    before = before[np.isfinite(before)]
+    if before.size:
+        return float(np.median(before))
+    return float(np.interp(t_ref, t, delta))
+
+
+def find_execute(t: Any, delta: Any, *, start: int = 0,
+                 pulse: tuple[int, int] | None = None) -> tuple[float, int]:
+    """The rudder execute: time [s] and side (+1 starboard, -1 port) of the first rudder order.
+
+    The first deflection is ``pulse`` (sample range ``[i0, i1)`` of ``delta``, as found by
+    :func:`find_manoeuvres`) or, by default, the run of samples from the first whose deviation
+    from ``delta[start]`` reaches 25 % of the largest deviation (a zig-zag's largest deviation
+    is up to twice its amplitude, so 25 % finds its first order), as long as it keeps that sign
+    and size. With ``delta_0`` the median rudder over the :data:`APPROACH_S` (5 s) before the
+    deflection, the side is the sign of the deflection from ``delta_0`` and its level ``A`` the
+    :func:`plateau_level` of ``side (delta - delta_0)`` over it. The execute is where the rising
+    edge leaves ``delta_0``: the straight line through the last sample before the deflection
+    within ``0.1 A`` of ``delta_0`` and the first sample after it beyond ``0.5 A``, extended back
+    to ``delta_0`` (a rate-limited ramp gives its start, a sampled step its last sample before
+    the step), not before sample ``start``. A record whose sample ``start`` is already beyond half
+    the largest ``|delta|`` starts at the execute. ``delta`` in [rad] (or any command unit);
+    non-finite samples are left out.
+    """
+    t = as_1d("t", t)
+    delta = as_1d("delta", delta, len(t))
+    ok = np.isfinite(t) & np.isfinite(delta)
+    idx = np.flatnonzero(ok)
+    t, delta = t[ok], delta[ok]
+    s = int(np.searchsorted(idx, start))
+    if len(t) - s < 2:
+        raise UsvidError("metrics: too few samples to find the rudder execute")
+    if pulse is None:
+        big_abs = float(np.max(np.abs(delta[s:])))
+        if abs(delta[s]) >= 0.5 * big_abs > 0:
+            # the record starts with the rudder already over (e.g. a simulation from the execute)
+            return float(t[s]), (1 if delta[s] > 0 else -1)
+        dev = delta[s:] - delta[s]
+        amp = float(np.max(np.abs(dev)))
+        if amp <= 0:
+            raise UsvidError("metrics: the rudder never moves; no manoeuvre to measure")
+        i0 = s + int(np.flatnonzero(np.abs(dev) >= 0.25 * amp)[0])
+        sgn = 1.0 if dev[i0 - s] > 0 else -1.0
+        off = np.flatnonzero(sgn * dev[i0 - s:] < 0.25 * amp)
+        i1 = i0 + (int(off[0]) if off.size else len(t) - i0)
+    else:
+        i0, i1 = (int(np.searchsorted(idx, i)) for i in pulse)
+        if i0 <= s:
+            return float(t[s]), (1 if np.median(delta[s:max(i1, s + 1)]) > 0 else -1)
+    d0 = _approach(t, delta, float(t[i0]), i0, s)
+    side = 1 if float(np.median(delta[i0:i1])) - d0 > 0 else -1
+    mag = side * (delta - d0)
+    level = plateau_level(mag[i0:i1])
+    quiet = np.flatnonzero(mag[s:i0 + 1] <= 0.1 * level)
+    if not quiet.size:
+        return float(t[s]), side
+    i10 = s + int(quiet[-1])
+    rising = np.flatnonzero(mag[i10:i1] >= 0.5 * level)
+    if not rising.size:
+        return float(t[i10]), side
+    i50 = i10 + int(rising[0])
+    rise = (mag[i50] - mag[i10]) / (t[i50] - t[i10])
+    t0 = float(t[i10]) - max(float(mag[i10]), 0.0) / rise if rise > 0 else float(t[i10])
+    return max(t0, float(t[s])), side
+
+
+def rudder_amplitude(t: Any, delta: Any, t_execute: float, t_end: float | None = None) -> float:
+    """Rudder amplitude [rad] (or command units) of the manoeuvre from ``t_execute`` to
+    ``t_end`` [s] (default: the end of the record).
+
+    Deflections are measured from ``delta_0``, the median rudder over the :data:`APPROACH_S`
+    (5 s) before the execute (the rudder at the execute when no sample precedes it). A zig-zag
+    (deflections to both sides, the smaller side at least 25 % of the larger) has the mean of
+    its starboard and port :func:`plateau_level` (half the distance between the median
+    starboard and the median port plateau: a rudder zero offset cancels); a one-sided
+    manoeuvre (turning circle) the plateau level of its side. NaN without finite samples.
+    """
+    t = as_1d("t", t)
+    t, delta = clean(t, as_1d("delta", delta, len(t)))
+    if len(t) == 0:
+        return math.nan
+    i_e = int(np.searchsorted(t, t_execute))
+    d0 = _approach(t, delta, float(t_execute), i_e)
+    sel = t >= t_execute
+    if t_end is not None:
+        sel &= t <= t_end
+    dev = delta[sel] - d0
+    if dev.size == 0:
+        return math.nan
+    stbd, port = plateau_level(dev), plateau_level(-dev)
+    hi, lo = float(dev.max()), float(-dev.min())
+    if stbd > 0 and port > 0 and min(hi, lo) > 0.25 * max(hi, lo):
+        return 0.5 * (stbd + port)
+    return stbd if hi >= lo else port
+
+
+def rudder_rate(t: Any, delta: Any) -> float:
+    """Rudder rate [rad/s] on the ramps: |d delta/dt| of a 0.5 s quadratic Savitzky-Golay fit
+    (:func:`usvid.prep.savgol_derivative`), median over the samples where it exceeds half its
+    maximum; ``inf`` when the rudder does not move (an ideal servo)."""
+    t = as_1d("t", t)
+    delta = as_1d("delta", delta, len(t))
+    tf = t[np.isfinite(t)]
+    if tf.size < 2:
+        return math.inf
+    dd = np.abs(savgol_derivative(delta, float(np.median(np.diff(tf))), 0.5, order=2))
+    peak = float(np.nanmax(dd)) if np.isfinite(dd).any() else 0.0
+    if not peak > 0:
+        return math.inf
+    return float(np.median(dd[dd > 0.5 * peak]))
+
+
+def zigzag_crossings(t: Any, z: Any, psi_switch: float, start: int = 0
+                     ) -> tuple[list[float], list[int]]:
+    """The reversal instants of a zig-zag (IMO MSC.137(76), ITTC 7.5-04-02-01).
+
+    ``z`` [rad] is the heading deviation from the heading at the execute, signed so that the
+    first turn is positive (``side (psi - psi0)``). Reversal k (k = 0, 1, ...) is where ``z``
+    reaches ``+psi_switch`` (k even) or ``-psi_switch`` (k odd) [rad], searched alternately from
+    sample ``start`` on. Returns the times [s], interpolated linearly between the two samples
+    around each crossing, and the index of the first sample at or after each.
+    """
+    t = as_1d("t", t)
+    z = as_1d("z", z, len(t))
+    times: list[float] = []
+    index: list[int] = []
+    k = 0
+    while start < len(t):
+        up = k % 2 == 0
+        tc = crossing_time(t, z, psi_switch if up else -psi_switch, start, up)
+        if math.isnan(tc):
+            break
+        j = int(np.searchsorted(t, tc))
+        times.append(tc)
+        index.append(j)
+        start = max(j, start + 1)
+        k += 1
+    return times, index
+
+
+@dataclass
+class SteadyTurn:
+    """The steady part of a turning circle (:func:`steady_turn`): the window ``t_start`` ..
+    ``t_end`` [s], the heading change ``arc`` [rad] inside it, the turn's ``side`` (+1
+    starboard) and the means over the window of the yaw rate ``yaw_rate`` [rad/s, signed], the
+    speed ``speed`` [m/s] and the rudder ``delta`` [rad] (NaN when not given)."""
+
+    t_start: float
+    t_end: float
+    arc: float
+    side: int
+    yaw_rate: float
+    speed: float
+    delta: float
+
+
+def steady_turn(t: Any, psi: Any, t_execute: float | None = None, *, r: Any = None,
+                U: Any = None, x: Any = None, y: Any = None, delta: Any = None) -> SteadyTurn:
+    """The steady part of a turning circle and its mean yaw rate, speed and rudder.
+
+    From the execute ``t_execute`` [s] (default the first sample), heading ``psi`` [rad]: the
+    side is the sign of the largest heading change after the execute. The steady window is the
+    last 360 deg of heading change when the record turns at least 540 deg (180 deg for the
+    tactical diameter, then a whole circle, which also averages out a current); else the part
+    after the 180 deg instant; else (a turn of less than 180 deg) the part after half the final
+    heading change. Over that window: ``yaw_rate`` the mean ``r`` [rad/s] (else the slope of a
+    line fitted to ``psi(t)``), ``speed`` the mean ``U`` [m/s] (else the path length of ``x``,
+    ``y`` [m] over the window's duration), ``delta`` the mean rudder [rad]. All arrays on ``t``;
+    each channel's non-finite samples are left out.
+    """
+    t = as_1d("t", t)
+    n = len(t)
+    tt, pp = clean(t, as_1d("psi", psi, n))
+    if len(tt) < 2:
+        raise UsvidError("metrics: a steady turn needs at least 2 samples with a heading")
+    pp = np.unwrap(pp)
+    t_e = float(tt[0]) if t_execute is None else float(t_execute)
+    after = tt >= t_e
+    if not after.any():
+        raise UsvidError(f"metrics: no heading sample after the execute at {t_e:g} s")
+    dev = pp - float(np.interp(t_e, tt, pp))
+    kmax = int(np.argmax(np.abs(np.where(after, dev, 0.0))))
+    side = 1 if dev[kmax] >= 0 else -1
+    z = side * dev
+    z_end = float(z[-1])
+    if z_end - 2 * math.pi >= math.pi:
+        w = z >= z_end - 2 * math.pi
+    else:
+        t180 = crossing_time(tt, z, math.pi, int(np.searchsorted(tt, t_e)), True)
+        w = tt >= t180 if not math.isnan(t180) else z >= 0.5 * z_end
+    w &= after
+    if not w.any():
+        w = after
+    ta, tb = float(tt[w][0]), float(tt[w][-1])
+
+    def mean(name: str, a: Any) -> float:
+        if a is None:
+            return math.nan
+        a = as_1d(name, a, n)
+        sel = np.isfinite(a) & (t >= ta) & (t <= tb)
+        return float(np.mean(a[sel])) if sel.any() else math.nan
+
+    if r is not None:
+        yaw = mean("r", r)
+    else:
+        yaw = float(np.polyfit(tt[w], pp[w], 1)[0]) if w.sum() >= 2 else math.nan
+    if U is not None:
+        speed = mean("U", U)
+    elif x is not None and y is not None:
+        tx, xx, yy = clean(t, as_1d("x", x, n), as_1d("y", y, n))
+        sel = (tx >= ta) & (tx <= tb)
+        speed = (float(np.sum(np.hypot(np.diff(xx[sel]), np.diff(yy[sel]))))
+                 / float(tx[sel][-1] - tx[sel][0])) if sel.sum() >= 2 else math.nan
+    else:
+        speed = math.nan
+    return SteadyTurn(t_start=ta, t_end=tb, arc=float(z[w].max() - z[w].min()), side=side,
+                      yaw_rate=yaw, speed=speed, delta=mean("delta", delta))
+
+
 def _pulses(c: np.ndarray, cs: np.ndarray, dt: float, min_level: float, min_pulse_s: float,
             merge_gap_s: float) -> list[_Pulse]:
     pulses: list[_Pulse] = []
@@ -136,33 +450,9 @@ def _pulses(c: np.ndarray, cs: np.ndarray, dt: float, min_level: float, min_puls
     for p in merged:
         if (p.i1 - p.i0) * dt < min_pulse_s:
             continue
-        seg = np.abs(c[p.i0:p.i1])
-        p.level = float(np.nanmedian(seg))
+        p.level = plateau_level(p.sign * c[p.i0:p.i1])
         out.append(p)
     return out
-
-
-def _execute_index(t: np.ndarray, c: np.ndarray, p: _Pulse, floor: int) -> int:
-    """Sample where the command starts to move towards pulse ``p`` (the rudder execute).
-
-    The last sample before the pulse within 10 % of its level of zero, moved back along the
-    rising edge (a straight line through the 10 % and 50 % points, extrapolated to zero): a
-    rate-limited rudder reaches 10 % of 20 deg 0.4 s after the order at 5 deg/s.
-    """
-    mag = p.sign * c
-    idx = np.flatnonzero(mag[floor:p.i0 + 1] <= 0.1 * p.level)
-    if not idx.size:
-        return floor
-    i10 = floor + int(idx[-1])
-    after = np.flatnonzero(mag[i10:p.i1] >= 0.5 * p.level)
-    if not after.size:
-        return i10
-    i50 = i10 + int(after[0])
-    rise = (mag[i50] - mag[i10]) / max(t[i50] - t[i10], 1e-12)
-    if not (np.isfinite(rise) and rise > 0):
-        return i10
-    t0 = t[i10] - max(float(mag[i10]), 0.0) / rise
-    return max(floor, int(np.searchsorted(t, t0 - 1e-9)))
 
 
 def _reversal_index(c: np.ndarray, p: _Pulse) -> int:
@@ -194,6 +484,8 @@ def nominal_switch(measured: float, delta_amp: float | None = None) -> float:
     if not below:
         return math.radians(round(math.degrees(measured), 1))
     return math.radians(max(below))
+
+
 
 
 def _steady_before(psi: np.ndarray, i_exec: int, i_end: int, dt: float) -> bool:
@@ -258,7 +550,8 @@ def find_manoeuvres(
         if min_level is None:
             min_level = (math.radians(1.0) if rudder
                          else 0.2 * float(np.nanpercentile(np.abs(cs), 95)))
-        pulses = _pulses(c if rudder else cs, cs, dt, min_level, min_pulse_s, merge_gap_s=1.0)
+        cc = c if rudder else cs  # the command the execute and the level are read from
+        pulses = _pulses(cc, cs, dt, min_level, min_pulse_s, merge_gap_s=1.0)
         # chains of alternating pulses of similar level
         chains: list[list[_Pulse]] = []
         for p in pulses:
@@ -271,11 +564,10 @@ def find_manoeuvres(
             chains.append([p])
         floor = 0
         for chain in chains:
-            seg = _zigzag(chain, t, c, cs, psi, floor, name, rudder, psi_switch)
+            seg = _zigzag(chain, t, cc, psi, floor, name, rudder, psi_switch)
             if seg is None:
                 for p in chain:
-                    s = _turning_from_pulse(p, t, c if rudder else cs, psi, floor, name,
-                                            min_turn_deg)
+                    s = _turning_from_pulse(p, t, cc, psi, floor, name, min_turn_deg)
                     if s is not None:
                         segs.append(s)
                         used[(t >= s.t_start) & (t <= s.t_end)] = True
@@ -289,14 +581,13 @@ def find_manoeuvres(
     return segs
 
 
-def _zigzag(chain: list[_Pulse], t, c, cs, psi, floor, name, rudder, psi_switch
-            ) -> Segment | None:
+def _zigzag(chain: list[_Pulse], t, c, psi, floor, name, rudder, psi_switch) -> Segment | None:
     if len(chain) < 2:
         return None
-    level = float(np.median([p.level for p in chain]))
-    ie = _execute_index(t, c if rudder else cs, chain[0], floor)
-    psi0 = psi[ie]
-    rev = [_reversal_index(c if rudder else cs, p) for p in chain[:-1]]
+    t_e, side = find_execute(t, c, start=floor, pulse=(chain[0].i0, chain[0].i1))
+    ie = int(np.searchsorted(t, t_e))
+    psi0 = float(np.interp(t_e, t, psi))
+    rev = [_reversal_index(c, p) for p in chain[:-1]]
     dev = np.array([p.sign * (psi[i] - psi0) for p, i in zip(chain[:-1], rev, strict=True)])
     if not np.all(np.isfinite(dev)) or np.any(dev <= 0):
         return None
@@ -304,16 +595,17 @@ def _zigzag(chain: list[_Pulse], t, c, cs, psi, floor, name, rudder, psi_switch
     # every reversal at the same heading deviation (within 50 % or 1 deg): a real zig-zag
     if np.any(np.abs(dev - est) > max(0.5 * est, math.radians(1.0))):
         return None
-    sw = psi_switch if psi_switch is not None else nominal_switch(est, level if rudder else None)
     i_end = chain[-1].i1 - 1
+    level = rudder_amplitude(t, c, t_e, float(t[i_end]))
+    sw = psi_switch if psi_switch is not None else nominal_switch(est, level if rudder else None)
     if not _steady_before(psi, ie, i_end, float(t[1] - t[0])):
         return None
     return Segment(
         kind="zigzag",
-        t_start=float(t[ie]),
+        t_start=t_e,
         t_end=float(t[i_end]),
-        t_execute=float(t[ie]),
-        side=chain[0].sign,
+        t_execute=t_e,
+        side=side,
         command=name,
         level=level,
         psi_switch=sw,
@@ -325,15 +617,16 @@ def _zigzag(chain: list[_Pulse], t, c, cs, psi, floor, name, rudder, psi_switch
 
 
 def _turning_from_pulse(p, t, c, psi, floor, name, min_turn_deg) -> Segment | None:
-    ie = _execute_index(t, c, p, floor)
+    t_e, side = find_execute(t, c, start=floor, pulse=(p.i0, p.i1))
+    ie = int(np.searchsorted(t, t_e))
     i_end = p.i1 - 1
-    change = p.sign * (psi[i_end] - psi[ie])
+    change = side * (psi[i_end] - float(np.interp(t_e, t, psi)))
     if not np.isfinite(change) or change < math.radians(min_turn_deg):
         return None
     if not _steady_before(psi, ie, i_end, float(t[1] - t[0])):
         return None
-    return Segment(kind="turning", t_start=float(t[ie]), t_end=float(t[i_end]),
-                   t_execute=float(t[ie]), side=p.sign, command=name, level=p.level,
+    return Segment(kind="turning", t_start=t_e, t_end=float(t[i_end]), t_execute=t_e,
+                   side=side, command=name, level=rudder_amplitude(t, c, t_e, float(t[i_end])),
                    heading_change=float(change))
 
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from usvid.manoeuvres.detect import find_execute
 from usvid.manoeuvres.imo import imo_turning_check, imo_zigzag_check, zigzag_kind
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.sim import Turning, ZigZag, simulate
@@ -36,12 +37,6 @@ def vessel_model(dynamics: Any, servo: dict[str, Any], vessel: dict[str, Any]) -
                        vessel=Vessel(length=vessel["length"], speed=vessel["speed"]))
 
 
-def _execute_time(t: np.ndarray, cmd: np.ndarray, amp: float) -> float:
-    """First time [s] the command exceeds half its amplitude (the rudder is put over)."""
-    idx = np.flatnonzero(np.abs(cmd) >= 0.5 * amp)
-    return float(t[idx[0]]) if idx.size else float(t[0])
-
-
 def _decimate(t: np.ndarray, arrays: dict[str, np.ndarray]) -> tuple[list, dict[str, list]]:
     step = max(int(round(1.0 / (PLOT_RATE_HZ * float(np.median(np.diff(t)))))), 1)
     return (np.round(t[::step], 3).tolist(),
@@ -54,16 +49,19 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
     """Simulate the identified model through the trial's manoeuvre and compare.
 
     The simulation starts from the measured initial heading and speed; zig-zag and turning use
-    the same logic as the trial (``ZigZag``/``Turning`` with the identified servo), started when
-    the measured command was put over. For a 3-DOF model the thrust is the propeller at the
-    measured mean shaft speed. Returns the ``run.json`` validation entry: decimated time series
-    (x, y [m]; psi, r, delta in deg, deg/s, deg; u, v [m/s]), measured and simulated manoeuvre
-    metrics, IMO criteria of the measured trial, RMS errors.
+    the same logic as the trial (``ZigZag``/``Turning`` with the identified servo), started at
+    the execute of the measured command and to its side
+    (:func:`usvid.manoeuvres.detect.find_execute` on ``delta_cmd``). For a 3-DOF model the
+    thrust is the propeller at the measured mean shaft speed. Returns the ``run.json``
+    validation entry: decimated time series (x, y [m]; psi, r, delta in deg, deg/s, deg; u, v
+    [m/s]), measured and simulated manoeuvre metrics, IMO criteria of the measured trial, RMS
+    errors.
     """
     t = trial.t
     L = float(camp.vessel["length"])
     amp = math.radians(manoeuvre.delta_deg)
-    t_exec = _execute_time(t, trial["delta_cmd"], amp) - float(t[0])
+    t_exec, side = find_execute(t, trial["delta_cmd"])
+    t_exec -= float(t[0])
     psi_meas = trial["psi"].copy()
     ok = np.isfinite(psi_meas)
     psi_meas[ok] = np.unwrap(psi_meas[ok])  # (prep already unwraps; NaN-safe either way)
@@ -79,9 +77,9 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
         dyn = dataclasses.replace(dyn, thrust=camp.propeller, n=float(np.nanmean(trial["n"])))
     model = vessel_model(dyn, servo, camp.vessel)
     if manoeuvre.kind == "zigzag":
-        logic: Any = ZigZag(amp, math.radians(manoeuvre.psi_deg), t_start=t_exec)
+        logic: Any = ZigZag(amp, math.radians(manoeuvre.psi_deg), first=side, t_start=t_exec)
     else:
-        logic = Turning(amp, t_start=t_exec)
+        logic = Turning(side * amp, t_start=t_exec)
     duration = float(t[-1] - t[0])
     res = simulate(model, logic, t_end=duration, dt=0.02, u0=u0, psi0=psi0)
     ts = np.asarray(res.t) + float(t[0])

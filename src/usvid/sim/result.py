@@ -104,6 +104,8 @@ class SimResult:
                         "psi_switch": self._logic_value("psi_switch", i),
                         "t_execute": self._logic_value("t_start", i),
                         "first": int(self._logic_value("first", i))}
+                if self.logic.psi_ref is not None:
+                    args["psi_ref"] = self._logic_value("psi_ref", i)
             if "x" in self.channels and "y" in self.channels:
                 args.update(x=self.channels["x"][i], y=self.channels["y"][i])
             args.update(kw)
