@@ -27,8 +27,10 @@ __all__ = [
     "ImoCheck",
     "first_overshoot_limit_10_10",
     "second_overshoot_limit_10_10",
+    "imo_turning_applies",
     "imo_turning_check",
     "imo_zigzag_check",
+    "zigzag_kind",
 ]
 
 
@@ -152,6 +154,13 @@ def imo_zigzag_check(metrics: Any, L: float, U: float, kind: str = "10/10") -> I
     if kind == "20/20":
         return ImoCheck("zigzag 20/20", [_crit("first_overshoot", first, 25.0, "deg")])
     raise UsvidError(f"IMO check: zig-zag kind must be '10/10' or '20/20' (got {kind!r})")
+
+
+def imo_turning_applies(delta: float, max_angle: float) -> bool:
+    """True when a turning circle with the rudder at ``delta`` [rad] is one MSC.137(76) 5.2.1
+    judges: at the maximum rudder angle, 35 deg or the steering gear's limit ``max_angle`` [rad]
+    when that is smaller (a circle at a smaller angle gets no IMO verdict)."""
+    return min(abs(delta), max_angle) >= min(math.radians(35.0), max_angle) - 1e-9
 
 
 def zigzag_kind(delta_deg: float, psi_deg: float) -> str | None:

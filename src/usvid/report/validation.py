@@ -14,7 +14,12 @@ from typing import Any
 import numpy as np
 
 from usvid.manoeuvres.detect import find_execute
-from usvid.manoeuvres.imo import imo_turning_check, imo_zigzag_check, zigzag_kind
+from usvid.manoeuvres.imo import (
+    imo_turning_applies,
+    imo_turning_check,
+    imo_zigzag_check,
+    zigzag_kind,
+)
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.sim import Turning, ZigZag, simulate
 
@@ -142,7 +147,7 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
         else:
             mm = turning_metrics(t, trial["x"], trial["y"], psi_meas, U=u_meas, r=trial["r"])
             ms = turning_metrics(ts, sim_x, sim_y, ch["psi"], U=ch.get("U"), r=ch["r"])
-            if abs(manoeuvre.delta_deg - 35.0) < 1e-6:
+            if imo_turning_applies(amp, math.radians(servo.get("max_angle_deg", 35.0))):
                 entry["imo"] = [c.to_dict() for c in imo_turning_check(mm, L).criteria]
         entry["metrics"] = {"measured": mm.to_dict(), "simulated": ms.to_dict()}
     except Exception as exc:  # metrics of a short/odd record: say so in the report

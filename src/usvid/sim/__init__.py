@@ -13,12 +13,16 @@ Public API
   ``batch_size``, ``zigzag_metrics()``, ``turning_metrics()``, ``course_metrics()``,
   ``to_trial(i)``, ``course`` and ``zigzag_online`` accumulators.
 - Convenience: :func:`simulate_zigzag`, :func:`simulate_turning`, :func:`simulate_course_change`.
+- Standard manoeuvre runs with their metrics (:mod:`usvid.sim.runs`, what ``usvid simulate``
+  runs): :func:`run_zigzag`, :func:`run_turning`, :func:`run_course` (angles in degrees, named
+  ``*_deg``).
 - :mod:`usvid.sim.virtual` (sensor models, virtual trials) is a separate module; the IMO
   criteria are in :mod:`usvid.manoeuvres.imo`.
 """
 
 from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
 from usvid.sim.result import CHANNEL_UNITS, SimResult
+from usvid.sim.runs import run_course, run_turning, run_zigzag
 from usvid.sim.simulate import (
     simulate,
     simulate_course_change,
@@ -28,5 +32,6 @@ from usvid.sim.simulate import (
 
 __all__ = [
     "CHANNEL_UNITS", "PID", "Commanded", "CourseChange", "Disturbance", "SimResult", "Turning",
-    "ZigZag", "simulate", "simulate_course_change", "simulate_turning", "simulate_zigzag",
+    "ZigZag", "run_course", "run_turning", "run_zigzag", "simulate", "simulate_course_change",
+    "simulate_turning", "simulate_zigzag",
 ]
