@@ -9,10 +9,21 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from usvid.manoeuvres.detect import find_manoeuvres, nominal_switch
+from usvid.manoeuvres.detect import (
+    find_execute,
+    find_manoeuvres,
+    nominal_switch,
+    plateau_level,
+    rudder_amplitude,
+    rudder_rate,
+    steady_turn,
+    zigzag_crossings,
+)
 from usvid.manoeuvres.measure import manoeuvre_metrics, measured_metrics
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
-from usvid.trial import Trial
+from usvid.models import IdealServo, Nomoto1, VesselModel
+from usvid.sim import Turning, ZigZag, simulate
+from usvid.trial import Trial, Vessel
 
 K, T, U = 0.2, 8.0, 1.5  # Nomoto gain [1/s], time constant [s]; speed [m/s]
 RATE = math.radians(5.0)  # rudder rate [rad/s]
@@ -206,3 +217,149 @@ def test_thruster_differential_zigzag(synthetic):
     assert math.isnan(m["delta_amp_deg"])
     assert m["command_level"] == pytest.approx(174.5, rel=0.05)
     assert len(m["overshoot_deg"]) >= 4
+
+
+# --------------------------------------------------------------------------------------------
+# the one definition of each manoeuvre quantity (usvid.manoeuvres.detect)
+# --------------------------------------------------------------------------------------------
+DEG = math.radians
+#: Nomoto-1 vessel with a rate-limited (5 deg/s) ideal servo: every rule has a known answer.
+RATE_MODEL = VesselModel(Nomoto1(K=0.5, T=2.0),
+                         servo=IdealServo(max_angle=DEG(35), max_rate=DEG(5)),
+                         vessel=Vessel(length=5.0, speed=2.0))
+
+
+def test_find_execute_step_and_ramp():
+    t = np.arange(0, 10, 0.1)
+    delta = np.clip((t - 2.0) * 0.2, 0, 0.35)  # ramps from t = 2 s
+    te, side = find_execute(t, -delta)
+    # the ramp starts at t = 2 s: the line through the last sample within 10 % of the plateau
+    # (2.1 s, 0.02 rad) and the first beyond 50 % (2.9 s, 0.18 rad) reaches zero there (the
+    # earlier rule returned the 10 % sample itself, 2.1 s)
+    assert te == pytest.approx(2.0, abs=1e-9)
+    assert side == -1.0
+
+
+def test_find_execute_zigzag_and_record_starting_at_execute():
+    t = np.arange(0, 30, 0.1)
+    zz = np.where(t < 3, 0.01, np.where(t < 10, 0.17, np.where(t < 20, -0.17, 0.17)))
+    te, side = find_execute(t, zz)  # largest deviation is the 20 deg swing, not the first order
+    assert te == pytest.approx(2.9, abs=1e-9) and side == 1.0
+    te, side = find_execute(t, np.where(t < 10, -0.17, 0.17))  # already over at the start
+    assert te == 0.0 and side == -1.0
+
+
+def test_find_execute_ramp_between_samples_with_zero_offset():
+    # a rudder reading 0.02 rad when straight (zero offset), ramp at 0.2 rad/s from t = 2.03 s
+    # (between two samples) to 0.37 rad: the line through the 10 % and 50 % samples is the ramp
+    # itself, so the execute is 2.03 s exactly; the offset is the median of the 5-s approach
+    t = np.arange(0, 10, 0.1)
+    delta = 0.02 + np.clip((t - 2.03) * 0.2, 0, 0.35)
+    te, side = find_execute(t, delta)
+    assert te == pytest.approx(2.03, abs=1e-9) and side == 1
+    te, side = find_execute(t, -delta)
+    assert te == pytest.approx(2.03, abs=1e-9) and side == -1
+
+
+@pytest.fixture(scope="module")
+def sim_manoeuvres():
+    """A port turning circle (-20 deg from t = 5 s) and a 10/10 port-first zig-zag (from
+    t = 3 s), both with the rudder at 5 deg/s: execute, side, amplitude, rate and reversals are
+    the logic's own."""
+    turn = simulate(RATE_MODEL, Turning(DEG(-20), t_start=5.0), t_end=60.0, dt=0.02)
+    zz = simulate(RATE_MODEL, ZigZag(DEG(10), DEG(10), first=-1, t_start=3.0), t_end=80.0,
+                  dt=0.02)
+    return turn, zz
+
+
+def test_execute_side_amplitude_rate_of_simulated_manoeuvres(sim_manoeuvres):
+    turn, zz = sim_manoeuvres
+    for res, t_start, amp in ((turn, 5.0, 20.0), (zz, 3.0, 10.0)):
+        d = res["delta"][0]
+        # the rate-limited ramp starts at t_start: the line through its 10 % and 50 % samples
+        te, side = find_execute(res.t, d)
+        assert te == pytest.approx(t_start, abs=1e-9) and side == -1
+        assert math.degrees(rudder_amplitude(res.t, d, te)) == pytest.approx(amp, abs=1e-9)
+        assert math.degrees(rudder_rate(res.t, d)) == pytest.approx(5.0, abs=1e-6)
+
+
+def test_zigzag_crossings_are_the_logic_reversals(sim_manoeuvres):
+    _, zz = sim_manoeuvres
+    psi = zz["psi"][0]
+    z = -(psi - psi[0])  # port first: the first turn positive
+    times, index = zigzag_crossings(zz.t, z, DEG(10), int(np.searchsorted(zz.t, 3.0)))
+    # the simulator locates each switching event inside its step (sim.core); linear
+    # interpolation of a heading turning at ~2 deg/s over 0.02 s errs by ~1e-7 s
+    online = zz.zigzag_online["reversal_t"][0]
+    n = int(np.sum(np.isfinite(online[1:])))
+    assert n >= 4 and len(times) >= n
+    np.testing.assert_allclose(times[:n], online[1:n + 1], atol=1e-6)
+    # the index is the first sample at or after each crossing
+    for tc, j in zip(times, index, strict=True):
+        assert zz.t[j] >= tc > zz.t[j - 1]
+
+
+def test_zigzag_crossings_hand_values():
+    # z = A sin(w t): +sw first at asin(sw/A)/w, -sw half a period later, and so on
+    A, sw, w = DEG(20), DEG(10), 2 * math.pi / 20.0
+    t = np.arange(0.0, 45.0, 0.01)
+    times, _ = zigzag_crossings(t, A * np.sin(w * t), sw)
+    t1 = math.asin(0.5) / w  # 1.667 s
+    expect = [t1, 10.0 + t1, 20.0 + t1, 30.0 + t1, 40.0 + t1]
+    # linear interpolation of a sine: error below A w^2 dt^2 / 8 / (A w cos) ~ 1e-6 s
+    np.testing.assert_allclose(times, expect, atol=1e-5)
+
+
+def test_plateau_level_and_amplitude_by_hand():
+    # plateau samples beyond half the largest: ramps and a noise spike do not count
+    assert plateau_level([0.0, 1.0, 5.0, 10.0, 10.0, 10.0, 10.0, 13.0, 5.0]) == 10.0
+    assert plateau_level([0.0, -1.0]) == 0.0 and math.isnan(plateau_level([np.nan]))
+    # zig-zag on a rudder reading 0.5 deg when straight: +10.5 / -9.5 deg plateaux with ramps;
+    # the amplitude is half the distance between them, 10 deg, whatever the zero offset
+    t = np.arange(0.0, 60.0, 0.1)
+    sq = np.where(t < 10, 0.0, np.where((t // 10) % 2 == 1, 10.0, -10.0))
+    ramped = np.convolve(np.pad(sq, (10, 0), mode="edge"), np.ones(11) / 11, "valid")
+    d = np.radians(ramped + 0.5)
+    assert math.degrees(rudder_amplitude(t, d, 10.0)) == pytest.approx(10.0, abs=1e-9)
+    # one-sided (turning): the plateau from the 5-s approach median (1 deg) to 21 deg = 20 deg
+    turn = np.radians(np.where(t < 10, 1.0, np.clip(1.0 + (t - 10.0) * 5.0, 1.0, 21.0)))
+    assert math.degrees(rudder_amplitude(t, turn, 10.0)) == pytest.approx(20.0, abs=1e-9)
+
+
+def test_steady_turn_windows_on_an_exact_circle():
+    # a circle of radius 50 m at 5 m/s from t = 0 (r = 0.1 rad/s, 62.83 s per 360 deg)
+    R, U, dt = 50.0, 5.0, 0.1
+    w = U / R
+    for turn_deg, start_deg in ((720.0, 360.0), (400.0, 180.0), (120.0, 60.0)):
+        t = np.arange(0.0, math.radians(turn_deg) / w + dt / 2, dt)
+        psi = w * t
+        x, y = R * np.sin(psi), R * (1 - np.cos(psi))
+        st = steady_turn(t, psi, 0.0, x=x, y=y, delta=np.full_like(t, DEG(35)))
+        # last 360 deg when the record turns 540 deg or more; else after 180 deg; else the
+        # second half of the heading change
+        assert math.degrees(w * st.t_start) == pytest.approx(start_deg, abs=math.degrees(w * dt))
+        assert st.t_end == pytest.approx(t[-1])
+        assert st.yaw_rate == pytest.approx(w, rel=1e-9) and st.side == 1
+        assert st.speed == pytest.approx(U, rel=1e-4)  # chords: (w dt)^2 / 24 short
+        assert st.delta == pytest.approx(DEG(35))
+
+
+def test_steady_turn_of_simulated_nomoto(sim_manoeuvres):
+    turn, _ = sim_manoeuvres
+    st = steady_turn(turn.t, turn["psi"][0], 5.0, r=turn["r"][0], delta=turn["delta"][0])
+    # Nomoto-1 steady turn: r = K delta = 0.5 * -20 deg; the window starts after 180 deg, 20 s
+    # (10 T) after the execute, where the transient exp(-t/T) is below 1e-4 of r
+    assert st.side == -1 and st.delta == pytest.approx(DEG(-20), abs=1e-12)
+    assert st.yaw_rate == pytest.approx(0.5 * DEG(-20), rel=1e-4)
+
+
+def test_segment_execute_and_level_are_the_array_rules(synthetic):
+    """find_manoeuvres uses the same execute and amplitude as the array functions."""
+    trial, truth = synthetic
+    zz, tc = find_manoeuvres(trial)
+    for seg, t1 in ((zz, 230.0), (tc, 530.0)):
+        sel = (truth["t"] >= seg.t_execute - 10.0) & (truth["t"] <= t1)
+        te, side = find_execute(truth["t"][sel], truth["delta"][sel])
+        assert seg.t_execute == pytest.approx(te, abs=1e-9) and seg.side == side
+        assert seg.level == pytest.approx(
+            rudder_amplitude(truth["t"], truth["delta"], te, seg.t_end), abs=1e-12)
