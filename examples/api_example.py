@@ -25,7 +25,7 @@ from usvid.manoeuvres.imo import imo_zigzag_check
 from usvid.models.export import to_transfer_function
 from usvid.prep import audit, prepare
 from usvid.report.validation import vessel_model
-from usvid.sim import ZigZag, simulate
+from usvid.sim import run_zigzag
 from usvid.sim.campaign import generate_campaign, read_campaign_trial
 
 
@@ -58,9 +58,7 @@ def main(out: Path) -> None:
     print("poles of psi/delta_cmd:", control.poles(heading).round(3))
 
     # 5. simulate a 20/20 zig-zag and judge it (IMO MSC.137(76), 20/20 first overshoot)
-    res = simulate(model, ZigZag(math.radians(20), math.radians(20)), t_end=60.0,
-                   u0=camp.vessel["speed"])
-    zm = res.zigzag_metrics()[0]
+    _, zm = run_zigzag(model, 20.0, 20.0, t_end=60.0, u0=camp.vessel["speed"])
     check = imo_zigzag_check(zm, camp.vessel["length"], camp.vessel["speed"], "20/20")
     print(f"20/20 overshoots {zm.overshoot_deg[:2]} deg; IMO passed: {check.passed}")
 

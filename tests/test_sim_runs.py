@@ -35,6 +35,8 @@ def test_run_turning_matches_ode_solution():
     assert m.steady_yaw_rate_rad_s == pytest.approx(K * delta, rel=1e-3)
     # the default length is extended until 540 deg of heading change
     assert abs(res["psi"][0][-1]) >= 3 * math.pi
+    # the approach speed defaults to the model's vessel.speed
+    assert run_turning(MODEL, 20.0)[1].tactical_diameter_m == m.tactical_diameter_m
 
 
 def test_run_zigzag_extends_to_four_reversals_and_port_mirror():
@@ -64,6 +66,8 @@ def test_run_bad_angles_and_divergence():
         run_turning(MODEL, 0.0, u0=U)
     with pytest.raises(SimulationError, match="psi_deg"):
         run_zigzag(MODEL, 10.0, 200.0, u0=U)
+    with pytest.raises(UsvidError, match="u0"):
+        run_zigzag(MODEL, 10.0, 10.0, u0=-1.0)
     # sway mode d22/m22 = 3.5 1/s: RK4 is unstable for dt * 3.5 > 2.79, so dt = 1 s diverges
     tdof = VesselModel(ThreeDOF(m11=2652.5, m22=2825.6, m33=4201.7, d11=848.1, d22=9889.5,
                                 d33=22721.6, x_l=3.5, thrust=4000.0),

@@ -44,6 +44,17 @@ def default_t_end(model: Any, u0: float) -> float:
     return min(MAX_T_END, max(60.0, 20.0 * T + 10.0 * delay + 40.0 * L / u0))
 
 
+def _approach_speed(model: Any, u0: float | None) -> float:
+    """``u0`` [m/s], else the model's ``vessel.speed``; :class:`UsvidError` when neither is a
+    positive speed."""
+    u = u0 if u0 is not None else getattr(getattr(model, "vessel", None), "speed", None)
+    if u is None:
+        raise UsvidError("the approach speed u0 is not given and the model has no vessel.speed")
+    if not (math.isfinite(u) and u > 0):
+        raise UsvidError(f"the approach speed u0 must be > 0 m/s (got {u!r})")
+    return float(u)
+
+
 def _run(model: Any, logic: Any, t_end: float, dt: float, u0: float) -> SimResult:
     """One simulation; :class:`SimulationError` when it diverged (a state not finite: an unstable
     model or an RK4 step ``dt`` [s] too large for the model's fastest mode) instead of metrics
@@ -59,10 +70,11 @@ def _run(model: Any, logic: Any, t_end: float, dt: float, u0: float) -> SimResul
 
 
 def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
-               t_end: float | None = None, dt: float = 0.02, u0: float
+               t_end: float | None = None, dt: float = 0.02, u0: float | None = None
                ) -> tuple[SimResult, ZigZagMetrics]:
     """Zig-zag ``delta_deg/psi_deg`` (rudder amplitude / switching angle [deg]) to the ``first``
-    side (+1 starboard), from a straight approach at ``u0`` [m/s], step ``dt`` [s].
+    side (+1 starboard), from a straight approach at ``u0`` [m/s] (default the model's
+    ``vessel.speed``), step ``dt`` [s].
 
     Returns the :class:`SimResult` and its :class:`ZigZagMetrics`. Without ``t_end`` [s] the run
     is doubled until it shows the third overshoot and one full period (four reversals), up to
@@ -72,6 +84,7 @@ def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
         raise SimulationError(f"delta_deg must be in (0, 90] deg (got {delta_deg!r})")
     if not 0 < psi_deg <= 180:
         raise SimulationError(f"psi_deg must be in (0, 180] deg (got {psi_deg!r})")
+    u0 = _approach_speed(model, u0)
     logic = ZigZag(delta_amp=math.radians(delta_deg), psi_switch=math.radians(psi_deg),
                    first=first)
     auto = t_end is None
@@ -86,9 +99,9 @@ def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
 
 
 def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt: float = 0.02,
-                u0: float) -> tuple[SimResult, TurningMetrics]:
+                u0: float | None = None) -> tuple[SimResult, TurningMetrics]:
     """Turning circle with the rudder at ``delta_deg`` [deg] (negative: to port) from a straight
-    approach at ``u0`` [m/s], step ``dt`` [s].
+    approach at ``u0`` [m/s] (default the model's ``vessel.speed``), step ``dt`` [s].
 
     Returns the :class:`SimResult` and its :class:`TurningMetrics`. Without ``t_end`` [s] the run
     is doubled until the heading has changed by 540 deg (180 deg for the tactical diameter plus a
@@ -97,6 +110,7 @@ def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt:
     if not 0 < abs(delta_deg) <= 90:
         raise SimulationError(f"delta_deg must be non-zero and within +-90 deg "
                               f"(got {delta_deg!r})")
+    u0 = _approach_speed(model, u0)
     logic = Turning(delta=math.radians(delta_deg))
     auto = t_end is None
     te = default_t_end(model, u0) if auto else float(t_end)
@@ -110,16 +124,18 @@ def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt:
 
 def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float | None = None,
                kd: float = 1.0, target_deg: float = 100.0, noise_deg: float = 1.0,
-               seed: int = 1, t_end: float = 100.0, dt: float = 0.02, u0: float
+               seed: int = 1, t_end: float = 100.0, dt: float = 0.02, u0: float | None = None
                ) -> tuple[SimResult, dict[str, float]]:
     """Course change 0 -> ``target_deg`` [deg] with a PD or PID autopilot (seed 000 section 6.1)
-    from a straight approach at ``u0`` [m/s], ``t_end`` [s] long, step ``dt`` [s].
+    from a straight approach at ``u0`` [m/s] (default the model's ``vessel.speed``), ``t_end``
+    [s] long, step ``dt`` [s].
 
     Gains kp [rad/rad], ki [1/s], kd [s] (seed 000: kp = 0.7, ki = 0.00095, kd = 1; PD: ki = 0,
     the default for ``controller="pd"``). ``noise_deg``: std [deg] of the seed 000
     rudder-equivalent disturbance (0 = calm), stream ``seed``. Returns the :class:`SimResult`
     and ``{"itae" [rad s^2], "iae" [rad s], "max_rudder_deg" [deg]}``.
     """
+    u0 = _approach_speed(model, u0)
     if ki is None:
         ki = default_ki(controller)
     if controller == "pd" and ki != 0:
