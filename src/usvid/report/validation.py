@@ -21,7 +21,7 @@ from usvid.manoeuvres.imo import (
     zigzag_kind,
 )
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
-from usvid.sim import Turning, ZigZag, simulate
+from usvid.sim import PID, CourseChange, Disturbance, Turning, ZigZag, simulate
 
 #: Samples per second kept for the figures in run.json (the logs are 50 Hz).
 PLOT_RATE_HZ = 5.0
@@ -165,8 +165,6 @@ def course_keeping(dynamics: Any, servo: dict[str, Any], camp: Any, *, seed: int
     Returns the ``run.json`` course_keeping entry (decimated psi, delta [deg], disturbance
     [deg], ITAE [rad s^2], IAE [rad s], max rudder [deg] per controller).
     """
-    from usvid.sim import PID, CourseChange, Disturbance, simulate
-
     model = vessel_model(dynamics, servo, camp.vessel)
     dist = Disturbance(math.radians(dist_deg), seed=seed)
     runs, t, d = [], None, None
