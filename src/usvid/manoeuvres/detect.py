@@ -7,10 +7,10 @@ other than a rudder angle (a thruster differential) in its own unit. IMO MSC.137
 7.5-04-02-01 measure a manoeuvre from the *execute*, the instant the rudder order is given.
 
 * **rudder execute and side** (:func:`find_execute`): the rudder before the first deflection,
-  ``delta_0``, is its median over the :data:`APPROACH_S` seconds before the deflection; the side
+  ``delta_0``, is its median over the :data:`APPROACH_S` seconds before the execute; the side
   is the sign of the deflection from ``delta_0`` (+1 starboard). The execute is where the rising
-  edge leaves ``delta_0``: the straight line through the last sample within 10 % of the plateau
-  level and the first sample beyond 50 % of it, extended back to ``delta_0`` (a rate-limited
+  edge leaves ``delta_0``: the straight line through the first sample beyond 50 % of the plateau
+  level and the last sample before it within 10 %, extended back to ``delta_0`` (a rate-limited
   ramp gives its start exactly, a sampled step the last sample before the step).
 * **plateau level and rudder amplitude** (:func:`plateau_level`, :func:`rudder_amplitude`): the
   median of the deflection samples beyond half the largest deflection (noise-robust; the largest
@@ -229,12 +229,13 @@ def find_execute(t: Any, delta: Any, *, start: int = 0,
     from ``delta[start]`` reaches 25 % of the largest deviation (a zig-zag's largest deviation
     is up to twice its amplitude, so 25 % finds its first order), as long as it keeps that sign
     and size. With ``delta_0`` the median rudder over the :data:`APPROACH_S` (5 s) before the
-    deflection, the side is the sign of the deflection from ``delta_0`` and its level ``A`` the
-    :func:`plateau_level` of ``side (delta - delta_0)`` over it. The execute is where the rising
-    edge leaves ``delta_0``: the straight line through the last sample before the deflection
-    within ``0.1 A`` of ``delta_0`` and the first sample after it beyond ``0.5 A``, extended back
-    to ``delta_0`` (a rate-limited ramp gives its start, a sampled step its last sample before
-    the step), not before sample ``start``. A record whose sample ``start`` is already beyond half
+    execute (found iteratively, starting from the 5 s before the deflection), the side is the
+    sign of the deflection from ``delta_0`` and its level ``A`` the :func:`plateau_level` of
+    ``side (delta - delta_0)`` over it. The execute is where the rising edge leaves
+    ``delta_0``: the straight line through the first sample of the deflection beyond ``0.5 A``
+    and the last sample before it within ``0.1 A`` of ``delta_0``, extended back to ``delta_0``
+    (a rate-limited ramp gives its start, a sampled step its last sample before the step), not
+    before sample ``start``. A record whose sample ``start`` is already beyond half
     the largest ``|delta|`` starts at the execute. ``delta`` in [rad] (or any command unit);
     non-finite samples are left out.
     """
@@ -263,21 +264,34 @@ def find_execute(t: Any, delta: Any, *, start: int = 0,
         i0, i1 = (int(np.searchsorted(idx, i)) for i in pulse)
         if i0 <= s:
             return float(t[s]), (1 if np.median(delta[s:max(i1, s + 1)]) > 0 else -1)
-    d0 = _approach(t, delta, float(t[i0]), i0, s)
-    side = 1 if float(np.median(delta[i0:i1])) - d0 > 0 else -1
-    mag = side * (delta - d0)
+    # delta_0 over the approach before the deflection, then (once the edge is known) over the
+    # approach before the execute, so that no sample of the edge biases it
+    t_e, side, t_ref, i_ref = float(t[s]), 1, float(t[i0]), i0
+    for _ in range(3):
+        d0 = _approach(t, delta, t_ref, i_ref, s)
+        side, t_prev = (1 if float(np.median(delta[i0:i1])) - d0 > 0 else -1), t_e
+        t_e = _edge_start(t, side * (delta - d0), s, i0, i1)
+        t_ref, i_ref = t_e, int(np.searchsorted(t, t_e, side="right"))
+        if t_e == t_prev:
+            break
+    return t_e, side
+
+
+def _edge_start(t: np.ndarray, mag: np.ndarray, s: int, i0: int, i1: int) -> float:
+    """Start [s] of the rising edge of the deflection ``mag[i0:i1]`` (towards its side, from
+    ``delta_0``), not before sample ``s``: see :func:`find_execute`."""
     level = plateau_level(mag[i0:i1])
-    quiet = np.flatnonzero(mag[s:i0 + 1] <= 0.1 * level)
-    if not quiet.size:
-        return float(t[s]), side
-    i10 = s + int(quiet[-1])
-    rising = np.flatnonzero(mag[i10:i1] >= 0.5 * level)
+    rising = np.flatnonzero(mag[i0:i1] >= 0.5 * level)
     if not rising.size:
-        return float(t[i10]), side
-    i50 = i10 + int(rising[0])
+        return float(t[i0])
+    i50 = i0 + int(rising[0])
+    quiet = np.flatnonzero(mag[s:i50] <= 0.1 * level)
+    if not quiet.size:
+        return float(t[s])
+    i10 = s + int(quiet[-1])
     rise = (mag[i50] - mag[i10]) / (t[i50] - t[i10])
     t0 = float(t[i10]) - max(float(mag[i10]), 0.0) / rise if rise > 0 else float(t[i10])
-    return max(t0, float(t[s])), side
+    return max(t0, float(t[s]))
 
 
 def rudder_amplitude(t: Any, delta: Any, t_execute: float, t_end: float | None = None) -> float:
