@@ -22,6 +22,7 @@ from usvid.manoeuvres.detect import (
 from usvid.manoeuvres.measure import manoeuvre_metrics, measured_metrics
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.models import IdealServo, Nomoto1, VesselModel
+from usvid.prep import prepare
 from usvid.sim import Turning, ZigZag, simulate
 from usvid.trial import Trial, Vessel
 
@@ -177,10 +178,15 @@ def test_hsva_all_runs_switch_angles(hsva_dir):
 
     for path in sorted(hsva_dir.glob("*.dat")):
         parts = path.stem.split("_Z_")[1].split("_")
-        segs = find_manoeuvres(read_trial(path, "hsva_kvlcc2"))
+        tr = read_trial(path, "hsva_kvlcc2")
+        segs = find_manoeuvres(tr)
         assert [s.kind for s in segs] == ["zigzag"], path.name
         assert math.degrees(segs[0].psi_switch) == pytest.approx(float(parts[1])), path.name
         assert math.degrees(segs[0].level) == pytest.approx(float(parts[0]), abs=0.1)
+        # one rule: the segment's execute and side are those of the rudder record alone
+        tr = prepare(tr, derivatives=False)
+        t_e, side = find_execute(tr.t, tr["delta"])
+        assert segs[0].t_execute == pytest.approx(t_e, abs=1e-9) and segs[0].side == side
 
 
 def test_twin_circle_found_from_heading(twin_dir):
