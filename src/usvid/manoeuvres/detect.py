@@ -72,8 +72,9 @@ THRUSTER_PAIRS: tuple[tuple[str, str], ...] = (
 class Segment:
     """One manoeuvre found in a log.
 
-    ``kind`` "zigzag" | "turning"; times [s]; ``side`` +1 when the first command turns to
-    starboard; ``level`` the command's plateau (rudder [rad] or thruster-differential units);
+    ``kind`` "zigzag" | "turning"; times [s]; ``t_execute`` and ``side`` (+1 when the first
+    command turns to starboard) by :func:`find_execute`; ``level`` the amplitude by
+    :func:`rudder_amplitude` (rudder [rad] or thruster-differential units);
     ``psi_switch`` [rad] (zig-zag); ``heading_change`` [rad] over the segment; ``command`` the
     channel(s) used; ``execute_from`` "command" or "heading".
     """
@@ -145,8 +146,6 @@ def turning_command(trial: Trial) -> tuple[str, np.ndarray, bool] | None:
 def _runs(mask: np.ndarray) -> np.ndarray:
     edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     return np.column_stack([np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)])
-
-
 
 
 # --------------------------------------------------------------------------------------------
@@ -498,8 +497,6 @@ def nominal_switch(measured: float, delta_amp: float | None = None) -> float:
     if not below:
         return math.radians(round(math.degrees(measured), 1))
     return math.radians(max(below))
-
-
 
 
 def _steady_before(psi: np.ndarray, i_exec: int, i_end: int, dt: float) -> bool:
