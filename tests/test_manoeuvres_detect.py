@@ -21,7 +21,7 @@ from usvid.manoeuvres.detect import (
 )
 from usvid.manoeuvres.measure import manoeuvre_metrics, measured_metrics
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
-from usvid.models import IdealServo, Nomoto1, VesselModel
+from usvid.models import IdealServo, Nomoto1, SecondOrderServo, VesselModel
 from usvid.prep import prepare
 from usvid.sim import Turning, ZigZag, simulate
 from usvid.trial import Trial, Vessel
@@ -369,3 +369,26 @@ def test_segment_execute_and_level_are_the_array_rules(synthetic):
         assert seg.t_execute == pytest.approx(te, abs=1e-9) and seg.side == side
         assert seg.level == pytest.approx(
             rudder_amplitude(truth["t"], truth["delta"], te, seg.t_end), abs=1e-12)
+
+
+def test_logged_order_gives_execute_and_switch_angle():
+    """A log with the rudder order and a delayed rudder (1 s dead time, as the Lanxin servo):
+    the manoeuvre is read from the order, as IMO times it and as the simulator runs it."""
+    servo = SecondOrderServo(omega_n=1.4, zeta=0.85, gain=1.0, delay=1.0, max_angle=DEG(35))
+    model = VesselModel(Nomoto1(K=0.7, T=0.4), servo=servo, vessel=Vessel(length=7.0, speed=5.0))
+    res = simulate(model, ZigZag(DEG(10), DEG(10), t_start=5.0), t_end=60.0, dt=0.02)
+    trial = res.to_trial(0)
+    d = trial.data.copy()
+    d["psi"] += np.random.default_rng(1).normal(0.0, DEG(0.3), len(d))  # a 0.3-deg compass
+    segs = find_manoeuvres(trial.with_data(d))
+    assert [s.kind for s in segs] == ["zigzag"]
+    zz = segs[0]
+    assert zz.command == "delta_cmd" and zz.side == 1
+    # the order steps at t = 5 s, sampled: the last sample before the step
+    assert zz.t_execute == pytest.approx(5.0, abs=0.021)
+    assert math.degrees(zz.level) == pytest.approx(10.0, abs=1e-9)
+    # the order reverses at the crossing itself: 10 deg (the rudder angle, 1.3 s later at
+    # ~7 deg/s, would suggest 20)
+    assert math.degrees(zz.psi_switch) == pytest.approx(10.0)
+    m = zz.extra["psi_switch_measured_deg"]
+    assert 9.5 < m < 10.6

@@ -4,7 +4,9 @@ record, and the standard manoeuvres (zig-zags, turning circles) found inside a l
 Definitions (used by the metrics of measured and simulated manoeuvres, ``usvid metrics``,
 identification, validation and the report). Time [s], angles [rad], rates [rad/s]; a command
 other than a rudder angle (a thruster differential) in its own unit. IMO MSC.137(76) and ITTC
-7.5-04-02-01 measure a manoeuvre from the *execute*, the instant the rudder order is given.
+7.5-04-02-01 measure a manoeuvre from the *execute*, the instant the rudder order is given: a
+log's manoeuvres are read from the rudder order when it is logged, else from the rudder angle
+(:func:`turning_command`); a simulation's execute is its logic's start.
 
 * **rudder execute and side** (:func:`find_execute`): the rudder before the first deflection,
   ``delta_0``, is its median over the :data:`APPROACH_S` seconds before the execute; the side
@@ -18,8 +20,8 @@ other than a rudder angle (a thruster differential) in its own unit. IMO MSC.137
   and port plateau levels (half the distance between them: a rudder zero offset cancels).
 * **rudder rate** (:func:`rudder_rate`): the median |d delta/dt| on the ramps.
 * **switching angle** (:func:`nominal_switch`; measured by :func:`find_manoeuvres`): the median
-  heading deviation from the heading at the execute where the rudder leaves its plateaux, rounded
-  down to a standard angle.
+  deviation of the heading (smoothed over 2 s) from the heading at the execute where the rudder
+  (order) leaves its plateaux, rounded down to a standard angle.
 * **zig-zag reversals** (:func:`zigzag_crossings`): the alternate crossings of
   ``+psi_switch, -psi_switch, ...`` by the heading deviation, interpolated between samples.
 * **steady turn** (:func:`steady_turn`): the last 360 deg of a turning circle, or the part after
@@ -131,8 +133,13 @@ class _Pulse:
 
 
 def turning_command(trial: Trial) -> tuple[str, np.ndarray, bool] | None:
-    """``(name, command, is_rudder)``: ``delta``, else ``delta_cmd``, else port - stbd thrust."""
-    for ch in ("delta", "delta_cmd"):
+    """``(name, command, is_rudder)``: the channel a log's manoeuvres are read from.
+
+    The rudder order ``delta_cmd`` [rad] when the log has one (IMO MSC.137(76) and ITTC
+    7.5-04-02-01 time a manoeuvre from the order, the *execute*, and the helm's reversals are
+    the order's; a simulation's logic does the same), else the rudder angle ``delta`` [rad], else
+    the thruster differential port - starboard (command units)."""
+    for ch in ("delta_cmd", "delta"):
         if trial.has(ch):
             d = trial[ch]
             if np.nanmax(np.abs(d)) > 0:
@@ -469,9 +476,11 @@ def _pulses(c: np.ndarray, cs: np.ndarray, dt: float, min_level: float, min_puls
 
 
 def _reversal_index(c: np.ndarray, p: _Pulse) -> int:
-    """Last sample of pulse ``p`` still on its plateau (within 10 % of its level)."""
+    """Where the command leaves the plateau of pulse ``p`` (within 10 % of its level): the first
+    sample after its last plateau sample, at or after the reversal order, so the heading
+    deviation there is an upper bound of the switching angle (see :func:`nominal_switch`)."""
     on = np.flatnonzero(np.abs(p.sign * c[p.i0:p.i1] - p.level) <= 0.1 * p.level)
-    return p.i0 + int(on[-1]) if on.size else p.i1 - 1
+    return min(p.i0 + int(on[-1]) + 1, p.i1 - 1) if on.size else p.i1 - 1
 
 
 #: Switching angles [deg] zig-zag tests are specified with (IMO MSC.137(76): 10 and 20 deg;
@@ -485,11 +494,15 @@ def nominal_switch(measured: float, delta_amp: float | None = None) -> float:
     The rudder can only start to reverse after the heading has passed the switching angle (the
     helm or autopilot reacts with some delay, the heading keeps turning meanwhile), so the
     deviation measured where the rudder leaves its plateau is an upper bound: HSVA's 10/10
-    zig-zags reverse at 10.7-10.9 deg, their 20/5 at 6.3 deg. The nominal value is the largest
-    standard angle (:data:`STANDARD_SWITCH_DEG`, plus the rudder amplitude for n/n tests) not
-    above the measured deviation + 0.1 deg (sampling); below 1 deg the measured value to 0.1 deg.
+    zig-zags reverse at 10.7-10.9 deg, their 20/5 at 6.3 deg. Read from a logged rudder order
+    (an autopilot reversing at the crossing) it can fall slightly below: heading noise, and the
+    logged heading lagging the logged order (the virtual Lanxin 10/10 zig-zags reverse at 9.8
+    deg). The nominal value is the largest standard angle (:data:`STANDARD_SWITCH_DEG`, plus the
+    rudder amplitude for n/n tests) not above the measured deviation + 10 % (at least 0.1 deg);
+    below 1 deg the measured value to 0.1 deg. Angles [rad].
     """
-    deg = math.degrees(measured) + 0.1
+    deg = math.degrees(measured)
+    deg += max(0.1, 0.1 * deg)
     cands = list(STANDARD_SWITCH_DEG)
     if delta_amp is not None:
         cands.append(float(round(math.degrees(delta_amp))))
@@ -552,6 +565,7 @@ def find_manoeuvres(
     t = trial.t
     dt = float(np.median(np.diff(t)))
     psi = unwrap_angle(trial["psi"])
+    psi_s = savgol_smooth(psi, dt, 2.0)  # zero-phase cubic over 2 s (as the metrics)
     segs: list[Segment] = []
     used = np.zeros(len(t), dtype=bool)
     cmd = turning_command(trial)
@@ -575,7 +589,7 @@ def find_manoeuvres(
             chains.append([p])
         floor = 0
         for chain in chains:
-            seg = _zigzag(chain, t, cc, psi, floor, name, rudder, psi_switch)
+            seg = _zigzag(chain, t, cc, psi, psi_s, floor, name, rudder, psi_switch)
             if seg is None:
                 for p in chain:
                     s = _turning_from_pulse(p, t, cc, psi, floor, name, min_turn_deg)
@@ -592,14 +606,17 @@ def find_manoeuvres(
     return segs
 
 
-def _zigzag(chain: list[_Pulse], t, c, psi, floor, name, rudder, psi_switch) -> Segment | None:
+def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch
+            ) -> Segment | None:
     if len(chain) < 2:
         return None
     t_e, side = find_execute(t, c, start=floor, pulse=(chain[0].i0, chain[0].i1))
     ie = int(np.searchsorted(t, t_e))
-    psi0 = float(np.interp(t_e, t, psi))
+    # the switching angle from the smoothed heading (psi_s): a noisy sample at the execute or at
+    # a reversal would shift it by the heading noise
+    psi0 = float(np.interp(t_e, t, psi_s))
     rev = [_reversal_index(c, p) for p in chain[:-1]]
-    dev = np.array([p.sign * (psi[i] - psi0) for p, i in zip(chain[:-1], rev, strict=True)])
+    dev = np.array([p.sign * (psi_s[i] - psi0) for p, i in zip(chain[:-1], rev, strict=True)])
     if not np.all(np.isfinite(dev)) or np.any(dev <= 0):
         return None
     est = float(np.median(dev))

@@ -56,7 +56,8 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
     The simulation starts from the measured initial heading and speed; zig-zag and turning use
     the same logic as the trial (``ZigZag``/``Turning`` with the identified servo), started at
     the execute of the measured command and to its side
-    (:func:`usvid.manoeuvres.detect.find_execute` on ``delta_cmd``). For a 3-DOF model the
+    (:func:`usvid.manoeuvres.detect.find_execute` on ``delta_cmd``); the measured and the
+    simulated manoeuvre metrics are both taken from that execute. For a 3-DOF model the
     thrust is the propeller at the measured mean shaft speed. Returns the ``run.json``
     validation entry: decimated time series (x, y [m]; psi, r, delta in deg, deg/s, deg; u, v
     [m/s]), measured and simulated manoeuvre metrics, IMO criteria of the measured trial, RMS
@@ -65,7 +66,7 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
     t = trial.t
     L = float(camp.vessel["length"])
     amp = math.radians(manoeuvre.delta_deg)
-    t_exec, side = find_execute(t, trial["delta_cmd"])
+    t_exec, to_side = find_execute(t, trial["delta_cmd"])
     t_exec -= float(t[0])
     psi_meas = trial["psi"].copy()
     ok = np.isfinite(psi_meas)
@@ -82,9 +83,9 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
         dyn = dataclasses.replace(dyn, thrust=camp.propeller, n=float(np.nanmean(trial["n"])))
     model = vessel_model(dyn, servo, camp.vessel)
     if manoeuvre.kind == "zigzag":
-        logic: Any = ZigZag(amp, math.radians(manoeuvre.psi_deg), first=side, t_start=t_exec)
+        logic: Any = ZigZag(amp, math.radians(manoeuvre.psi_deg), first=to_side, t_start=t_exec)
     else:
-        logic = Turning(side * amp, t_start=t_exec)
+        logic = Turning(to_side * amp, t_start=t_exec)
     duration = float(t[-1] - t[0])
     res = simulate(model, logic, t_end=duration, dt=0.02, u0=u0, psi0=psi0)
     ts = np.asarray(res.t) + float(t[0])
@@ -136,17 +137,22 @@ def validate_against(dynamics: Any, servo: dict[str, Any], trial: Any, manoeuvre
                     "r RMS error [deg/s]": fit["rms_r_err"]}
     U = float(camp.vessel["speed"])
     try:
+        # both measured from the execute of the measured order, where the simulation starts
+        t_e = t_exec + float(t[0])
         if manoeuvre.kind == "zigzag":
-            mm = zigzag_metrics(t, psi_meas, trial["delta"], delta_amp=amp,
-                                psi_switch=math.radians(manoeuvre.psi_deg))
-            ms = zigzag_metrics(ts, ch["psi"], ch["delta"], delta_amp=amp,
-                                psi_switch=math.radians(manoeuvre.psi_deg))
+            sw = math.radians(manoeuvre.psi_deg)
+            mm = zigzag_metrics(t, psi_meas, trial["delta"], delta_amp=amp, psi_switch=sw,
+                                t_execute=t_e, first=to_side)
+            ms = zigzag_metrics(ts, ch["psi"], ch["delta"], delta_amp=amp, psi_switch=sw,
+                                t_execute=t_e, first=to_side)
             kind = zigzag_kind(manoeuvre.delta_deg, manoeuvre.psi_deg)
             if kind:
                 entry["imo"] = [c.to_dict() for c in imo_zigzag_check(mm, L, U, kind).criteria]
         else:
-            mm = turning_metrics(t, trial["x"], trial["y"], psi_meas, U=u_meas, r=trial["r"])
-            ms = turning_metrics(ts, sim_x, sim_y, ch["psi"], U=ch.get("U"), r=ch["r"])
+            mm = turning_metrics(t, trial["x"], trial["y"], psi_meas, U=u_meas, r=trial["r"],
+                                 t_execute=t_e)
+            ms = turning_metrics(ts, sim_x, sim_y, ch["psi"], U=ch.get("U"), r=ch["r"],
+                                 t_execute=t_e)
             if imo_turning_applies(amp, math.radians(servo.get("max_angle_deg", 35.0))):
                 entry["imo"] = [c.to_dict() for c in imo_turning_check(mm, L).criteria]
         entry["metrics"] = {"measured": mm.to_dict(), "simulated": ms.to_dict()}
