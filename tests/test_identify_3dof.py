@@ -11,7 +11,7 @@ from usvid.models.catamaran import Catamaran
 from usvid.models.model import VesselModel
 from usvid.models.servo import SecondOrderServo
 from usvid.models.threedof import ThreeDOF
-from usvid.sim.logic import Commanded, Disturbance, ZigZag
+from usvid.sim import Commanded, Disturbance, ZigZag
 from usvid.sim.simulate import simulate
 from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel

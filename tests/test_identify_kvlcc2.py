@@ -24,8 +24,8 @@ from usvid.identify.validate import zigzag_check, zigzag_response
 from usvid.models.model import VesselModel
 from usvid.models.response import Nomoto1, Norrbin
 from usvid.models.servo import IdealServo
-from usvid.prep.metrics import zigzag_metrics
-from usvid.sim.logic import Disturbance, ZigZag
+from usvid.manoeuvres.metrics import zigzag_metrics
+from usvid.sim import Disturbance, ZigZag
 from usvid.sim.simulate import simulate
 from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel

@@ -14,7 +14,7 @@ from usvid.identify.regressors import d2c_arx2, theta_to_params
 from usvid.models.model import VesselModel
 from usvid.models.response import Nomoto1, Nomoto2, Norrbin
 from usvid.models.servo import SecondOrderServo
-from usvid.sim.logic import Disturbance, Turning, ZigZag
+from usvid.sim import Disturbance, Turning, ZigZag
 from usvid.sim.simulate import simulate
 from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel

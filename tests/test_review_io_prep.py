@@ -142,31 +142,6 @@ def test_lowpass_zero_step_is_usvid_error() -> None:
             lowpass(np.ones(100), dt, 1.0)
 
 
-def test_metrics_nan_inputs_raise_usvid_error_or_nan() -> None:
-    import math
-
-    import numpy as np
-    import pytest
-
-    from usvid.errors import UsvidError
-    from usvid.prep.metrics import fit_circle, rudder_amplitude, zigzag_metrics
-
-    t = np.arange(5.0)
-    # before the fix: numpy ValueError (np.interp on an empty array)
-    with pytest.raises(UsvidError, match="with a heading"):
-        zigzag_metrics(t, np.full(5, np.nan), np.array([0.0, 0.0, 0.1, 0.1, 0.1]))
-    assert math.isnan(rudder_amplitude(np.array([]), np.array([]), 0.0))
-    # before the fix: LinAlgError (SVD did not converge)
-    with pytest.raises(UsvidError, match="3 finite points"):
-        fit_circle(np.full(4, np.nan), np.full(4, np.nan))
-    # NaN points are left out of the fit: unit circle plus one NaN point
-    a = np.linspace(0.0, 3.0, 7)
-    x = np.r_[np.cos(a), np.nan]
-    y = np.r_[np.sin(a), 0.5]
-    xc, yc, r = fit_circle(x, y)
-    assert abs(xc) < 1e-9 and abs(yc) < 1e-9 and abs(r - 1.0) < 1e-9  # exact points: exact fit
-
-
 def test_geodetic_to_ned_scalar_fix() -> None:
     from usvid.prep import geodetic_to_ned
 

@@ -19,7 +19,7 @@ from usvid.identify.validate import (
 from usvid.models.model import VesselModel
 from usvid.models.response import Nomoto1, Norrbin
 from usvid.models.servo import IdealServo
-from usvid.sim.logic import ZigZag
+from usvid.sim import ZigZag
 from usvid.sim.simulate import simulate
 from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel
@@ -36,7 +36,7 @@ def test_zigzag_response_matches_usvid_sim():
                            h=0.02)
     model = VesselModel(dyn, servo=IdealServo(max_rate=rate), vessel=Vessel(speed=3.0))
     res = simulate(model, ZigZag(delta_amp=20 * DEG, psi_switch=20 * DEG), t_end=120.0, dt=0.02)
-    from usvid.prep.metrics import zigzag_metrics
+    from usvid.manoeuvres.metrics import zigzag_metrics
 
     a = zigzag_metrics(mine["t"], mine["psi"], mine["delta"], psi_switch=20 * DEG)
     b = res.zigzag_metrics()[0]

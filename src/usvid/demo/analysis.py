@@ -13,19 +13,21 @@ from typing import Any
 import numpy as np
 
 from usvid.identify.turning_diameter import fit_turning_diameter, load_turning_table
+from usvid.manoeuvres.detect import find_execute
+from usvid.manoeuvres.imo import (
+    imo_turning_applies,
+    imo_turning_check,
+    imo_zigzag_check,
+    zigzag_kind,
+)
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.models.turning_diameter import relative_turning_diameter
-from usvid.prep.metrics import turning_metrics, zigzag_metrics
 from usvid.sim import PID, CourseChange, Disturbance, Turning, ZigZag, simulate
-from usvid.sim.imo import imo_turning_check, imo_zigzag_check, zigzag_kind
 
 #: Samples per second kept for the figures in run.json (the logs are 50 Hz).
 PLOT_RATE_HZ = 5.0
 
 
-def _execute_time(t: np.ndarray, cmd: np.ndarray, amp: float) -> float:
-    """First time [s] the command exceeds half its amplitude (the rudder is put over)."""
-    idx = np.flatnonzero(np.abs(cmd) >= 0.5 * amp)
-    return float(t[idx[0]]) if idx.size else float(t[0])
 
 
 def _decimate(t: np.ndarray, arrays: dict[str, np.ndarray]) -> tuple[list, dict[str, list]]:
@@ -40,17 +42,21 @@ def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
     """Simulate the identified model through the trial's manoeuvre and compare.
 
     The simulation starts from the measured initial heading and speed; zig-zag and turning use
-    the same logic as the trial (``ZigZag``/``Turning`` with the identified servo), started when
-    the measured command was put over. For a 3-DOF model the thrust is the propeller at the
-    measured mean shaft speed. Returns the ``run.json`` validation entry: decimated time series
-    (x, y [m]; psi, r, delta in deg, deg/s, deg; u, v [m/s]), measured and simulated manoeuvre
-    metrics, IMO criteria of the measured trial, RMS errors.
+    the same logic as the trial (``ZigZag``/``Turning`` with the identified servo), started at
+    the execute of the measured command and to its side
+    (:func:`usvid.manoeuvres.detect.find_execute` on ``delta_cmd``); the measured and the
+    simulated manoeuvre metrics are both taken from that execute. For a 3-DOF model the
+    thrust is the propeller at the measured mean shaft speed. Returns the ``run.json``
+    validation entry: decimated time series (x, y [m]; psi, r, delta in deg, deg/s, deg; u, v
+    [m/s]), measured and simulated manoeuvre metrics, IMO criteria of the measured trial, RMS
+    errors.
     """
 
     t = trial.t
     L = float(camp.vessel["length"])
     amp = math.radians(manoeuvre.delta_deg)
-    t_exec = _execute_time(t, trial["delta_cmd"], amp) - float(t[0])
+    t_exec, to_side = find_execute(t, trial["delta_cmd"])
+    t_exec -= float(t[0])
     psi_meas = trial["psi"].copy()
     ok = np.isfinite(psi_meas)
     psi_meas[ok] = np.unwrap(psi_meas[ok])  # (prep already unwraps; NaN-safe either way)
@@ -62,9 +68,9 @@ def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
     psi0 = float(np.nanmean(psi_meas[first]))
     u0 = float(np.nanmean(u_meas[first]))
     if manoeuvre.kind == "zigzag":
-        logic: Any = ZigZag(amp, math.radians(manoeuvre.psi_deg), t_start=t_exec)
+        logic: Any = ZigZag(amp, math.radians(manoeuvre.psi_deg), first=to_side, t_start=t_exec)
     else:
-        logic = Turning(amp, t_start=t_exec)
+        logic = Turning(to_side * amp, t_start=t_exec)
     duration = float(t[-1] - t[0])
     res = simulate(model, logic, t_end=duration, dt=0.02, u0=u0, psi0=psi0)
     ts = np.asarray(res.t) + float(t[0])
@@ -116,18 +122,23 @@ def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
                     "r RMS error [deg/s]": fit["rms_r_err"]}
     U = float(camp.vessel["speed"])
     try:
+        # both measured from the execute of the measured order, where the simulation starts
+        t_e = t_exec + float(t[0])
         if manoeuvre.kind == "zigzag":
-            mm = zigzag_metrics(t, psi_meas, trial["delta"], delta_amp=amp,
-                                psi_switch=math.radians(manoeuvre.psi_deg))
-            ms = zigzag_metrics(ts, ch["psi"], ch["delta"], delta_amp=amp,
-                                psi_switch=math.radians(manoeuvre.psi_deg))
+            sw = math.radians(manoeuvre.psi_deg)
+            mm = zigzag_metrics(t, psi_meas, trial["delta"], delta_amp=amp, psi_switch=sw,
+                                t_execute=t_e, first=to_side)
+            ms = zigzag_metrics(ts, ch["psi"], ch["delta"], delta_amp=amp, psi_switch=sw,
+                                t_execute=t_e, first=to_side)
             kind = zigzag_kind(manoeuvre.delta_deg, manoeuvre.psi_deg)
             if kind:
                 entry["imo"] = [c.to_dict() for c in imo_zigzag_check(mm, L, U, kind).criteria]
         else:
-            mm = turning_metrics(t, trial["x"], trial["y"], psi_meas, U=u_meas, r=trial["r"])
-            ms = turning_metrics(ts, sim_x, sim_y, ch["psi"], U=ch.get("U"), r=ch["r"])
-            if abs(manoeuvre.delta_deg - 35.0) < 1e-6:
+            mm = turning_metrics(t, trial["x"], trial["y"], psi_meas, U=u_meas, r=trial["r"],
+                                 t_execute=t_e)
+            ms = turning_metrics(ts, sim_x, sim_y, ch["psi"], U=ch.get("U"), r=ch["r"],
+                                 t_execute=t_e)
+            if imo_turning_applies(amp, math.radians(servo.get("max_angle_deg", 35.0))):
                 entry["imo"] = [c.to_dict() for c in imo_turning_check(mm, L).criteria]
         entry["metrics"] = {"measured": mm.to_dict(), "simulated": ms.to_dict()}
     except Exception as exc:  # metrics of a short/odd record: say so in the report

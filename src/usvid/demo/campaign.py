@@ -50,6 +50,8 @@ from usvid.sim import Commanded, Disturbance, Turning, ZigZag, simulate
 from usvid.sim.virtual import SensorModel, run_channels, virtual_trial
 from usvid.trial import Trial, Vessel
 
+from usvid.manoeuvres.detect import steady_turn
+
 KNOT = 1852.0 / 3600.0  # [m/s]
 
 #: Lanxin particulars (seed 000 Table 1), SI.
@@ -324,12 +326,13 @@ class Campaign:
         }
 
 
-def _steady_turns(res: Any, frac: float = 1.0 / 3.0) -> tuple[np.ndarray, np.ndarray]:
-    """Mean delta [rad] and r [rad/s] over the last ``frac`` of each run of a turning batch."""
-    t = np.asarray(res.t)
-    sel = t >= t[-1] - frac * (t[-1] - t[0])
-    return (np.mean(res.channels["delta"][:, sel], axis=1),
-            np.mean(res.channels["r"][:, sel], axis=1))
+def _steady_turns(res: Any, t_execute: float) -> tuple[np.ndarray, np.ndarray]:
+    """Mean delta [rad] and r [rad/s] over the steady turn of each run of a turning batch
+    (:func:`usvid.manoeuvres.detect.steady_turn`, from the execute ``t_execute`` [s])."""
+    ch = res.channels
+    st = [steady_turn(res.t, ch["psi"][i], t_execute, r=ch["r"][i], delta=ch["delta"][i])
+          for i in range(res.batch_size)]
+    return np.array([s.delta for s in st]), np.array([s.yaw_rate for s in st])
 
 
 def norrbin_alpha(K: float, delta: np.ndarray, r: np.ndarray) -> float:
@@ -356,7 +359,7 @@ def campaign_truth(model: Any, quick: bool = False) -> tuple[dict[str, dict[str,
            "criterion": "usvid.identify oe"}
     turns = simulate(model, Turning(np.radians([10.0, 15.0, 25.0, 35.0]), t_start=APPROACH_S),
                      t_end=60.0, dt=0.02, u0=speed)
-    d_ss, r_ss = _steady_turns(turns)
+    d_ss, r_ss = _steady_turns(turns, APPROACH_S)
     alpha = norrbin_alpha(nom["K"], d_ss, r_ss)
     lin = linearised_response(model, speed)
     servo = model.servo

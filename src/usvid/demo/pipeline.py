@@ -50,6 +50,7 @@ from usvid.io.modelfile import save_model
 from usvid.models.registry import get as get_kind
 from usvid.prep import audit, prepare
 from usvid.report.run import save_run, write_report
+from usvid.manoeuvres.detect import find_execute, steady_turn
 
 #: seed 000 section 6.1 controller gains and Table 3 ITAE.
 PID_GAINS = {"PD": (0.7, 0.0, 1.0), "PID": (0.7, 0.00095, 1.0)}
@@ -447,7 +448,8 @@ def _model_entry(kind: str, label: str, equation: str, params: dict, ci95: dict,
 
 
 def _norrbin_curve(nor: Any, turns: list) -> dict[str, Any] | None:
-    """Steady turns (mean r of the last third of each turning trial) and the fitted curve
+    """Steady turns (mean delta and r over the steady part of each turning trial,
+    :func:`usvid.manoeuvres.detect.steady_turn` from the rudder execute) and the fitted curve
     ``r + alpha r^3 = K delta`` (seed 000 eq. 36) for the report."""
     p = nor.params
     K, n1, n3 = p.get("K"), p.get("n1", 1.0), p.get("n3")
@@ -455,10 +457,10 @@ def _norrbin_curve(nor: Any, turns: list) -> dict[str, Any] | None:
         return None
     d_deg, r_deg = [], []
     for tr in turns:
-        t = tr.t
-        sel = t >= t[0] + 2.0 * (t[-1] - t[0]) / 3.0
-        d_deg.append(math.degrees(float(np.nanmean(tr["delta"][sel]))))
-        r_deg.append(math.degrees(float(np.nanmean(tr["r"][sel]))))
+        st = steady_turn(tr.t, tr["psi"], find_execute(tr.t, tr["delta"])[0], r=tr["r"],
+                         delta=tr["delta"])
+        d_deg.append(math.degrees(st.delta))
+        r_deg.append(math.degrees(st.yaw_rate))
     rr = np.linspace(0.0, max(np.radians(max(r_deg)) * 1.15, 0.05), 60)
     dd = (n1 * rr + n3 * rr ** 3) / K
     return {"delta_deg": d_deg, "r_deg_s": r_deg, "curve_delta_deg": np.degrees(dd).tolist(),

@@ -78,6 +78,7 @@ NT = 11
 #: specialisation, see :func:`kernel`).
 NPK = 1
 BU, BV, BR = -1, -1, 0  # positions of u, v, r among the kind's states (-1: constant U / zero)
+ZU, ZV, ZR = 3, 4, 3  # their positions in the joint-state tuple (literal indices)
 SPEED_ROW = 3  # position of the constant speed U in a constant-speed kind's parameters
 
 # -- kind-specific globals (replaced when a kind is specialised) -----------------------------
@@ -336,7 +337,7 @@ def _lane(b, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_ever
                 qh, qn = _push(qtb, qvb, qh, qn, tev + delay, cmdlog)
         else:
             err = _wrap(lp[0] - psi)
-            c = lp[1] * err + lp[2] * integ - lp[3] * z[3 + BR]
+            c = lp[1] * err + lp[2] * integ - lp[3] * z[ZR]
             sat = c > ma or c < -ma
             if not (lp[4] != 0.0 and sat and c * err > 0.0):
                 integ += err * dt
@@ -369,16 +370,16 @@ def _lane(b, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_ever
                 if ch <= 2:
                     val = z[0] if ch == 0 else (z[1] if ch == 1 else z[2])
                 elif ch == 3:
-                    val = p[SPEED_ROW] if BU < 0 else z[3 + BU]
+                    val = p[SPEED_ROW] if BU < 0 else z[ZU]
                 elif ch == 4:
-                    val = 0.0 if BV < 0 else z[3 + BV]
+                    val = 0.0 if BV < 0 else z[ZV]
                 elif ch == 5:
-                    val = z[3 + BR]
+                    val = z[ZR]
                 elif ch == 6:
                     if BU < 0:
                         val = p[SPEED_ROW]
                     else:
-                        val = math.sqrt(z[3 + BU] * z[3 + BU] + z[3 + BV] * z[3 + BV])
+                        val = math.sqrt(z[ZU] * z[ZU] + z[ZV] * z[ZV])
                 elif ch == 7:
                     val = dnow
                 elif ch == 8:
@@ -496,7 +497,7 @@ def _lane(b, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_ever
             if skind == 2:
                 dd = _clip(dd, mr)
             z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, dd, z[9], z[10])
-        ok = (abs(z[3 + BR]) <= R_MAX and np.isfinite(z[0]) and np.isfinite(z[1])
+        ok = (abs(z[ZR]) <= R_MAX and np.isfinite(z[0]) and np.isfinite(z[1])
               and np.isfinite(z[2]) and np.isfinite(z[3]) and np.isfinite(z[4])
               and np.isfinite(z[5]) and np.isfinite(z[6]))
         if not ok:
@@ -583,7 +584,8 @@ def kernel(kind: ModelKind) -> Any:
         return _KERNELS[key]
     g = dict(globals())
     g.update(rhs=kind.rhs, NS=kind.n_states, TRIG=bool(kind.uses_trig), NPK=kind.n_params,
-             BU=kind.body[0], BV=kind.body[1], BR=kind.body[2], SPEED_ROW=kind.speed_row)
+             BU=kind.body[0], BV=kind.body[1], BR=kind.body[2], SPEED_ROW=kind.speed_row,
+             ZU=3 + max(kind.body[0], 0), ZV=3 + max(kind.body[1], 0), ZR=3 + kind.body[2])
     for name in _TEMPLATES:
         template = globals()[name]
         qual = f"{name}__{key}"

@@ -10,6 +10,8 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import SimulationError
+from usvid.manoeuvres.logic import Turning, ZigZag
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.trial import CHANNEL_UNITS, Trial, Vessel
 
 
@@ -26,7 +28,7 @@ class SimResult:
         (rudder-equivalent disturbance) where relevant.
     course : dict with ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder`` [rad], each (B,),
         accumulated at every integration step (not the recorded grid). ITAE/IAE are 0 unless
-        the logic is a :class:`~usvid.sim.logic.CourseChange`.
+        the logic is a :class:`~usvid.manoeuvres.logic.CourseChange`.
     zigzag_online : dict with ``overshoot`` (B, 8) [rad] and ``reversal_t`` (B, 9) [s]
         (execute time then reversal times) tracked at every step by a ZigZag logic; NaN where
         not reached / not completed. :meth:`zigzag_metrics` is the full (interpolated) version.
@@ -92,10 +94,8 @@ class SimResult:
 
     # --- metrics --------------------------------------------------------------------------
     def zigzag_metrics(self, **kw: Any) -> list[Any]:
-        """One :class:`usvid.prep.metrics.ZigZagMetrics` per run (needs psi, delta recorded)."""
-        from usvid.prep.metrics import zigzag_metrics
-        from usvid.sim.logic import ZigZag
-
+        """One :class:`usvid.manoeuvres.metrics.ZigZagMetrics` per run (needs psi, delta
+        recorded)."""
         out = []
         for i in range(self.batch_size):
             args: dict[str, Any] = {}
@@ -104,6 +104,8 @@ class SimResult:
                         "psi_switch": self._logic_value("psi_switch", i),
                         "t_execute": self._logic_value("t_start", i),
                         "first": int(self._logic_value("first", i))}
+                if self.logic.psi_ref is not None:
+                    args["psi_ref"] = self._logic_value("psi_ref", i)
             if "x" in self.channels and "y" in self.channels:
                 args.update(x=self.channels["x"][i], y=self.channels["y"][i])
             args.update(kw)
@@ -112,10 +114,7 @@ class SimResult:
         return out
 
     def turning_metrics(self, **kw: Any) -> list[Any]:
-        """One :class:`usvid.prep.metrics.TurningMetrics` per run (needs x, y, psi)."""
-        from usvid.prep.metrics import turning_metrics
-        from usvid.sim.logic import Turning
-
+        """One :class:`usvid.manoeuvres.metrics.TurningMetrics` per run (needs x, y, psi)."""
         out = []
         for i in range(self.batch_size):
             args: dict[str, Any] = {}

@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import SimulationError, UsvidError
+from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
 from usvid.models.kind import S0, ModelKind, batch_size
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.sim import core
-from usvid.sim.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
 from usvid.sim.result import SimResult
 
 #: Channels recorded by default (a kind's unused inputs are left out).

@@ -27,8 +27,10 @@ __all__ = [
     "ImoCheck",
     "first_overshoot_limit_10_10",
     "second_overshoot_limit_10_10",
+    "imo_turning_applies",
     "imo_turning_check",
     "imo_zigzag_check",
+    "zigzag_kind",
 ]
 
 
@@ -112,7 +114,7 @@ def _get(metrics: Any, key: str) -> Any:
 def imo_turning_check(metrics: Any, L: float) -> ImoCheck:
     """Turning ability (MSC.137(76) 5.2.1): advance <= 4.5 L, tactical diameter <= 5 L.
 
-    ``metrics`` is a :class:`usvid.prep.metrics.TurningMetrics` or its ``to_dict()``; L [m].
+    ``metrics`` is a :class:`usvid.manoeuvres.metrics.TurningMetrics` or its ``to_dict()``; L [m].
     Values (magnitudes) and limits are reported in metres. The Standards judge the circle at the
     maximum rudder angle; the caller decides whether the metrics are of such a circle.
     """
@@ -129,7 +131,7 @@ def imo_turning_check(metrics: Any, L: float) -> ImoCheck:
 def imo_zigzag_check(metrics: Any, L: float, U: float, kind: str = "10/10") -> ImoCheck:
     """Zig-zag criteria (MSC.137(76) 5.2.2 and 5.2.3) for a ``"10/10"`` or ``"20/20"`` test.
 
-    ``metrics`` is a :class:`usvid.prep.metrics.ZigZagMetrics` or its ``to_dict()``; L [m],
+    ``metrics`` is a :class:`usvid.manoeuvres.metrics.ZigZagMetrics` or its ``to_dict()``; L [m],
     U [m/s]. For 10/10: first and second overshoot limits as functions of L/U, and the initial
     turning ability: track length (``initial_turning_distance_m`` when known, else
     ``U * initial_turning_time_s``) until the heading changed 10 deg <= 2.5 L. For 20/20: first
@@ -152,6 +154,13 @@ def imo_zigzag_check(metrics: Any, L: float, U: float, kind: str = "10/10") -> I
     if kind == "20/20":
         return ImoCheck("zigzag 20/20", [_crit("first_overshoot", first, 25.0, "deg")])
     raise UsvidError(f"IMO check: zig-zag kind must be '10/10' or '20/20' (got {kind!r})")
+
+
+def imo_turning_applies(delta: float, max_angle: float) -> bool:
+    """True when a turning circle with the rudder at ``delta`` [rad] is one MSC.137(76) 5.2.1
+    judges: at the maximum rudder angle, 35 deg or the steering gear's limit ``max_angle`` [rad]
+    when that is smaller (a circle at a smaller angle gets no IMO verdict)."""
+    return min(abs(delta), max_angle) >= min(math.radians(35.0), max_angle) - 1e-9
 
 
 def zigzag_kind(delta_deg: float, psi_deg: float) -> str | None:

@@ -3,16 +3,19 @@
 Pure array functions: the simulator (:mod:`usvid.sim`) and the measured-trial metrics use the same
 definitions, so a simulated and a measured manoeuvre are compared on equal terms. Inputs are 1-D
 arrays in SI units and radians (heading ``psi`` NED, clockwise positive; ``delta`` positive makes
-the yaw rate positive, i.e. turns to starboard).
+the yaw rate positive, i.e. turns to starboard). The execute, side, amplitude, reversals and steady
+turn are those of :mod:`usvid.manoeuvres.detect` (one definition each).
 
 Definitions (IMO MSC.137(76) with its explanatory notes MSC/Circ.1053, and ITTC Recommended
 Procedure 7.5-04-02-01 "Full scale manoeuvring trials"):
 
 Zig-zag ``delta_amp / psi_switch``
-    *first execute* ``t_e``: the rudder is put over (first rudder order; detected from ``delta`` or
-    given). ``psi0`` is the heading at ``t_e``. The *k-th reversal* (k = 1, 2, ...) happens when
-    the heading deviation reaches ``+psi_switch, -psi_switch, +psi_switch, ...`` (sign of the first
-    turn first). Crossing instants are interpolated linearly between samples.
+    *first execute* ``t_e``: the rudder is put over (first rudder order; given, or
+    :func:`~usvid.manoeuvres.detect.find_execute` on ``delta``). ``psi0`` is the heading at
+    ``t_e``. The *k-th reversal* (k = 1, 2, ...) happens when the heading deviation reaches
+    ``+psi_switch, -psi_switch, +psi_switch, ...`` (sign of the first turn first;
+    :func:`~usvid.manoeuvres.detect.zigzag_crossings`). Crossing instants are interpolated
+    linearly between samples.
 
     * ``initial_turning_time_s``: first execute to the first reversal (heading change reaches
       ``psi_switch``).
@@ -37,13 +40,14 @@ Turning circle
     The 90/180 deg instants are interpolated between samples (linear in heading), positions too.
     Magnitudes are positive; ``side`` says ``"starboard"`` or ``"port"``.
 
-    * steady turn: the last 360 deg of heading change (or, when the record turns less than 360 deg
-      past the 180 deg instant, the part after the 180 deg instant). ``steady_diameter_m`` is the
-      diameter of a least-squares circle fitted to the positions in that window (algebraic Kasa fit
-      refined by Gauss-Newton on the geometric distance); when that window covers less than 90 deg
-      of arc it is ``2 U / |r|`` from the steady speed and yaw rate. ``steady_yaw_rate_rad_s`` is
-      the mean ``|r|`` (or the slope of a line fitted to ``psi(t)``) and ``steady_speed_m_s`` the
-      mean ``U`` (or the path speed from the positions) over the window.
+    * steady turn (:func:`~usvid.manoeuvres.detect.steady_turn`): the last 360 deg of heading
+      change (or, when the record turns less than 360 deg past the 180 deg instant, the part
+      after the 180 deg instant). ``steady_diameter_m`` is the diameter of a least-squares circle
+      fitted to the positions in that window (algebraic Kasa fit refined by Gauss-Newton on the
+      geometric distance); when that window covers less than 90 deg of arc it is ``2 U / |r|``
+      from the steady speed and yaw rate. ``steady_yaw_rate_rad_s`` is the magnitude of the mean
+      ``r`` (or of the slope of a line fitted to ``psi(t)``) and ``steady_speed_m_s`` the mean
+      ``U`` (or the path speed from the positions) over the window.
 """
 
 from __future__ import annotations
@@ -55,6 +59,15 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
+from usvid.manoeuvres.detect import (
+    as_1d,
+    clean,
+    crossing_time,
+    find_execute,
+    rudder_amplitude,
+    steady_turn,
+    zigzag_crossings,
+)
 
 __all__ = [
     "ZigZagMetrics",
@@ -62,8 +75,6 @@ __all__ = [
     "zigzag_metrics",
     "turning_metrics",
     "parabolic_peak",
-    "find_execute",
-    "rudder_amplitude",
     "fit_circle",
 ]
 
@@ -71,23 +82,6 @@ __all__ = [
 # --------------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------------
-def _as_1d(name: str, a: Any, n: int | None = None) -> np.ndarray:
-    arr = np.asarray(a, dtype=float)
-    if arr.ndim != 1:
-        raise UsvidError(f"metrics: `{name}` must be a 1-D array (got shape {arr.shape})")
-    if n is not None and arr.shape[0] != n:
-        raise UsvidError(f"metrics: `{name}` has {arr.shape[0]} samples, `t` has {n}")
-    return arr
-
-
-def _clean(t: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Drop samples where any array is not finite (a multi-rate trial has NaN gaps)."""
-    ok = np.isfinite(t)
-    for a in arrays:
-        ok &= np.isfinite(a)
-    return (t[ok],) + tuple(a[ok] for a in arrays)
-
-
 def parabolic_peak(t: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
     """Time and value of the extremum of the parabola through samples ``i-1, i, i+1``.
 
@@ -111,79 +105,6 @@ def parabolic_peak(t: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
     # the vertex belongs to this sample's neighbourhood; clip against a degenerate fit
     dt = float(np.clip(dt, h0, h2))
     return float(t1 + dt), float(a * dt * dt + b * dt + y1)
-
-
-def _crossing(t: np.ndarray, z: np.ndarray, level: float, start: int, upward: bool) -> float:
-    """First time at or after sample ``start`` where ``z`` crosses ``level`` in one direction.
-
-    Linear interpolation between the two samples that bracket the crossing; NaN when none.
-    """
-    seg = z[start:]
-    hit = np.flatnonzero(seg >= level) if upward else np.flatnonzero(seg <= level)
-    if hit.size == 0:
-        return math.nan
-    j = start + int(hit[0])
-    if j == 0:
-        return float(t[0])
-    z0, z1 = z[j - 1], z[j]
-    already = (z0 >= level) if upward else (z0 <= level)
-    if already or z1 == z0:
-        return float(t[j])
-    f = (level - z0) / (z1 - z0)
-    return float(t[j - 1] + f * (t[j] - t[j - 1]))
-
-
-def find_execute(t: np.ndarray, delta: np.ndarray, *, frac: float = 0.25) -> tuple[float, float]:
-    """First rudder execute: time [s] and side (+1 starboard, -1 port) of the first rudder order.
-
-    With ``A`` the largest ``|delta - delta_0|`` (``delta_0`` the rudder before the manoeuvre),
-    the first sample where the deviation reaches ``frac * A`` marks the manoeuvre (``frac`` =
-    0.25 also finds the first order of a zig-zag, whose largest deviation is twice its
-    amplitude); the execute is the last sample before it where the rudder was still within
-    ``0.1 A`` of ``delta_0`` (the rudder started to move there). A record that starts with the
-    rudder already over (``|delta[0]|`` at least half the largest ``|delta|``) starts at the
-    execute.
-    """
-    t = _as_1d("t", t)
-    delta = _as_1d("delta", delta, len(t))
-    t, delta = _clean(t, delta)
-    if len(t) < 2:
-        raise UsvidError("metrics: too few samples to find the rudder execute")
-    if abs(delta[0]) >= 0.5 * float(np.max(np.abs(delta))) > 0:
-        # the record starts with the rudder already over (e.g. a simulation from the execute)
-        return float(t[0]), (1.0 if delta[0] > 0 else -1.0)
-    dev = delta - delta[0]
-    amp = float(np.max(np.abs(dev)))
-    if amp <= 0:
-        raise UsvidError("metrics: the rudder never moves; no manoeuvre to measure")
-    big = int(np.flatnonzero(np.abs(dev) >= frac * amp)[0])
-    if big > 0:  # a noisy first sample: take the median rudder before the manoeuvre
-        dev = delta - float(np.median(delta[:big]))
-    side = 1.0 if dev[big] > 0 else -1.0
-    quiet = np.flatnonzero(np.abs(dev[: big + 1]) <= 0.1 * amp)
-    i0 = int(quiet[-1]) if quiet.size else 0
-    return float(t[i0]), side
-
-
-def rudder_amplitude(t: np.ndarray, delta: np.ndarray, t_execute: float) -> float:
-    """Rudder amplitude [rad] after ``t_execute``: half the distance between the median
-    starboard and the median port rudder of a zig-zag, or the median rudder of a one-sided
-    manoeuvre (relative to the rudder at the execute). Robust to sensor noise. NaN when the
-    rudder has no finite sample."""
-    t, delta = _clean(_as_1d("t", t), _as_1d("delta", delta, len(t)))
-    if len(t) == 0:
-        return math.nan
-    d0 = float(np.interp(t_execute, t, delta))
-    da = delta[t >= t_execute] - d0
-    if da.size == 0:
-        return math.nan
-    hi, lo = float(da.max()), float(da.min())
-    pos = da[da > 0.5 * hi] if hi > 0 else da[:0]
-    neg = da[da < 0.5 * lo] if lo < 0 else da[:0]
-    if pos.size and neg.size and min(hi, -lo) > 0.25 * max(hi, -lo):
-        return 0.5 * (float(np.median(pos)) - float(np.median(neg)))
-    side = pos if hi >= -lo else neg
-    return abs(float(np.median(side)))
 
 
 # --------------------------------------------------------------------------------------------
@@ -227,6 +148,7 @@ def zigzag_metrics(
     first: int | None = None,
     x: Any | None = None,
     y: Any | None = None,
+    psi_ref: float | None = None,
 ) -> ZigZagMetrics:
     """Zig-zag metrics of one run (IMO MSC.137(76) / ITTC 7.5-04-02-01; see module docstring).
 
@@ -249,11 +171,14 @@ def zigzag_metrics(
     x, y : array (N,), optional
         North/east positions [m]; give ``initial_turning_distance_m`` (track length to the first
         reversal, for the IMO initial-turning criterion).
+    psi_ref : float, optional
+        Reference heading [rad] of the deviation (default: the heading at the execute, as
+        :class:`usvid.manoeuvres.logic.ZigZag` without ``psi_ref``).
     """
-    t = _as_1d("t", t)
+    t = as_1d("t", t)
     n = len(t)
-    psi = _as_1d("psi", psi, n)
-    d = None if delta is None else _as_1d("delta", delta, n)
+    psi = as_1d("psi", psi, n)
+    d = None if delta is None else as_1d("delta", delta, n)
     if n < 3:
         raise UsvidError("metrics: a zig-zag needs at least 3 samples")
     if np.any(np.diff(t[np.isfinite(t)]) <= 0):
@@ -275,14 +200,16 @@ def zigzag_metrics(
     if not psi_switch > 0:
         raise UsvidError(f"metrics: `psi_switch` must be > 0 (got {psi_switch!r})")
 
-    tt, pp = _clean(t, psi)
+    tt, pp = clean(t, psi)
     if len(tt) < 3:
         raise UsvidError(f"metrics: a zig-zag needs at least 3 samples with a heading "
                          f"(got {len(tt)} of {n})")
     pp = np.unwrap(pp)
     if t_execute is None:
         t_execute = float(tt[0])
-    psi0 = float(np.interp(t_execute, tt, pp))
+    psi0 = float(np.interp(t_execute, tt, pp)) if psi_ref is None else float(psi_ref)
+    if psi_ref is not None:  # the reference on the branch of the unwrapped heading at execute
+        psi0 += 2 * math.pi * round((float(np.interp(t_execute, tt, pp)) - psi0) / (2 * math.pi))
     if side is None:
         dev = pp - psi0
         k = int(np.argmax(np.abs(dev) >= 0.5 * psi_switch)) if np.any(
@@ -292,21 +219,7 @@ def zigzag_metrics(
     z = side * (pp - psi0)
 
     # reversals: alternate crossings of +psi_switch (up) and -psi_switch (down), after t_execute
-    start = int(np.searchsorted(tt, t_execute))
-    rev: list[float] = []
-    rev_idx: list[int] = []
-    k = 0
-    while start < len(tt):
-        up = k % 2 == 0
-        level = psi_switch if up else -psi_switch
-        tc = _crossing(tt, z, level, start, up)
-        if math.isnan(tc):
-            break
-        rev.append(tc)
-        j = int(np.searchsorted(tt, tc))
-        rev_idx.append(j)
-        start = max(j, start + 1)
-        k += 1
+    rev, rev_idx = zigzag_crossings(tt, z, psi_switch, int(np.searchsorted(tt, t_execute)))
 
     overshoots: list[float] = []
     checks: list[float] = []
@@ -325,9 +238,9 @@ def zigzag_metrics(
     periods = [rev[k + 2] - rev[k] for k in range(len(rev) - 2)]
     dist = math.nan
     if x is not None and y is not None and rev:
-        xx = _as_1d("x", x, n)
-        yy = _as_1d("y", y, n)
-        tx, xx, yy = _clean(t, xx, yy)
+        xx = as_1d("x", x, n)
+        yy = as_1d("y", y, n)
+        tx, xx, yy = clean(t, xx, yy)
         if len(tx) >= 2:
             s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(xx), np.diff(yy)))])
             dist = float(np.interp(rev[0], tx, s) - np.interp(t_execute, tx, s))
@@ -432,16 +345,16 @@ def turning_metrics(
     t_execute : float, optional
         Rudder execute time [s]; default from ``delta``, else ``t[0]``.
     """
-    t = _as_1d("t", t)
+    t = as_1d("t", t)
     n = len(t)
-    x = _as_1d("x", x, n)
-    y = _as_1d("y", y, n)
-    psi = _as_1d("psi", psi, n)
+    x = as_1d("x", x, n)
+    y = as_1d("y", y, n)
+    psi = as_1d("psi", psi, n)
     if n < 3:
         raise UsvidError("metrics: a turning circle needs at least 3 samples")
     if t_execute is None and delta is not None:
-        t_execute, _ = find_execute(t, _as_1d("delta", delta, n))
-    tt, xx, yy, pp = _clean(t, x, y, psi)
+        t_execute, _ = find_execute(t, as_1d("delta", delta, n))
+    tt, xx, yy, pp = clean(t, x, y, psi)
     if len(tt) < 3:
         raise UsvidError("metrics: fewer than 3 samples with position and heading")
     if np.any(np.diff(tt) <= 0):
@@ -452,11 +365,9 @@ def turning_metrics(
     psi0 = float(np.interp(t_execute, tt, pp))
     x0 = float(np.interp(t_execute, tt, xx))
     y0 = float(np.interp(t_execute, tt, yy))
-    dev = pp - psi0
-    after = tt >= t_execute
-    kmax = int(np.argmax(np.abs(np.where(after, dev, 0.0))))
-    side = 1.0 if dev[kmax] >= 0 else -1.0
-    z = side * dev
+    st = steady_turn(t, psi, t_execute, r=r, U=U, x=x, y=y)
+    side = float(st.side)
+    z = side * (pp - psi0)
     start = int(np.searchsorted(tt, t_execute))
     # along the original course and towards the turning side
     ex, ey = math.cos(psi0), math.sin(psi0)
@@ -464,44 +375,16 @@ def turning_metrics(
     along = (xx - x0) * ex + (yy - y0) * ey
     across = (xx - x0) * nx + (yy - y0) * ny
 
-    t90 = _crossing(tt, z, math.pi / 2, start, True)
-    t180 = _crossing(tt, z, math.pi, start, True)
+    t90 = crossing_time(tt, z, math.pi / 2, start, True)
+    t180 = crossing_time(tt, z, math.pi, start, True)
     advance = float(np.interp(t90, tt, along)) if not math.isnan(t90) else math.nan
     transfer = float(np.interp(t90, tt, across)) if not math.isnan(t90) else math.nan
     tactical = float(np.interp(t180, tt, across)) if not math.isnan(t180) else math.nan
 
-    # steady part: the last 360 deg of heading change, or after the 180 deg instant
-    z_end = float(z[-1])
-    if z_end - 2 * math.pi >= math.pi:
-        w = z >= z_end - 2 * math.pi
-    elif not math.isnan(t180):
-        w = tt >= t180
-    else:
-        w = (tt >= t_execute) & (z >= 0.5 * z_end)
-    w &= tt >= t_execute
-    arc = float(z[w].max() - z[w].min()) if w.sum() >= 2 else 0.0
-    tw = tt[w]
-    if r is not None:
-        rr = _as_1d("r", r, n)
-        tr, rr = _clean(t, rr)
-        sel = (tr >= tw[0]) & (tr <= tw[-1]) if tw.size else np.zeros(len(tr), bool)
-        yaw = float(np.mean(np.abs(rr[sel]))) if sel.any() else math.nan
-    elif tw.size >= 2:
-        yaw = abs(float(np.polyfit(tw, pp[w], 1)[0]))
-    else:
-        yaw = math.nan
-    if U is not None:
-        uu = _as_1d("U", U, n)
-        tu, uu = _clean(t, uu)
-        sel = (tu >= tw[0]) & (tu <= tw[-1]) if tw.size else np.zeros(len(tu), bool)
-        speed = float(np.mean(uu[sel])) if sel.any() else math.nan
-    elif tw.size >= 2:
-        path = float(np.sum(np.hypot(np.diff(xx[w]), np.diff(yy[w]))))
-        speed = path / float(tw[-1] - tw[0])
-    else:
-        speed = math.nan
+    w = (tt >= st.t_start) & (tt <= st.t_end)
+    yaw, speed = abs(st.yaw_rate), st.speed
     method = "circle_fit"
-    if arc >= math.pi / 2 and w.sum() >= 5:
+    if st.arc >= math.pi / 2 and w.sum() >= 5:
         _, _, R = fit_circle(xx[w], yy[w])
         diam = 2 * R
     else:
@@ -518,6 +401,6 @@ def turning_metrics(
         execute_time_s=float(t_execute),
         time_to_90_s=t90 - t_execute if not math.isnan(t90) else math.nan,
         time_to_180_s=t180 - t_execute if not math.isnan(t180) else math.nan,
-        steady_window_deg=math.degrees(arc),
+        steady_window_deg=math.degrees(st.arc),
         steady_diameter_method=method,
     )

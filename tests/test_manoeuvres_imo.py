@@ -7,14 +7,15 @@ import math
 import pytest
 
 from usvid.errors import UsvidError
-from usvid.prep.metrics import TurningMetrics, ZigZagMetrics
-from usvid.sim.imo import (
+from usvid.manoeuvres.imo import (
     first_overshoot_limit_10_10,
+    imo_turning_applies,
     imo_turning_check,
     imo_zigzag_check,
     second_overshoot_limit_10_10,
     zigzag_kind,
 )
+from usvid.manoeuvres.metrics import TurningMetrics, ZigZagMetrics
 
 
 @pytest.mark.parametrize(
@@ -79,3 +80,20 @@ def test_zigzag_kind():
     assert zigzag_kind(10, 10) == "10/10"
     assert zigzag_kind(20.0, 20.0) == "20/20"
     assert zigzag_kind(15, 15) is None
+
+
+def test_imo_turning_check_judges_magnitudes():
+    # a signed (negative) tactical diameter of 50 m on a 7 m vessel (limit 35 m) used to pass
+    # because -50 <= 35
+    c = imo_turning_check({"advance_m": -40.0, "tactical_diameter_m": -50.0}, L=7.0)
+    assert [x.passed for x in c.criteria] == [False, False]
+    assert c.criteria[1].value == 50.0
+
+
+def test_imo_turning_applies_at_the_maximum_rudder_only():
+    # MSC.137(76) 5.2.1: 35 deg, or the steering gear's limit when that is smaller
+    d = math.radians
+    assert imo_turning_applies(d(35.0), d(35.0)) and imo_turning_applies(d(-35.0), d(40.0))
+    assert not imo_turning_applies(d(20.0), d(35.0))
+    assert imo_turning_applies(d(25.0), d(25.0)) and imo_turning_applies(d(30.0), d(25.0))
+    assert not imo_turning_applies(d(24.0), d(25.0))

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from usvid.errors import UsvidError
-from usvid.prep.metrics import (
-    find_execute,
+from usvid.manoeuvres.detect import rudder_amplitude
+from usvid.manoeuvres.metrics import (
     fit_circle,
     parabolic_peak,
     turning_metrics,
@@ -121,15 +121,6 @@ def test_parabolic_peak_exact_for_parabola():
     assert yp == pytest.approx(3.0, abs=1e-12)
 
 
-def test_find_execute_step_and_ramp():
-    t = np.arange(0, 10, 0.1)
-    delta = np.clip((t - 2.0) * 0.2, 0, 0.35)  # ramps from t = 2 s
-    te, side = find_execute(t, -delta)
-    # last sample within 10 % of the amplitude: 2 s + 0.035 / 0.2 = 2.175 -> sample 2.1 s
-    assert te == pytest.approx(2.1, abs=1e-9)
-    assert side == -1.0
-
-
 # --------------------------------------------------------------------------------------------
 # turning circle: exact circle after a straight approach
 # --------------------------------------------------------------------------------------------
@@ -203,10 +194,18 @@ def test_circle_fit_noisy_points():
     assert (xc, yc) == pytest.approx((10.0, -4.0), abs=0.15)
 
 
-def test_find_execute_zigzag_and_record_starting_at_execute():
-    t = np.arange(0, 30, 0.1)
-    zz = np.where(t < 3, 0.01, np.where(t < 10, 0.17, np.where(t < 20, -0.17, 0.17)))
-    te, side = find_execute(t, zz)  # largest deviation is the 20 deg swing, not the first order
-    assert te == pytest.approx(2.9, abs=1e-9) and side == 1.0
-    te, side = find_execute(t, np.where(t < 10, -0.17, 0.17))  # already over at the start
-    assert te == 0.0 and side == -1.0
+def test_metrics_nan_inputs_raise_usvid_error_or_nan():
+    t = np.arange(5.0)
+    # before the fix: numpy ValueError (np.interp on an empty array)
+    with pytest.raises(UsvidError, match="with a heading"):
+        zigzag_metrics(t, np.full(5, np.nan), np.array([0.0, 0.0, 0.1, 0.1, 0.1]))
+    assert math.isnan(rudder_amplitude(np.array([]), np.array([]), 0.0))
+    # before the fix: LinAlgError (SVD did not converge)
+    with pytest.raises(UsvidError, match="3 finite points"):
+        fit_circle(np.full(4, np.nan), np.full(4, np.nan))
+    # NaN points are left out of the fit: unit circle plus one NaN point
+    a = np.linspace(0.0, 3.0, 7)
+    x = np.r_[np.cos(a), np.nan]
+    y = np.r_[np.sin(a), 0.5]
+    xc, yc, r = fit_circle(x, y)
+    assert abs(xc) < 1e-9 and abs(yc) < 1e-9 and abs(r - 1.0) < 1e-9  # exact points: exact fit
