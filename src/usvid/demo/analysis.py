@@ -138,7 +138,7 @@ def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
                                  t_execute=t_e)
             ms = turning_metrics(ts, sim_x, sim_y, ch["psi"], U=ch.get("U"), r=ch["r"],
                                  t_execute=t_e)
-            if imo_turning_applies(amp, math.radians(servo.get("max_angle_deg", 35.0))):
+            if imo_turning_applies(amp, float(model.servo.max_angle)):
                 entry["imo"] = [c.to_dict() for c in imo_turning_check(mm, L).criteria]
         entry["metrics"] = {"measured": mm.to_dict(), "simulated": ms.to_dict()}
     except Exception as exc:  # metrics of a short/odd record: say so in the report

@@ -41,6 +41,7 @@ from usvid.io.n2k import read_candump, write_candump
 from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
 from usvid.io.spec import load_spec
 from usvid.io.table import read_table
+from usvid.manoeuvres.detect import steady_turn
 from usvid.models import seed000_threedof
 from usvid.models.model import VesselModel
 from usvid.models.servo import SecondOrderServo
@@ -49,8 +50,6 @@ from usvid.prep.merge import merge_trials
 from usvid.sim import Commanded, Disturbance, Turning, ZigZag, simulate
 from usvid.sim.virtual import SensorModel, run_channels, virtual_trial
 from usvid.trial import Trial, Vessel
-
-from usvid.manoeuvres.detect import steady_turn
 
 KNOT = 1852.0 / 3600.0  # [m/s]
 

@@ -47,10 +47,10 @@ from usvid.files import to_json, write_atomic
 from usvid.identify.estimator import identify
 from usvid.identify.servo import identify_second_order_servo
 from usvid.io.modelfile import save_model
+from usvid.manoeuvres.detect import find_execute, steady_turn
 from usvid.models.registry import get as get_kind
 from usvid.prep import audit, prepare
 from usvid.report.run import save_run, write_report
-from usvid.manoeuvres.detect import find_execute, steady_turn
 
 #: seed 000 section 6.1 controller gains and Table 3 ITAE.
 PID_GAINS = {"PD": (0.7, 0.0, 1.0), "PID": (0.7, 0.00095, 1.0)}

@@ -37,6 +37,7 @@ from usvid.identify.ls import (
 )
 from usvid.identify.rls import RecursiveLeastSquares
 from usvid.identify.series import Series
+from usvid.manoeuvres import find_execute, steady_turn
 from usvid.models.kind import Block, ModelKind
 
 
@@ -187,10 +188,11 @@ def two_step_norrbin(kind_nomoto: ModelKind, zigzags: Sequence[Series],
                             lam=lam, cond_max=cond_max)
     K, T, d0 = ee.params["K"], ee.params["T"], ee.params["delta0"]
     rr, dd = [], []
-    for s in turns:
-        half = len(s) // 2
-        rr.append(float(np.mean(s["r"][half:])))
-        dd.append(float(np.mean(s["delta"][half:])))
+    for s in turns:  # the steady part of each turn (usvid.manoeuvres.steady_turn)
+        st = steady_turn(s["t"], s["psi"], find_execute(s["t"], s["delta"])[0], r=s["r"],
+                         delta=s["delta"])
+        rr.append(float(st.yaw_rate))
+        dd.append(float(st.delta))
     r_ = np.array(rr)
     d_ = np.array(dd)
     y = K * (d_ + d0) - r_

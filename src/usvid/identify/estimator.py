@@ -51,15 +51,11 @@ from usvid.identify.equation_error import fit_equation_error, two_step_norrbin
 from usvid.identify.ls import FittedAttributes, interval95, quantile975, standard_errors
 from usvid.identify.metrics import fit_metrics
 from usvid.identify.output_error import OEResult, refine_output_error
-from usvid.identify.replay import (
-    helm_rate,
-    measured_rudder_rate,
-    refine_zigzag_oe,
-    zigzag_runs,
-)
+from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import identify_second_order_servo
 from usvid.io.modelfile import model_to_dict
+from usvid.manoeuvres import find_manoeuvres, rudder_rate
 from usvid.models.kind import ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
@@ -97,10 +93,10 @@ def _as_list(trials: Any) -> list[Trial]:
     return out
 
 
-def _is_turning(s: Series) -> bool:
-    """A turning test: rudder constant (std < 0.5 deg) and non-zero over the last half."""
-    d = s["delta"][len(s) // 2:]
-    return bool(np.std(d) < math.radians(0.5) and abs(np.mean(d)) > math.radians(0.5))
+def _is_turning(tr: Trial) -> bool:
+    """A turning test: a turning circle and no zig-zag found in it (``find_manoeuvres``)."""
+    kinds = {g.kind for g in find_manoeuvres(tr)}
+    return "turning" in kinds and "zigzag" not in kinds
 
 
 def one_grid(trials: Sequence[Trial]) -> list[Trial]:
@@ -343,8 +339,9 @@ class ModelEstimator(FittedAttributes):
         diag: dict[str, Any] = {}
         fit_series = series
         if self.kind == "norrbin" and self.norrbin == "two_step":
-            zz = [s for s in series if not _is_turning(s)]
-            tt = list(tseries) + [s for s in series if _is_turning(s)]
+            turn = [_is_turning(tr) for tr in trials]
+            zz = [s for s, tu in zip(series, turn, strict=True) if not tu]
+            tt = list(tseries) + [s for s, tu in zip(series, turn, strict=True) if tu]
             params, cov, diag = two_step_norrbin(get_kind("nomoto1"), zz, tt, h=h,
                                                  method="rls" if self.method == "rls" else "ls",
                                                  lam=self.lam, cond_max=self.cond_max)
@@ -469,7 +466,7 @@ class ModelEstimator(FittedAttributes):
         rate = zz_rate if zz_rate is not None else helm_rate(vessel)
         source = "zig-zag replay fit" if zz_rate is not None else "vessel.extra.helm_rate_deg_s"
         if rate is None:  # measured on the rudder ramps of the training trials
-            rates = [measured_rudder_rate(tr.t, tr["delta"]) for tr in trials
+            rates = [rudder_rate(tr.t, tr["delta"]) for tr in trials
                      if tr.has("delta") and np.ptp(tr["delta"]) > 2 * MIN_DELTA_STD]
             rates = [r for r in rates if math.isfinite(r)]
             rate = float(np.median(rates)) if rates else None

@@ -92,20 +92,19 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import savgol_filter
 
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.ls import autocorrelation_factor, numerical_jacobian
 from usvid.identify.output_error import OEProblem, OEResult
 from usvid.identify.series import Series
+from usvid.manoeuvres import find_manoeuvres, rudder_rate, zigzag_crossings
 from usvid.models.kind import ModelKind
 from usvid.models.servo import IdealServo
-from usvid.prep import find_manoeuvres
 from usvid.sim import core
 from usvid.sim.simulate import Lanes, initial_state, servo_rows
 
 __all__ = ["ZigZagRun", "zigzag_runs", "replay_runs", "refine_zigzag_oe", "helm_rate",
-           "measured_rudder_rate", "DEFAULT_HORIZON", "DEFAULT_LEAD_S"]
+           "DEFAULT_HORIZON", "DEFAULT_LEAD_S"]
 
 #: Default closed-loop shooting horizon (reversals per replay) and lead [s] (module docstring).
 DEFAULT_HORIZON = 1
@@ -146,17 +145,6 @@ class ZigZagRun:
     inputs: dict[str, np.ndarray] | None = None
 
 
-def measured_rudder_rate(t: np.ndarray, delta: np.ndarray) -> float:
-    """Rudder rate [rad/s] on the ramps: |d delta/dt| of the 0.5 s Savitzky-Golay smoothed rudder,
-    median over the samples above half its maximum."""
-    hs = float(np.median(np.diff(t)))
-    win = max(int(round(0.5 / hs)) | 1, 5)
-    dd = np.abs(savgol_filter(delta, win, 2, deriv=1, delta=hs)) if len(delta) > win else \
-        np.abs(np.gradient(delta, t))
-    moving = dd > 0.5 * np.max(dd)
-    return float(np.median(dd[moving])) if np.any(moving) else math.inf
-
-
 def helm_rate(vessel: Any) -> float | None:
     """The vessel's helm (steering gear) rate [rad/s] from ``vessel.extra["helm_rate_deg_s"]``
     (or ``rudder_rate_deg_s``), None when not given."""
@@ -166,22 +154,6 @@ def helm_rate(vessel: Any) -> float | None:
         if isinstance(v, (int, float)) and math.isfinite(v) and v > 0:
             return math.radians(float(v))
     return None
-
-
-def _crossings(z: np.ndarray, sw: float) -> list[int]:
-    """Indices where the heading deviation ``z`` (first side positive) reaches +sw, then -sw,
-    then +sw ... alternately (the reversal instants of the zig-zag logic)."""
-    out: list[int] = []
-    k = 0
-    up = True
-    while k < len(z):
-        hit = np.flatnonzero(z[k:] >= sw) if up else np.flatnonzero(z[k:] <= -sw)
-        if len(hit) == 0:
-            break
-        k += int(hit[0])
-        out.append(k)
-        up = not up
-    return out
 
 
 def zigzag_runs(trials: Sequence[Any], series: Sequence[Series], kind: ModelKind, *,
@@ -214,7 +186,7 @@ def zigzag_runs(trials: Sequence[Any], series: Sequence[Series], kind: ModelKind
                 continue
             rr = rate if rate is not None else helm_rate(tr.vessel)
             if rr is None:
-                rr = measured_rudder_rate(t[i0:i1], s["delta"][i0:i1])
+                rr = rudder_rate(t[i0:i1], s["delta"][i0:i1])
             side = int(g.side)
             sw = float(g.psi_switch)
             dev = s["psi"] - s["psi_s"][i0]
@@ -222,7 +194,7 @@ def zigzag_runs(trials: Sequence[Any], series: Sequence[Series], kind: ModelKind
             starts = [(i0, 0)]
             ends = [i1]
             if nrev is not None:
-                cr = [i0 + c for c in _crossings(side * dev_s[i0:i1], sw)]
+                cr = [i0 + c for c in zigzag_crossings(t[i0:i1], side * dev_s[i0:i1], sw)[1]]
                 marks = [i0] + cr
                 lead = int(round(lead_s / h))
                 # before the m-th reversal the command in force is the m-th order's side

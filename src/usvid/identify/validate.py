@@ -21,13 +21,11 @@ import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.estimator import ModelEstimator, _as_list, compare_kinds
-from usvid.identify.replay import measured_rudder_rate
+from usvid.manoeuvres import find_manoeuvres, rudder_amplitude, rudder_rate, zigzag_metrics
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
 from usvid.models.servo import IdealServo
-from usvid.prep import find_manoeuvres
 from usvid.prep.filters import unwrap_angle
-from usvid.prep.metrics import zigzag_metrics
 from usvid.sim import ZigZag, simulate
 
 __all__ = ["zigzag_response", "zigzag_check", "cross_validate", "compare_kinds",
@@ -75,31 +73,23 @@ def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
     t = tr.t
     d = tr["delta"]
     psi = unwrap_angle(tr["psi"])
-    ad = np.abs(d)
-    # rudder amplitude: the median plateau level (max |delta| of a noisy record is biased high)
-    amp = float(np.median(ad[ad > 0.8 * np.max(ad)])) if np.max(ad) > 0 else 0.0
-    big = np.flatnonzero(ad > 0.5 * amp)
-    if len(big) == 0 or amp < math.radians(0.5):
+    segs = [g for g in find_manoeuvres(tr) if g.kind == "zigzag"]
+    if not segs:
+        raise IdentificationError(f"trial {tr.name}: no zig-zag found in the record")
+    t_exec, first = segs[0].t_execute, segs[0].side
+    amp = rudder_amplitude(t, d, t_exec, segs[0].t_end)
+    if amp < math.radians(0.5):
         raise IdentificationError(f"trial {tr.name}: no rudder movement, not a zig-zag")
-    first = 1 if d[big[0]] > 0 else -1
-    t_exec = None
-    sw = tr.meta.get("psi_switch")
+    sw = tr.meta.get("psi_switch", segs[0].psi_switch)
     if psi_switch is not None:
         sw = psi_switch
-    if sw is None:
-        segs = [s for s in find_manoeuvres(tr) if s.kind == "zigzag"]
-        if not segs:
-            raise IdentificationError(f"trial {tr.name}: no zig-zag found in the record")
-        sw = segs[0].psi_switch
-        first = segs[0].side
-        t_exec = segs[0].t_execute
     sw = float(sw)
     servo_rate = float(getattr(getattr(vars(est).get("model_"), "servo", None), "max_rate",
                                math.inf))
     if rate is None and math.isfinite(servo_rate):
         rate = servo_rate  # the model's servo (the rate its fit used, or the vessel's helm rate)
     if rate is None:
-        rate = measured_rudder_rate(t, d)
+        rate = rudder_rate(t, d)
     meas = zigzag_metrics(t, psi, d, delta_amp=amp, psi_switch=sw, t_execute=t_exec,
                           first=first)
     t_end = t_end or float(t[-1] - meas.execute_time_s)

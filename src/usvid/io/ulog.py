@@ -260,7 +260,7 @@ def write_ulog(trial: Trial, path: str | Path, *, t0_utc: str | None = None) -> 
     ``esc_status`` (``esc[0].esc_rpm`` = ``n`` * 60, integer rpm). ``timestamp`` [us since boot]
     = t + 100 s. Quantisation: float32 (about 1e-7 relative), rpm to 1 rpm.
     """
-    from usvid.commands._common import write_atomic
+    from usvid.files import write_atomic
 
     return write_atomic(path, ulog_bytes(trial, t0_utc=t0_utc))
 

@@ -6,6 +6,7 @@ Nomoto2, Norrbin, ThreeDOF, Catamaran; servos (:mod:`.servo`); thrust laws (:mod
 the complete model (:mod:`.model`): VesselModel.
 """
 
+from usvid.models import registry
 from usvid.models.kinds.catamaran import Catamaran
 from usvid.models.kinds.nomoto1 import Nomoto1
 from usvid.models.kinds.nomoto2 import Nomoto2
@@ -13,7 +14,6 @@ from usvid.models.kinds.norrbin import Norrbin
 from usvid.models.kinds.threedof import SEED000_EQ37, ThreeDOF
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
-from usvid.models import registry
 from usvid.models.registry import names as kind_names
 from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo, seed000_servo
 
