@@ -21,6 +21,7 @@ from usvid.manoeuvres.imo import (
     zigzag_kind,
 )
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
+from usvid.models.registry import kind_of
 from usvid.models.turning_diameter import relative_turning_diameter
 from usvid.sim import PID, CourseChange, Disturbance, Turning, ZigZag, simulate
 
@@ -99,7 +100,7 @@ def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
               "v": "v [m/s]"}
     channels = []
     for k in ("psi", "r", "delta", "u", "v"):
-        if model_kind != "threedof" and k in ("u", "v"):
+        if kind_of(model.dynamics).constant_speed and k in ("u", "v"):
             continue
         lines = {}
         if f"m_{k}" in dec:

@@ -10,8 +10,17 @@ from pathlib import Path
 
 from usvid.errors import FormatSpecError, LogReadError
 from usvid.io._assemble import read_log_bytes
+from usvid.io.ardupilot import (
+    is_dataflash_bin,
+    is_dataflash_text,
+    is_tlog,
+    read_dataflash,
+    read_tlog,
+    servo1_function,
+)
 from usvid.io.n2k import read_candump, write_candump
 from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
+from usvid.io.rosbag import bag_kind, read_rosbag
 from usvid.io.spec import (
     ColumnSpec,
     FormatSpec,
@@ -23,8 +32,9 @@ from usvid.io.spec import (
     shipped_specs,
 )
 from usvid.io.table import read_excel, read_parquet, read_table
+from usvid.io.ulog import is_ulog, read_ulog
 from usvid.io.writers import table_spec, write_csv, write_parquet
-from usvid.trial import Trial
+from usvid.trial import CHANNEL_UNITS, Trial
 
 __all__ = [
     "ColumnSpec",
@@ -63,10 +73,6 @@ LOG_KINDS = {
 def detect_message_log(path: str | Path) -> str | None:
     """The message-log reader of ``path`` by content (``rosbag``, ``ulog``, ``dataflash``,
     ``tlog``) or ``None`` for any other file (text logs, tables)."""
-    from usvid.io.ardupilot import is_dataflash_bin, is_dataflash_text, is_tlog
-    from usvid.io.rosbag import bag_kind
-    from usvid.io.ulog import is_ulog
-
     path = Path(path)
     if path.is_dir():
         return "rosbag" if bag_kind(path) else None
@@ -94,8 +100,6 @@ def auto_spec(path: str | Path, reader: str) -> tuple[FormatSpec, str]:
     name = {"rosbag": "ros2_usv", "ulog": "px4_boat"}.get(reader)
     why = ""
     if name is None:
-        from usvid.io.ardupilot import servo1_function
-
         f = servo1_function(Path(path), reader)
         skid = f in (73, 74)
         name = "ardupilot_skid_steer" if skid else "ardupilot_rover"
@@ -181,20 +185,12 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
         tr.meta["format_detected"] = note
         return tr
     if reader == "rosbag":
-        from usvid.io.rosbag import read_rosbag
-
         return read_rosbag(p, fs)
     if reader == "ulog":
-        from usvid.io.ulog import read_ulog
-
         return read_ulog(p, fs)
     if reader == "dataflash":
-        from usvid.io.ardupilot import read_dataflash
-
         return read_dataflash(p, fs)
     if reader == "tlog":
-        from usvid.io.ardupilot import read_tlog
-
         return read_tlog(p, fs)
     if reader == "nmea0183":
         return read_nmea0183(p, fs)
@@ -216,8 +212,6 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
 def _usvid_table_spec(p: Path, reader: str) -> FormatSpec:
     """Spec for a CSV/Parquet written by usvid: header names are channels in SI units."""
     import pandas as pd
-
-    from usvid.trial import CHANNEL_UNITS
 
     try:
         if reader == "parquet":

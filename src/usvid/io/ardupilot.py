@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import LogReadError
+from usvid.files import write_atomic
 from usvid.io._binlog import interleave, records
 from usvid.io._messages import (
     ReadState,
@@ -551,8 +552,6 @@ def write_dataflash(trial: Trial, path: str | Path, *, t0_utc: str | None = None
     1500 + 400 ``n_port``/``n_stbd``), ``ESC`` (``RPM`` = 60 ``n`` [0.01 rpm]). ``TimeUS`` = t +
     100 s. Quantisation: position 1e-7 deg, heading 0.01 deg, steering 35/4500 deg, PWM 1 us.
     """
-    from usvid.files import write_atomic
-
     return write_atomic(path, dataflash_bytes(trial, t0_utc=t0_utc, skid_steer=skid_steer))
 
 
@@ -632,6 +631,4 @@ def write_tlog(trial: Trial, path: str | Path, *, t0_utc: str | None = None,
     rudder PWM as :func:`write_dataflash`; skid steer ``servo1/3_raw``), ``ESC_TELEMETRY_1_TO_4``
     (``rpm[0]`` = 60 ``n``, whole rpm).
     """
-    from usvid.files import write_atomic
-
     return write_atomic(path, tlog_bytes(trial, t0_utc=t0_utc, skid_steer=skid_steer))

@@ -78,7 +78,7 @@ import yaml
 
 from usvid.errors import FormatSpecError
 from usvid.io import units as _units
-from usvid.trial import VESSEL_FIELDS, Vessel
+from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Vessel
 
 _FIELD_PATH = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*(\.[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*)*$")
 
@@ -420,8 +420,6 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
             raise _err(source, "columns", f"missing: the {reader} reader needs at least one "
                                           "column {topic: ..., field: ...}")
     else:
-        from usvid.trial import CHANNEL_UNITS
-
         for c in columns.values():
             if not isinstance(c.col, str):
                 raise _err(

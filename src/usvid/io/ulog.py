@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from usvid.errors import LogReadError
+from usvid.files import write_atomic
 from usvid.io._binlog import interleave, records
 from usvid.io._messages import (
     ReadState,
@@ -260,7 +261,5 @@ def write_ulog(trial: Trial, path: str | Path, *, t0_utc: str | None = None) -> 
     ``esc_status`` (``esc[0].esc_rpm`` = ``n`` * 60, integer rpm). ``timestamp`` [us since boot]
     = t + 100 s. Quantisation: float32 (about 1e-7 relative), rpm to 1 rpm.
     """
-    from usvid.files import write_atomic
-
     return write_atomic(path, ulog_bytes(trial, t0_utc=t0_utc))
 

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usvid.errors import UsvidError
 from usvid.models._validate import check_params
 
 ArrayLike = float | np.ndarray
@@ -162,8 +163,6 @@ def clarke83_added_mass(L: ArrayLike, B: ArrayLike, T: ArrayLike, Cb: ArrayLike,
     elif surge == "ten_percent":
         Xud = -0.1 * rho * vol
     else:
-        from usvid.errors import UsvidError
-
         raise UsvidError(f"clarke83_added_mass: surge must be 'soding' or 'ten_percent' "
                          f"(got {surge!r})")
     return AddedMass(X_udot=np.asarray(Xud)[()], Y_vdot=(Yvd * half * L ** 3)[()],

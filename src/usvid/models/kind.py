@@ -293,6 +293,9 @@ class ModelKind:
         Adds kind-specific regressors to a trial's series (e.g. forces from the thrust law).
     channels : callable ``(dynamics, rec) -> None``, optional
         Fills recorded input channels the kind derives (e.g. thruster commands from delta).
+    transfer : callable ``(dynamics) -> (num, den)``, optional
+        The yaw-rate transfer function r/delta (highest power first; linearised about r = 0)
+        of a linear or linearisable response kind (:mod:`usvid.models.export`).
     """
 
     name: str
@@ -314,6 +317,7 @@ class ModelKind:
     particulars: Callable[..., dict[str, Any]] | None = None
     series: Callable[[dict[str, np.ndarray], Mapping[str, Any]], None] | None = None
     channels: Callable[[Dynamics, dict[str, np.ndarray]], None] | None = None
+    transfer: Callable[[Dynamics], tuple[list[float], list[float]]] | None = None
     uses_trig: bool = False
     source_hash: str = ""
 

@@ -7,9 +7,9 @@ Units everywhere: thrust [N], shaft speed n [rps = rev/s], speed [m/s], lengths 
 Every function is vectorised: arguments broadcast against each other (numpy rules), a scalar in
 gives a numpy scalar out. Parameter dataclasses accept arrays over a leading batch axis.
 
-For the simulator kernels (numba ``@njit`` loops) each thrust law has a scalar twin taking plain
-floats: :func:`kt_nb`, :func:`propeller_thrust_nb`, :func:`pod_thrust_nb`, :func:`twin_thrust_nb`
-(the last one takes the coefficient arrays of :meth:`TwinThrust.nb_args`).
+For the integration core (numba) each thrust law has a scalar twin taking plain floats
+(:func:`kt_nb`, :func:`propeller_thrust_nb`, :func:`pod_thrust_nb`); :func:`thrust_nb` evaluates
+any law from its packed form (:func:`thrust_row`), which is how the model kinds read them.
 
 Seed 000 equation numbers as counted in the paper (the extracted text drops them): (1) thrust,
 (2) t_P = (P - R)/P, (3) Hollo/Holtrop t_P, (4) C_10, (5) C_stern, (6) K_T double sum (J_P defined
@@ -378,7 +378,7 @@ class TwinThrust:
         return np.asarray(Tp + Ts)[()], np.asarray((Tp - Ts) * np.asarray(b) / 2.0)[()]
 
     def nb_args(self) -> tuple[np.ndarray, np.ndarray, float, float, float, float, float]:
-        """Arguments after ``cmd`` for :func:`twin_thrust_nb`:
+        """The packed form read by :func:`thrust_nb` (:func:`thrust_row`):
         ``(fwd, rev, offset, scale, lo, hi, deadband)`` (floats and float64 arrays)."""
         if self.command == "code":
             return (self._fwd.copy(), self._rev.copy(), 0.0, self.voltage_max / self.code_max,
@@ -428,32 +428,6 @@ def propeller_thrust_nb(n: float, u: float, D: float, P_D: float, theta: float, 
 def pod_thrust_nb(V: float, n: float, c: float, d: float) -> float:
     """Scalar numba twin of :meth:`PodThrust.thrust` [N]: ``c V n + d |n| n`` (seed 001 eq. 3)."""
     return c * V * n + d * abs(n) * n
-
-
-@numba.njit(cache=True)
-def _polyval_nb(coeffs: np.ndarray, x: float) -> float:
-    out = 0.0
-    for k in range(coeffs.shape[0] - 1, -1, -1):
-        out = out * x + coeffs[k]
-    return out
-
-
-@numba.njit(cache=True)
-def twin_thrust_nb(cmd: float, fwd: np.ndarray, rev: np.ndarray, offset: float, scale: float,
-                   lo: float, hi: float, deadband: float) -> float:
-    """Scalar numba twin of :meth:`TwinThrust.thrust` [N]; pass ``*TwinThrust.nb_args()``.
-
-    level = clip((cmd - offset) scale, lo, hi), 0 within ``deadband`` of ``offset``;
-    T = P_fwd(level) for level >= 0, -P_rev(-level) otherwise.
-    """
-    dev = cmd - offset
-    if abs(dev) <= deadband:
-        x = 0.0
-    else:
-        x = min(max(dev * scale, lo), hi)
-    if x >= 0.0:
-        return _polyval_nb(fwd, x)
-    return -_polyval_nb(rev, -x)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -529,7 +503,7 @@ __all__ = [
     "C_STERN", "KT_DISK_RATIOS", "KT_TERMS", "SEED000_TABLE2", "PodThrust", "Propeller",
     "TwinThrust", "advance_ratio", "froude_number", "hollo_thrust_deduction", "holtrop_c10",
     "kt", "kt_nb", "kt_regression", "lagrange_weights", "pod_thrust_nb", "propeller_thrust_nb",
-    "twin_thrust_nb", "wake_fraction", "THRUST_ROW", "THRUST_LAWS", "thrust_row",
+    "wake_fraction", "THRUST_ROW", "THRUST_LAWS", "thrust_row",
     "thrust_nb",
 ]
 

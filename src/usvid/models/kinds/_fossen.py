@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from usvid.errors import UsvidError
 from usvid.models.kind import Block, FitSpace
 
 COEFFICIENTS = ("a_vr", "a_u", "a_tau", "b_ur", "b_v", "c_uv", "c_r", "c_tau")
@@ -95,8 +96,6 @@ def positive_masses(d: Any) -> None:
     det = np.asarray(getattr(d, "m22", 1.0)) * np.asarray(getattr(d, "m33", 1.0)) - np.asarray(
         getattr(d, "m23", 0.0)) * np.asarray(getattr(d, "m32", 0.0))
     if not np.all(det > 0):
-        from usvid.errors import UsvidError
-
         raise UsvidError("parameters: m22 m33 - m23 m32 must be > 0 (singular inertia)")
 
 

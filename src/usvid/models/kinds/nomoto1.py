@@ -90,6 +90,11 @@ def _to_params(th: Mapping[str, float], fixed: Mapping[str, Any], form: str,
     return {"K": -b / a, "T": -1.0 / a, "delta0": c / b}
 
 
+def transfer(d: Nomoto1) -> tuple[list[float], list[float]]:
+    """r/delta = K / (T s + 1)."""
+    return [float(d.K)], [float(d.T), 1.0]
+
+
 KIND = ModelKind(
     name="nomoto1",
     title="Nomoto 1st order",
@@ -101,6 +106,7 @@ KIND = ModelKind(
     speed_row=3,
     inputs=("delta",),
     rhs=rhs,
+    transfer=transfer,
     pack=pack,
     initial=initial,
     outputs=("psi", "r"),

@@ -113,6 +113,12 @@ def _to_params(th: Mapping[str, float], fixed: Mapping[str, Any], form: str,
     return {"K": K, "T1": -1.0 / s1, "T2": -1.0 / s2, "T3": T3, "delta0": th["c"] / (b1 + b2)}
 
 
+def transfer(d: Nomoto2) -> tuple[list[float], list[float]]:
+    """r/delta = K (T3 s + 1) / (T1 T2 s^2 + (T1 + T2) s + 1)."""
+    K, T1, T2, T3 = float(d.K), float(d.T1), float(d.T2), float(d.T3)
+    return ([K * T3, K] if T3 != 0 else [K]), [T1 * T2, T1 + T2, 1.0]
+
+
 KIND = ModelKind(
     name="nomoto2",
     title="Nomoto 2nd order",
@@ -124,6 +130,7 @@ KIND = ModelKind(
     speed_row=5,
     inputs=("delta",),
     rhs=rhs,
+    transfer=transfer,
     pack=pack,
     initial=initial,
     outputs=("psi", "r"),

@@ -100,6 +100,11 @@ def _from_fit(q: Mapping[str, float]) -> dict[str, float]:
             "delta0": q["delta0"]}
 
 
+def transfer(d: Norrbin) -> tuple[list[float], list[float]]:
+    """Linearised about r = 0 (the cubic term has zero slope there): r/delta = K / (T s + n1)."""
+    return [float(d.K)], [float(d.T), float(d.n1)]
+
+
 KIND = ModelKind(
     name="norrbin",
     title="Norrbin nonlinear response",
@@ -111,6 +116,7 @@ KIND = ModelKind(
     speed_row=5,
     inputs=("delta",),
     rhs=rhs,
+    transfer=transfer,
     pack=pack,
     initial=initial,
     outputs=("psi", "r"),
