@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from usvid.modelfile import load_model
+from usvid.io.modelfile import load_model
 from usvid.prep.state_estimation import estimate_states
 from usvid.sim import Turning, ZigZag, simulate
 from usvid.sim.virtual import SensorModel, virtual_trial

@@ -118,6 +118,20 @@ def one_grid(trials: Sequence[Trial]) -> list[Trial]:
     return out
 
 
+#: Longest stretch of a log [s] the steering servo is fitted on (its time constants are seconds).
+SERVO_WINDOW_S = 300.0
+
+
+def _most_active(u: np.ndarray, dt: float, window_s: float) -> slice:
+    """The ``window_s`` stretch of command ``u`` with the most movement (sum of |du|)."""
+    n = int(round(window_s / dt))
+    if u.size <= n:
+        return slice(None)
+    act = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(u)))])
+    k = int(np.argmax(act[n:] - act[:-n]))
+    return slice(k, k + n + 1)
+
+
 def _vessel(trials: Sequence[Trial]) -> Vessel:
     return next((tr.vessel for tr in trials if tr.vessel is not None and tr.vessel.to_dict()),
                 Vessel())
@@ -210,8 +224,10 @@ class ModelEstimator(FittedAttributes):
         Collinearity limit (condition number of the equilibrated regressors).
     servo : servo object or "auto"
         Servo of the identified model: "auto" (default) identifies a second-order servo with
-        dead time when the trials log both ``delta_cmd`` and ``delta``, else an ideal servo
-        at the vessel's helm rate (``helm_rate_deg_s``) or the rate fitted by "oe-zigzag".
+        dead time when the trials log both ``delta_cmd`` and ``delta`` (on the
+        :data:`SERVO_WINDOW_S` of each trial with the most rudder movement), else an ideal
+        servo at the vessel's helm rate (``helm_rate_deg_s``), the rate fitted by "oe-zigzag"
+        or the rate measured on the rudder ramps.
     oe_channels : tuple of str
         Outputs the output-error fit compares (default the kind's outputs).
     particulars : dict
@@ -450,7 +466,8 @@ class ModelEstimator(FittedAttributes):
                 idx = np.arange(ok.size)
                 u = np.interp(idx, idx[ok], u[ok])
                 y = np.interp(idx, idx[ok], y[ok])
-                fits.append((identify_second_order_servo(u, y, dt), tr.name))
+                sl = _most_active(u, dt, SERVO_WINDOW_S)
+                fits.append((identify_second_order_servo(u[sl], y[sl], dt), tr.name))
             except UsvidError as exc:
                 errors.append(f"{tr.name}: {exc}")
         if fits:
