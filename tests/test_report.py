@@ -147,7 +147,7 @@ def test_chromium_probe_detects_broken_image_and_console_error(tmp_path: Path) -
 def test_to_transfer_function_nomoto_and_servo() -> None:
     control = pytest.importorskip("control")
     from usvid.models.export import to_transfer_function
-    from usvid.models.response import Nomoto1, Nomoto2, Norrbin
+    from usvid.models import Nomoto1, Nomoto2, Norrbin
     from usvid.models.servo import SecondOrderServo
 
     K, T = 0.707, 0.332  # seed 000 eq. 38 (consistent reading)
