@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import pytest
-from reference import reference_run
 
+from reference import reference_run
 from usvid.errors import UsvidError
 from usvid.models import Catamaran, VesselModel, get_kind
 from usvid.models.thrust import TwinThrust

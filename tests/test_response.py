@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 import pytest
-from reference import reference_run
 
+from reference import reference_run
 from usvid.errors import UsvidError
 from usvid.models import Nomoto1, Nomoto2, Norrbin, VesselModel, get_kind
 from usvid.sim import Commanded, simulate
