@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from usvid.cli import main
 import browser
+from usvid.cli import main
 from usvid.report.html import external_urls
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
