@@ -285,6 +285,8 @@ class ModelEstimator(FittedAttributes):
         if kind.particulars is None:
             return {}
         opts = {k: v for k, v in self.particulars.items() if not hasattr(v, "thrust")}
+        if self.thrust is not None:
+            opts["thrust"] = self.thrust
         data = [{c: tr[c] for c in tr.channels} for tr in trials]
         fixed = kind.particulars(_vessel(trials), data, opts)
         if self.thrust is not None:
