@@ -12,7 +12,8 @@ import pytest
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.estimator import ModelEstimator
 from usvid.identify.ls import NotFittedError
-from usvid.identify.regressors import IdentificationWarning
+from usvid.identify.series import IdentificationWarning
+from usvid.models.thrust import PodThrust
 from usvid.trial import Trial
 
 
@@ -75,7 +76,21 @@ def test_missing_channel_named():
     with pytest.raises(IdentificationError, match=r"needs channel 'delta'"):
         ModelEstimator("nomoto1").fit(tr)
     with pytest.raises(IdentificationError, match=r"'threedof' needs channel 'u'"):
-        ModelEstimator("threedof").fit(_nomoto_trial())
+        ModelEstimator("threedof", x_l=1.0, thrust=60.0).fit(_nomoto_trial())
+
+
+def test_missing_particulars_named():
+    # what a kind needs to be simulated comes from the vessel block or the options, or
+    # identification stops naming it
+    tr = _nomoto_trial()
+    with pytest.raises(IdentificationError, match=r"'threedof' needs the thruster arm x_l.*--x-l"):
+        ModelEstimator("threedof").fit(tr)
+    with pytest.raises(IdentificationError, match=r"'threedof' needs a thrust law.*propeller_"):
+        ModelEstimator("threedof", x_l=1.0).fit(tr)
+    with pytest.raises(IdentificationError, match=r"'threedof' needs the shaft speed.*'n'"):
+        ModelEstimator("threedof", x_l=1.0, thrust=PodThrust(c=0.0, d=0.6)).fit(tr)
+    with pytest.raises(IdentificationError, match=r"'catamaran' needs the distance b"):
+        ModelEstimator("catamaran").fit(tr)
 
 
 def test_bad_arguments_and_not_fitted():
