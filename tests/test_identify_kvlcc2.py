@@ -22,7 +22,7 @@ from usvid.identify.manoeuvre_oe import (
 )
 from usvid.identify.validate import zigzag_check, zigzag_response
 from usvid.models.model import VesselModel
-from usvid.models.response import Nomoto1, Norrbin
+from usvid.models import Nomoto1, Norrbin
 from usvid.models.servo import IdealServo
 from usvid.manoeuvres.metrics import zigzag_metrics
 from usvid.sim import Disturbance, ZigZag

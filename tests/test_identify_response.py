@@ -12,7 +12,7 @@ from scipy.signal import cont2discrete
 from usvid.identify.estimator import ModelEstimator, identify
 from usvid.identify.regressors import d2c_arx2, theta_to_params
 from usvid.models.model import VesselModel
-from usvid.models.response import Nomoto1, Nomoto2, Norrbin
+from usvid.models import Nomoto1, Nomoto2, Norrbin
 from usvid.models.servo import SecondOrderServo
 from usvid.sim import Disturbance, Turning, ZigZag
 from usvid.sim.simulate import simulate
@@ -182,7 +182,7 @@ def test_simulate_and_score(nomoto_trials):
 
 def test_multirate_virtual_trial_is_resampled(nomoto_trials):
     # a raw multi-rate virtual log (5 Hz GNSS, 10 Hz compass, 50 Hz gyro/rudder, 2 ms jitter)
-    from usvid.identify.regressors import IdentificationWarning
+    from usvid.identify.series import IdentificationWarning
     from usvid.sim.virtual import virtual_trial
 
     model = VesselModel(Nomoto1(K=0.5, T=3.0), servo=SERVO, vessel=Vessel(speed=3.0))

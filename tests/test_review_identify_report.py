@@ -13,7 +13,7 @@ import pytest
 from usvid.cli import main
 from usvid.commands.identify import _print_summary
 from usvid.identify.estimator import ModelEstimator
-from usvid.identify.regressors import IdentificationWarning
+from usvid.identify.series import IdentificationWarning
 from usvid.report.html import build_html, external_urls
 from usvid.trial import Trial, Vessel
 

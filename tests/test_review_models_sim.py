@@ -14,9 +14,9 @@ from scipy import signal
 from usvid.cli import main
 from usvid.errors import SimulationError
 from usvid.manoeuvres.logic import DISTURBANCE_TF
-from usvid.models.catamaran import Catamaran
+from usvid.models import Catamaran
 from usvid.models.model import VesselModel
-from usvid.models.response import Nomoto1, Nomoto2, Norrbin
+from usvid.models import Nomoto1, Nomoto2, Norrbin
 from usvid.models.threedof import seed000_threedof
 from usvid.sim import Disturbance, Turning, simulate
 from usvid.trial import Vessel

@@ -9,7 +9,7 @@ import pytest
 
 from usvid.errors import SimulationError, UsvidError
 from usvid.models.model import VesselModel
-from usvid.models.response import Nomoto1
+from usvid.models import Nomoto1
 from usvid.models.servo import IdealServo
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.sim import Turning, ZigZag, simulate
