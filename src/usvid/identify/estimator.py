@@ -107,6 +107,9 @@ def one_grid(trials: Sequence[Trial]) -> list[Trial]:
     for tr in trials:
         if not tr.is_uniform or tr.data.isna().any().any():
             uniform, before = tr.is_uniform, tr.data.isna().sum()
+            if not uniform:  # a multi-rate or jittered log (NMEA, virtual sensors)
+                warnings.warn(f"trial {tr.name or '?'}: not on a uniform time grid; resampled "
+                              "with usvid.prep.prepare", IdentificationWarning, stacklevel=3)
             tr = prepare(tr, derivatives=False)
             after = tr.data.isna().sum()
             for ch, n in before.items():  # gaps of a single-rate log: say what was repaired
