@@ -67,6 +67,12 @@ def test_norrbin_steady_roots():
     assert r > math.sqrt(0.19 / 1.102)  # the outer (stable) branch
 
 
+def test_norrbin_steady_yaw_rate_without_damping_terms():
+    # n1 = n3 = 0: T r' = K delta has no steady turn (was ZeroDivisionError)
+    assert Norrbin(K=0.5, T=2.0, n1=0.0, n3=0.0).steady_yaw_rate(0.1) == math.inf
+    assert Norrbin(K=0.5, T=2.0, n1=0.0, n3=0.0).steady_yaw_rate(-0.1) == -math.inf
+
+
 @pytest.mark.parametrize("kind", ["nomoto1", "nomoto2", "norrbin"])
 def test_simulator_matches_solve_ivp_of_the_rhs(kind):
     """The integration core integrates the kind's right-hand side (independent integrator)."""
