@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from usvid.identify.estimator import ModelEstimator
-from usvid.models.model import VesselModel
 from usvid.models import Nomoto1
+from usvid.models.model import VesselModel
 from usvid.models.servo import SecondOrderServo
 from usvid.sim import Disturbance, ZigZag
 from usvid.sim.simulate import simulate
