@@ -8,9 +8,10 @@ from scipy import signal
 
 from usvid.errors import IdentificationError
 from usvid.identify.servo import _simulate, identify_second_order_servo
-from usvid.models import Nomoto1, VesselModel
+from usvid.models import IdealServo, Nomoto1, VesselModel
 from usvid.models.servo import SecondOrderServo
-from usvid.sim import Commanded, simulate
+from usvid.sim import Commanded, ZigZag, simulate
+from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel
 
 DT = 0.02
@@ -89,6 +90,21 @@ def test_bad_input():
         identify_second_order_servo(short, short, DT, max_delay=2.0)
     with pytest.raises(IdentificationError, match="negative servo gain"):
         identify_second_order_servo(u, -y, DT)
+
+
+def test_rate_limited_rudder_at_10_hz_is_fitted_not_an_error():
+    # an ideal servo at 10 deg/s logged at 10 Hz: the ARX start is a fast, heavily damped
+    # second-order servo whose simulation by the core's RK4 at the 0.1 s log step diverged, and
+    # least_squares raised ValueError ("Residuals are not finite in the initial point") out of
+    # the estimator. The fit starts inside RK4's stability region and gets there.
+    model = VesselModel(Nomoto1(K=0.5, T=3.0), servo=IdealServo(max_rate=np.radians(10.0)),
+                        vessel=Vessel(speed=3.0))
+    amps = np.radians([10.0, 20.0, 15.0])
+    res = simulate(model, ZigZag(amps, amps), t_end=150.0, dt=0.02)
+    tr = virtual_trial_uniform(res, SensorModel(), seed=4, i=2, rate_hz=10.0)
+    r = identify_second_order_servo(tr["delta_cmd"], tr["delta"], 0.1)
+    assert r.gain == pytest.approx(1.0, rel=0.1)  # measured 1.06
+    assert r.fit.nrmse < 0.2  # a linear servo approximating a rate limit (measured 0.13)
 
 
 @pytest.mark.parametrize("wn, zeta", [(WN, ZETA), (2.0, 0.2), (1.5, 1.0), (0.8, 2.5)])
