@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from usvid.cli import main
 import browser
+from usvid.cli import main
 from usvid.report.html import external_urls
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -149,18 +149,15 @@ def test_ctrl_c_leaves_no_half_written_output(tmp_path: Path) -> None:
 
 
 def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
-    """A missing library part is 'unavailable' (named), a dependent step 'skipped', an exception
-    'failed' (exit code 1); the run continues and the report says which step is missing."""
-    from usvid.demo.pipeline import DemoPipeline, need
+    """A step whose library part cannot be imported or that raises is 'failed' (named, exit
+    code 1), a dependent step 'skipped'; the run continues and the report says which step is
+    missing and why."""
+    from usvid.demo.pipeline import DemoPipeline
 
     p = DemoPipeline(tmp_path, seed=0)
 
     def missing() -> str:
-        need("usvid.no_such_module", "thing")
-        return "unreachable"
-
-    def deeper() -> str:
-        import usvid.no_such_module_either  # noqa: F401
+        import usvid.no_such_module  # noqa: F401
 
         return "unreachable"
 
@@ -171,22 +168,21 @@ def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
     def broken() -> str:
         raise ValueError("bad value")
 
-    assert not p.step("a", "A", missing)
-    assert not p.step("b", "B", deeper)
+    assert not p.step("campaign", "Campaign", missing)
     assert not p.step("c", "C", dependent)
     assert not p.step("d", "D", broken)
     assert p.step("e", "E", lambda: "fine")
     status = {s["name"]: (s["status"], s["message"]) for s in p.run["steps"]}
-    assert status["a"] == ("unavailable", "usvid.no_such_module is not available (No module "
-                                          "named 'usvid.no_such_module')")
-    assert status["b"][0] == "unavailable" and "usvid.no_such_module_either" in status["b"][1]
+    assert status["campaign"] == ("failed", "ModuleNotFoundError: No module named "
+                                            "'usvid.no_such_module'")
     assert status["c"] == ("skipped", "needs campaign from an earlier step")
     assert status["d"] == ("failed", "ValueError: bad value")
     assert status["e"] == ("ok", "fine")
     from usvid.report.html import build_html
 
     html = build_html(p.run)
-    assert "Trial campaign not available" in html and "unavailable" in html
+    assert ("Trial campaign not available: ModuleNotFoundError: No module named "
+            "&#x27;usvid.no_such_module&#x27;") in html
 
 
 def test_finite_pair_trims_and_fills() -> None:

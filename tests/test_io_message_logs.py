@@ -62,7 +62,7 @@ def ang(a, b):
 def campaign(tmp_path_factory):
     """The quick virtual Lanxin campaign's two zig-zags read from NMEA 0183 + candump + CSV, and
     the same trials written in each format and read back with the auto-detected preset."""
-    from usvid.sim.campaign import generate_campaign, read_campaign_trial
+    from usvid.demo.campaign import generate_campaign, read_campaign_trial
 
     root = tmp_path_factory.mktemp("campaign")
     camp = generate_campaign(root / "nmea", seed=1, quick=True)

@@ -12,7 +12,7 @@ import usvid.manoeuvres
 
 PACKAGE = Path(usvid.manoeuvres.__file__).parent
 ABOVE = ("usvid.sim", "usvid.identify", "usvid.report", "usvid.commands", "usvid.io",
-         "usvid.cli", "usvid.modelfile")
+         "usvid.cli", "usvid.demo")
 
 
 def test_importing_the_package_loads_nothing_above_it():

@@ -13,7 +13,7 @@ import pytest
 
 from usvid.errors import UsvidError
 from usvid.io import read_trial
-from usvid.modelfile import load_model
+from usvid.io.modelfile import load_model
 from usvid.prep import prepare, resample, savgol_derivative
 from usvid.prep.state_estimation import (
     StateEstimate,
@@ -185,7 +185,9 @@ def test_against_savitzky_golay(estimates, manoeuvre):
     # derivative of 5 cm position noise over 1 s is of order 1 m/s^2, the EKF is 3.5-55x better
     # on u, v, r, u', v' (seeds 1-3). Its r' (the 1 s derivative of the 50 Hz gyro) suits the
     # zig-zag's gyro noise: the likelihood's q_r follows the rudder reversals and lets a little
-    # more gyro noise through (EKF 1.2-1.33x worse in the zig-zag, 1.5-1.6x better in the turn)
+    # more gyro noise through (EKF 1.33-1.48x worse in the zig-zag, 1.4-1.5x better in the turn,
+    # seeds 1-3; was 1.2-1.33x with the example model's old shaft speed, 47.97 rps, which did
+    # not hold its 10 kn: the faster zig-zag has sharper r' at the reversals)
     pr = prepare(tr)
     default = {n: rms_error(pr.t, pr[c], tt, truth[n])
                for n, c in (("u", "u"), ("v", "v"), ("r", "r"), ("udot", "u_dot"),
@@ -194,15 +196,17 @@ def test_against_savitzky_golay(estimates, manoeuvre):
         assert err[n] < 0.5 * default[n], (n, err[n], default[n])
     assert err["rdot"] < 1.5 * default["rdot"]
     # the best window chosen in hindsight with the truth, per quantity (4 s for the positions,
-    # 1 s for the gyro): the EKF's u, v are better (measured 1.1-1.75x over seeds 1-3); r, u',
-    # v', r' are within 35 % of that oracle (measured 0.59-1.32x: the accelerations are at the
-    # limit 5 cm of position noise allows, whatever the smoother)
+    # 1 s for the gyro): the EKF's u, v are better (measured 1.03-1.8x over seeds 1-3); r, u',
+    # v' are within 35 % of that oracle (measured 0.64-1.18x: the accelerations are at the
+    # limit 5 cm of position noise allows, whatever the smoother); r' within 55 % (1.08-1.47x;
+    # the zig-zag's r' as above, was within 35 % with the old shaft speed)
     sg = {w: savgol_errors(tr, truth, tt, w) for w in (0.5, 1.0, 2.0, 4.0, 8.0)}
     best = {n: min(sg[w][n] for w in sg) for n in STATES}
     for n in ("u", "v"):
         assert err[n] < best[n], (n, err[n], best[n])
-    for n in ("r", "udot", "vdot", "rdot"):
+    for n in ("r", "udot", "vdot"):
         assert err[n] < 1.35 * best[n], (n, err[n], best[n])
+    assert err["rdot"] < 1.55 * best["rdot"], (err["rdot"], best["rdot"])
 
 
 @pytest.mark.parametrize("manoeuvre", ["zigzag", "turning"])

@@ -106,7 +106,18 @@ def one_grid(trials: Sequence[Trial]) -> list[Trial]:
     out = []
     for tr in trials:
         if not tr.is_uniform or tr.data.isna().any().any():
+            uniform, before = tr.is_uniform, tr.data.isna().sum()
+            if not uniform:  # a multi-rate or jittered log (NMEA, virtual sensors)
+                warnings.warn(f"trial {tr.name or '?'}: not on a uniform time grid; resampled "
+                              "with usvid.prep.prepare", IdentificationWarning, stacklevel=3)
             tr = prepare(tr, derivatives=False)
+            after = tr.data.isna().sum()
+            for ch, n in before.items():  # gaps of a single-rate log: say what was repaired
+                k = int(n - after.get(ch, 0))
+                if uniform and k > 0:
+                    warnings.warn(f"trial {tr.name}: channel '{ch}' has {k} NaN samples; "
+                                  "interpolated linearly (usvid.prep.prepare)",
+                                  IdentificationWarning, stacklevel=3)
         out.append(tr)
     rates = [tr.sample_rate for tr in out]
     if len({round(r, 6) for r in rates}) > 1:
@@ -301,6 +312,8 @@ class ModelEstimator(FittedAttributes):
         if kind.particulars is None:
             return {}
         opts = {k: v for k, v in self.particulars.items() if not hasattr(v, "thrust")}
+        if self.thrust is not None:
+            opts["thrust"] = self.thrust
         data = [{c: tr[c] for c in tr.channels} for tr in trials]
         fixed = kind.particulars(_vessel(trials), data, opts)
         if self.thrust is not None:

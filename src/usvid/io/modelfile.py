@@ -142,8 +142,8 @@ class ModelFileSpec(BaseModel):
     @classmethod
     def _known_kind(cls, v: str) -> str:
         if v not in registry.names():
-            raise PydanticCustomError("literal_error", "must be one of {expected}",
-                                      {"expected": ", ".join(registry.names())})
+            raise PydanticCustomError("literal_error", "must be {expected}",
+                                      {"expected": "one of " + ", ".join(registry.names())})
         return v
 
 

@@ -626,7 +626,9 @@ def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_swit
     i_end = chain[-1].i1 - 1
     level = rudder_amplitude(t, c, t_e, float(t[i_end]))
     sw = psi_switch if psi_switch is not None else nominal_switch(est, level if rudder else None)
-    if not _steady_before(psi, ie, i_end, float(t[1] - t[0])):
+    # the smoothed heading: the 3-s heading change of two raw samples carries the compass noise
+    # (0.5 deg: 0.24 deg/s, near the 0.3 deg/s limit)
+    if not _steady_before(psi_s, ie, i_end, float(t[1] - t[0])):
         return None
     return Segment(
         kind="zigzag",

@@ -201,17 +201,19 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
             "vessel.extra.x_l in the format spec")
     num = _fossen.extra_number
     D = num(vessel, options, "propeller_diameter")
-    if D is not None:
+    if options.get("thrust") is not None:  # a thrust law object or a number [N] (Python API)
+        thrust: Any = options["thrust"]
+    elif D is not None:
         pr = num(vessel, options, "propeller_pitch_ratio")
         dr = num(vessel, options, "propeller_disk_ratio")
         if pr is None or dr is None:
             raise IdentificationError(
                 "model 'threedof': propeller_diameter is given but propeller_pitch_ratio and "
                 "propeller_disk_ratio are needed too (vessel.extra in the format spec)")
-        thrust: Any = Propeller(D=D, pitch_ratio=pr, disk_ratio=dr,
-                                t_P=num(vessel, options, "thrust_deduction") or 0.0,
-                                w_P=num(vessel, options, "wake_fraction") or 0.0,
-                                rho=num(vessel, options, "water_density") or 1025.0)
+        thrust = Propeller(D=D, pitch_ratio=pr, disk_ratio=dr,
+                           t_P=num(vessel, options, "thrust_deduction") or 0.0,
+                           w_P=num(vessel, options, "wake_fraction") or 0.0,
+                           rho=num(vessel, options, "water_density") or 1025.0)
     elif num(vessel, options, "pod_c") is not None:
         thrust = PodThrust(c=num(vessel, options, "pod_c"), d=num(vessel, options, "pod_d") or 0.0)
     else:
@@ -221,7 +223,10 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
             "or pod_c, pod_d in the format spec's vessel.extra")
     n = num(vessel, options, "shaft_speed_rps")
     if n is None:
-        ns = [s["n"] for s in data if "n" in s]
+        ns = [s["n"][np.isfinite(s["n"])] for s in data if "n" in s]
+        ns = [a for a in ns if a.size]
+        if not ns and not hasattr(thrust, "thrust"):  # a constant thrust [N]: no shaft speed
+            return {"x_l": x_l, "thrust": thrust, "n": None}
         if not ns:
             raise IdentificationError(
                 "model 'threedof' needs the shaft speed: a channel 'n' [rps] in the logs, or "
