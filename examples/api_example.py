@@ -19,11 +19,11 @@ from pathlib import Path
 
 import control
 
+from usvid.demo.campaign import generate_campaign, read_campaign_trial
 from usvid.identify.estimator import identify
 from usvid.manoeuvres.imo import imo_zigzag_check
 from usvid.models.export import to_transfer_function
 from usvid.prep import audit, prepare
-from usvid.demo.campaign import generate_campaign, read_campaign_trial
 from usvid.sim import run_zigzag
 
 

@@ -172,7 +172,7 @@ def test_to_transfer_function_nomoto_and_servo() -> None:
     full = to_transfer_function(Wrapped(), include_servo=True, pade_order=2)
     assert control.dcgain(full) == pytest.approx(K, rel=1e-9)
     assert len(control.poles(full)) == 1 + 2 + 2  # Nomoto + servo + Pade(2)
-    with pytest.raises(UsvidError, match="not a response model"):
+    with pytest.raises(UsvidError, match="not a model parameter set"):
         to_transfer_function(object())
     with pytest.raises(UsvidError, match="output must be"):
         to_transfer_function(Nomoto1(K=K, T=T), output="x")
