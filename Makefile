@@ -1,6 +1,6 @@
 # usvid: two commands on a fresh machine with Python 3.11+ and make:
 #   make demo   - set up .venv, install, run the main job on the bundled example data
-#   make test   - set up .venv with test extras and run the whole test suite
+#   make test   - set up .venv with the test and log-format extras, run the whole test suite
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $@
 
 $(TSTAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test,all]"
 	touch $(STAMP) $@
 
 demo: $(STAMP)

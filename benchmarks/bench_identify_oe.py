@@ -14,11 +14,10 @@ import tracemalloc
 import numpy as np
 
 from usvid.identify.estimator import ModelEstimator
+from usvid.models import Norrbin
 from usvid.models.model import VesselModel
-from usvid.models.response import Norrbin
 from usvid.models.servo import SecondOrderServo
-from usvid.sim.logic import Disturbance, ZigZag
-from usvid.sim.simulate import simulate
+from usvid.sim import Disturbance, ZigZag, simulate
 from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel
 

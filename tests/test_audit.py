@@ -262,3 +262,18 @@ def test_straight_run_with_noisy_heading_is_a_weak_yaw_rate_not_a_wrong_column(h
     other = np.radians(0.5) * np.sin(2 * np.pi * t / 7.3) + rng.normal(0, 0.001, t.size)
     f = codes(audit(Trial(pd.DataFrame({"t": t, "psi": psi, "r": other}))))
     assert f["yaw_rate_column"].severity == "error"
+
+
+def test_audit_speed_scale_says_fast_clock_when_stamps_advance_too_much() -> None:
+    # a slow turn at 1.5 m/s, positions exact; the logger's stamps advance 1.1 s per real second
+    # (a fast clock): the speed from the positions is 1/1.1 of the measured one. Before the fix
+    # the message said "run slow" here (and "run fast" for a slow clock).
+    t = np.arange(0.0, 120.0, 0.1)
+    psi = 0.05 * t
+    x = 1.5 / 0.05 * np.sin(psi)
+    y = 1.5 / 0.05 * (1.0 - np.cos(psi))
+    tr = Trial(data=pd.DataFrame({"t": 1.1 * t, "x": x, "y": y, "psi": psi,
+                                  "U": np.full(len(t), 1.5)}), name="clock")
+    (f,) = [f for f in audit(tr) if f.code == "speed_scale"]
+    assert abs(f.data["factor"] - 1 / 1.1) < 0.005  # exact positions: only the SG edge error
+    assert "run fast" in f.message and "advance 1.100 s" in f.message

@@ -6,6 +6,7 @@ import json
 import math
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -186,3 +187,79 @@ def test_lanxin_norrbin_example_steady_turn(capsys):
     # (solved by hand with Newton), D = 2 U / r; 1e-4 rad/s is the metric's steady-window noise
     assert d["steady_yaw_rate_rad_s"] == pytest.approx(0.37416, abs=1e-4)
     assert d["steady_diameter_m"] == pytest.approx(2 * 5.14444 / 0.37416, rel=1e-3)
+
+
+# --- edge cases (review R2: each used to crash with exit 1, run for hours or say nothing) -------
+@pytest.fixture()
+def threedof_file(tmp_path):
+    p = tmp_path / "t.json"
+    p.write_text(json.dumps(_threedof_dict()))
+    return p
+
+
+def _threedof_dict():
+    return {"usvid_model": 1, "kind": "threedof",
+            "parameters": {"m11": 2652.5, "m22": 2825.6, "m33": 4201.7, "d11": 848.1,
+                           "d22": 9889.5, "d33": 22721.6, "x_l": 3.5, "thrust": 4000.0},
+            "servo": {"kind": "ideal"}, "vessel": {"length": 7.02, "speed": 4.7}}
+
+
+def test_imo_turning_verdict_only_at_max_rudder(capsys, nomoto_file):
+    # MSC.137(76) 5.2.1 judges the turning circle at the maximum rudder angle (35 deg)
+    d20 = _run_json(capsys, ["simulate", "turning", str(nomoto_file), "--delta-deg", "20"])
+    assert d20["imo"] is None
+    d35 = _run_json(capsys, ["simulate", "turning", str(nomoto_file), "--delta-deg", "-35"])
+    assert d35["imo"]["criteria"][1]["limit"] == pytest.approx(25.0)
+
+
+def test_tiny_speed_is_bounded_not_memory_error(capsys, nomoto_file):
+    # the automatic run length 40 L / U was unbounded: U = 1e-6 m/s asked for 2e8 s (MemoryError)
+    t0 = time.perf_counter()
+    code = main(["simulate", "turning", str(nomoto_file), "--speed", "1e-6", "--dt", "0.5",
+                 "--json"])
+    capsys.readouterr()
+    assert code == 0
+    assert time.perf_counter() - t0 < 20.0  # 3600 s / 0.5 s steps: well under a second
+
+
+@pytest.mark.parametrize("cmd", ["zigzag", "turning"])
+def test_t_end_validated_for_zigzag_and_turning(capsys, nomoto_file, cmd):
+    # --t-end was only checked for course-keeping; 1e12 s went straight to np.arange (exit 1)
+    code = main(["simulate", cmd, str(nomoto_file), "--t-end", "1e12", "--json"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--t-end" in err
+
+
+def test_diverging_step_exits_2(capsys, threedof_file):
+    # sway mode d22/m22 = 3.5 1/s: RK4 is unstable for dt * 3.5 > 2.79, so dt = 1 s diverges;
+    # it used to print null metrics with exit 0
+    code = main(["simulate", "course-keeping", str(threedof_file), "--dt", "1", "--json"])
+    err = capsys.readouterr().err
+    assert code == 2 and "diverged" in err
+
+
+@pytest.mark.parametrize("mutate, expect", [
+    # Literal[1] alone accepted true and 1.0 as the format version
+    (lambda d: d.update(usvid_model=True), "usvid_model must be 1 (got true)"),
+    (lambda d: d.update(usvid_model=1.0), "usvid_model must be 1 (got 1.0)"),
+    # the union member tag leaked into the field name ("parameters.thrust.float")
+    (lambda d: d["parameters"].update(thrust="x"), "parameters.thrust must be a number"),
+    # pydantic's raw sentence for a null object
+    (lambda d: d.update(servo=None), "servo must be an object (got null)"),
+    (lambda d: d["parameters"].update(sway_force=1), "parameters.sway_force must be true or false"),
+])
+def test_bad_model_file_type_messages(capsys, tmp_path, mutate, expect):
+    d = _threedof_dict()
+    mutate(d)
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps(d))
+    code = main(["simulate", "turning", str(p), "--json"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert expect in err
+
+
+def test_huge_seed_exits_2(capsys, nomoto_file):
+    code = main(["simulate", "course-keeping", str(nomoto_file), "--seed",
+                 "99999999999999999999", "--json"])
+    assert code == 2 and "seed" in capsys.readouterr().err

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy import signal
 
 from usvid.errors import IdentificationError
-from usvid.identify.d2c import d2c, d2c_ss, split_delay
+from usvid.models.d2c import d2c, d2c_ss, split_delay
 
 WN, ZETA = np.sqrt(1.95), 2.38125 / (2 * np.sqrt(1.95))  # seed 000 servo
 

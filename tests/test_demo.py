@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
+import browser
 from usvid.cli import main
-from usvid.report import browser
 from usvid.report.html import external_urls
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -25,7 +25,7 @@ REPO = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def demo_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict]:
     """Two quick demos with the same seed: one through the CLI (--json), one through the API."""
-    from usvid.report.demo import run_demo
+    from usvid.demo.pipeline import run_demo
 
     a = tmp_path_factory.mktemp("demo_a")
     b = tmp_path_factory.mktemp("demo_b")
@@ -68,8 +68,8 @@ def test_demo_json_and_run_contents(demo_runs) -> None:
     run = json.loads((a / "run.json").read_text())
     assert run["usvid_run"] == 1 and run["truth_definition"]
     assert len(run["validation"]) >= 8 and run["course_keeping"]["runs"][0]["label"] == "PD"
-    # model files load back through usvid.modelfile
-    from usvid.modelfile import load_model
+    # model files load back through usvid.io.modelfile
+    from usvid.io.modelfile import load_model
 
     for kind in ("nomoto1", "norrbin", "threedof"):
         assert load_model(a / "models" / f"{kind}.json").kind == kind
@@ -149,18 +149,15 @@ def test_ctrl_c_leaves_no_half_written_output(tmp_path: Path) -> None:
 
 
 def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
-    """A missing library part is 'unavailable' (named), a dependent step 'skipped', an exception
-    'failed' (exit code 1); the run continues and the report says which step is missing."""
-    from usvid.report.demo import DemoPipeline, need
+    """A step whose library part cannot be imported or that raises is 'failed' (named, exit
+    code 1), a dependent step 'skipped'; the run continues and the report says which step is
+    missing and why."""
+    from usvid.demo.pipeline import DemoPipeline
 
     p = DemoPipeline(tmp_path, seed=0)
 
     def missing() -> str:
-        need("usvid.no_such_module", "thing")
-        return "unreachable"
-
-    def deeper() -> str:
-        import usvid.no_such_module_either  # noqa: F401
+        import usvid.no_such_module  # noqa: F401
 
         return "unreachable"
 
@@ -171,28 +168,27 @@ def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
     def broken() -> str:
         raise ValueError("bad value")
 
-    assert not p.step("a", "A", missing)
-    assert not p.step("b", "B", deeper)
+    assert not p.step("campaign", "Campaign", missing)
     assert not p.step("c", "C", dependent)
     assert not p.step("d", "D", broken)
     assert p.step("e", "E", lambda: "fine")
     status = {s["name"]: (s["status"], s["message"]) for s in p.run["steps"]}
-    assert status["a"] == ("unavailable", "usvid.no_such_module is not available (No module "
-                                          "named 'usvid.no_such_module')")
-    assert status["b"][0] == "unavailable" and "usvid.no_such_module_either" in status["b"][1]
+    assert status["campaign"] == ("failed", "ModuleNotFoundError: No module named "
+                                            "'usvid.no_such_module'")
     assert status["c"] == ("skipped", "needs campaign from an earlier step")
     assert status["d"] == ("failed", "ValueError: bad value")
     assert status["e"] == ("ok", "fine")
     from usvid.report.html import build_html
 
     html = build_html(p.run)
-    assert "Trial campaign not available" in html and "unavailable" in html
+    assert ("Trial campaign not available: ModuleNotFoundError: No module named "
+            "&#x27;usvid.no_such_module&#x27;") in html
 
 
 def test_finite_pair_trims_and_fills() -> None:
     import numpy as np
 
-    from usvid.report.demo import _finite_pair
+    from usvid.demo.pipeline import _finite_pair
 
     a = np.array([np.nan, 1.0, np.nan, 3.0, 4.0, np.nan])
     b = np.array([0.0, 10.0, 20.0, np.nan, 40.0, 50.0])
@@ -203,7 +199,7 @@ def test_finite_pair_trims_and_fills() -> None:
 
 
 def test_norrbin_turns_everywhere_by_hand() -> None:
-    from usvid.report.demo import norrbin_turns_everywhere
+    from usvid.demo.pipeline import norrbin_turns_everywhere
 
     # n1 r + n3 r^3 peaks at r* = sqrt(n1/(-3 n3)) with 2/3 n1 r*; K delta_max = 0.7 * 0.6109
     # = 0.4276. n3 = -1: r* = 0.5774, peak 0.3849 < 0.4276 -> no steady 35 deg turn

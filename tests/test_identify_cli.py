@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 
+from reference import nomoto_zoh_zigzag
 from usvid.cli import main
+from usvid.commands.identify import _print_summary
+from usvid.identify.series import IdentificationWarning
 
 SPEC = """reader: table
 delimiter: ","
@@ -70,7 +75,7 @@ def test_identify_writes_model_file_and_json(logs, tmp_path, capsys):
     assert ident["method"] == "oe"
     assert ident["data"] == [str(a)]
     assert len(ident["data_sha256"][str(a)]) == 64
-    from usvid.modelfile import load_model
+    from usvid.io.modelfile import load_model
 
     m = load_model(out)
     assert m.dynamics.K == pytest.approx(s["params"]["K"])
@@ -118,3 +123,76 @@ def test_identify_kvlcc2_cli(hsva_dir, tmp_path, capsys):
     assert 0.05 < s["params"]["K"] < 0.5 and 5.0 < s["params"]["T"] < 60.0
     z = s["validation"][0]["zigzag"]
     assert z["measured_overshoot_deg"][0] == pytest.approx(9.7, abs=0.1)
+
+
+def test_summary_uses_the_interval_half_width_not_1_96_se(capsys):
+    # commands/identify.py _print_summary printed 1.96 se even when the interval uses the
+    # Student-t quantile (cluster-robust output error with few windows): here q = 2.571 (5 dof).
+    s = {"kind": "nomoto1", "method": "oe", "model_file": None,
+         "params": {"K": 0.3}, "std_errors": {"K": 0.01}, "ci95": {"K": [0.27429, 0.32571]},
+         "fit": {}}
+    _print_summary(s)
+    out = capsys.readouterr().out
+    assert "+- 0.0257 (95 %)" in out
+    assert "0.0196" not in out
+
+
+#: the format spec of the noise-free ZOH zig-zag logs (reference.nomoto_zoh_zigzag, in degrees)
+ZOH_SPEC = SPEC.replace("speed: 3.0", "speed: 1.18")
+
+
+def _zoh_log_frame(n: int) -> pd.DataFrame:
+    d = nomoto_zoh_zigzag(n=n).data.copy()
+    for c in ("psi", "r", "delta"):
+        d[c] = np.degrees(d[c])
+    return d
+
+
+def test_names_every_gap_it_repairs(tmp_path):
+    # commands/identify.py _load: prepare() filled 858 of 6000 NaN yaw-rate samples silently and
+    # the estimator then warned about only the 2 it still saw; the CLI now names the real count.
+    d = _zoh_log_frame(6000)
+    d.loc[::7, "r"] = np.nan
+    log = tmp_path / "gaps.csv"
+    d.to_csv(log, index=False, na_rep="")
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(ZOH_SPEC)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        code = main(["identify", str(log), "--format", str(spec), "--model", "nomoto1",
+                     "--out", str(tmp_path / "m.json"), "--json"])
+    assert code == 0
+    msgs = [str(x.message) for x in w if issubclass(x.category, IdentificationWarning)]
+    assert any("r: 858 of 6000" in m for m in msgs), msgs
+
+
+def test_identify_model_file_schema_and_exit_2(tmp_path, capsys):
+    # ARCHITECTURE.md model-file schema, loadable by `usvid simulate`; a constant rudder is
+    # exit 2 with a one-line reason.
+    d = _zoh_log_frame(4000)
+    log = tmp_path / "z.csv"
+    d.to_csv(log, index=False)
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(ZOH_SPEC)
+    out = tmp_path / "m.json"
+    assert main(["identify", str(log), "--format", str(spec), "--model", "nomoto1",
+                 "--out", str(out), "--json"]) == 0
+    m = json.loads(out.read_text())
+    assert m["usvid_model"] == 1 and m["kind"] == "nomoto1"
+    assert set(m["parameters"]) == {"K", "T", "delta0"}
+    assert {"kind", "max_angle_deg"} <= set(m["servo"])
+    assert m["vessel"] == {"length": 7.0, "speed": 1.18}
+    ident = m["identification"]
+    assert ident["data"] == [str(log)] and len(ident["data_sha256"][str(log)]) == 64
+    assert ident["method"] == "ls" and set(ident["std_errors"]) == {"K", "T", "delta0"}
+    assert "r" in ident["fit"]
+    capsys.readouterr()
+    assert main(["simulate", "zigzag", str(out), "--delta-deg", "10", "--psi-deg", "10",
+                 "--json"]) == 0
+    d["delta"] = 5.0
+    d.to_csv(log, index=False)
+    assert main(["identify", str(log), "--format", str(spec), "--model", "nomoto1",
+                 "--out", str(tmp_path / "c.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no excitation" in err and "\n" not in err
+    assert not (tmp_path / "c.json").exists()

@@ -9,11 +9,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from reference import nomoto_zoh_zigzag
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.estimator import ModelEstimator
 from usvid.identify.ls import NotFittedError
-from usvid.identify.regressors import IdentificationWarning
-from usvid.trial import Trial
+from usvid.identify.series import IdentificationWarning
+from usvid.models.thrust import PodThrust
+from usvid.trial import Trial, Vessel
 
 
 def _nomoto_trial(n=2000, h=0.1, name="log.csv", nan_at=(), delta=None):
@@ -75,7 +77,21 @@ def test_missing_channel_named():
     with pytest.raises(IdentificationError, match=r"needs channel 'delta'"):
         ModelEstimator("nomoto1").fit(tr)
     with pytest.raises(IdentificationError, match=r"'threedof' needs channel 'u'"):
-        ModelEstimator("threedof").fit(_nomoto_trial())
+        ModelEstimator("threedof", x_l=1.0, thrust=60.0).fit(_nomoto_trial())
+
+
+def test_missing_particulars_named():
+    # what a kind needs to be simulated comes from the vessel block or the options, or
+    # identification stops naming it
+    tr = _nomoto_trial()
+    with pytest.raises(IdentificationError, match=r"'threedof' needs the thruster arm x_l.*--x-l"):
+        ModelEstimator("threedof").fit(tr)
+    with pytest.raises(IdentificationError, match=r"'threedof' needs a thrust law.*propeller_"):
+        ModelEstimator("threedof", x_l=1.0).fit(tr)
+    with pytest.raises(IdentificationError, match=r"'threedof' needs the shaft speed.*'n'"):
+        ModelEstimator("threedof", x_l=1.0, thrust=PodThrust(c=0.0, d=0.6)).fit(tr)
+    with pytest.raises(IdentificationError, match=r"'catamaran' needs the distance b"):
+        ModelEstimator("catamaran").fit(tr)
 
 
 def test_bad_arguments_and_not_fitted():
@@ -118,3 +134,36 @@ def test_course_unstable_with_nomoto1_says_use_norrbin():
     est = ModelEstimator("norrbin").fit(tr)
     assert est.params_["n1"] == -1.0
     assert est.params_["T"] == pytest.approx(10.0, rel=0.05)
+
+
+def test_all_nan_channel_is_named_as_such_not_absent():
+    # regressors.py need() (now series.py): an all-NaN rudder column was reported as "needs
+    # channel 'delta' (present: psi, r, delta)", contradicting itself.
+    tr = nomoto_zoh_zigzag(n=2000)
+    tr.data["delta"] = np.nan
+    with pytest.raises(IdentificationError, match=r"channel 'delta' .*has no finite sample"):
+        ModelEstimator("nomoto1").fit(tr)
+
+
+def test_quasi_static_rudder_warns_poorly_determined():
+    # A rudder varying over 2000 s (vs T = 5 s): r ~ K delta, so r and delta are nearly
+    # collinear (condition number far below cond_max); LS gave T = 85 +- 1790 s silently.
+    K, T = 0.3, 5.0
+    h, n = 0.05, 6000
+    t = np.arange(n) * h
+    delta = math.radians(10) * np.sin(2 * np.pi * t / 2000)
+    a = math.exp(-h / T)
+    r = np.zeros(n)
+    for k in range(n - 1):
+        r[k + 1] = a * r[k] + K * (1 - a) * delta[k]
+    rng = np.random.default_rng(3)
+    r_meas = r + rng.normal(0, math.radians(0.02), n)  # 0.02 deg/s gyro noise
+    psi = np.concatenate([[0.0], np.cumsum(0.5 * h * (r[1:] + r[:-1]))])
+    tr = Trial(data=pd.DataFrame({"t": t, "psi": psi, "r": r_meas, "delta": delta}),
+               vessel=Vessel(length=7.0, speed=1.18), name="slow")
+    with pytest.warns(IdentificationWarning, match=r"nomoto1: poorly determined .*\bT = "):
+        ModelEstimator("nomoto1").fit(tr)
+    # ... and a well-excited zig-zag does not warn
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentificationWarning)
+        ModelEstimator("nomoto1").fit(nomoto_zoh_zigzag())

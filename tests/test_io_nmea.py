@@ -222,3 +222,44 @@ def test_candump_non_monotonic_sorted(tmp_path):
     back = read_candump(p)
     assert back["psi"] == pytest.approx([0.1, 0.2, 0.3, 0.4], abs=0.5e-4)  # 1e-4 rad resolution
     assert any(f.code == "non_monotonic_time" and f.count == 1 for f in back.findings)
+
+
+def test_nmea_sentence_time_date_before_midnight_rollover(tmp_path) -> None:
+    # the log starts at 23:59:59 on 1 Jan (GGA, no date); the first RMC with a date comes after
+    # midnight (2 Jan). t = 0 is 1 Jan 23:59:59, not 2 Jan 23:59:59 (one day late before the fix).
+    lines = [
+        sentence("GPGGA,235959.00,5400.0000,N,01000.0000,E,1,08,1.0,0.0,M,0.0,M,,"),
+        sentence("GPRMC,000001.00,A,5400.0010,N,01000.0000,E,5.0,10.0,020125,,,A"),
+        sentence("GPGGA,000002.00,5400.0020,N,01000.0000,E,1,08,1.0,0.0,M,0.0,M,,"),
+    ]
+    p = tmp_path / "midnight.nmea"
+    p.write_text("\n".join(lines) + "\n")
+    tr = read_nmea0183(p)
+    assert tr.meta["t0_utc"] == "2025-01-01T23:59:59+00:00"
+    assert list(tr.t) == [0.0, 2.0, 3.0]
+
+
+def test_nmea_utf8_byte_order_mark(tmp_path) -> None:
+    # a BOM made the first sentence "garbage" (non-ASCII bytes) before the fix
+    lines = [sentence("HEHDT,10.0,T"), sentence("HEHDT,11.0,T")]
+    p = tmp_path / "bom.nmea"
+    p.write_bytes(b"\xef\xbb\xbf" + ("1700000000.0 " + lines[0] + "\n1700000001.0 " + lines[1]
+                                     + "\n").encode())
+    for engine in ("fast", "pynmeagps"):
+        tr = read_nmea0183(p, engine=engine)
+        assert tr.rejected == {} and len(tr) == 2, engine
+
+
+def test_candump_short_single_frame_is_truncated_not_decoded(tmp_path) -> None:
+    # PGN 127250 (Vessel Heading) is one 8-byte frame; a 2-byte frame holds only the SID and the
+    # low heading byte. Before the fix it was decoded as psi = 0x39 * 1e-4 rad = 0.0057 rad.
+    p = tmp_path / "short.can"
+    p.write_text(
+        "(1700000000.1) can0 09F11203#0139\n"
+        "(1700000000.2) can0 09F11203#\n"
+        "(1700000000.4) can0 09F11203#013930FF7FFF7FFC\n"
+    )
+    tr = read_candump(p)
+    assert tr.rejected == {"truncated": 2}
+    assert len(tr) == 1
+    assert abs(tr["psi"][0] - 1.2345) < 1e-9  # 0x3039 * 1e-4 rad

@@ -188,3 +188,72 @@ def test_unit_unknown_to_spec_in_file_spec(tmp_path):
     with pytest.raises(FormatSpecError,
                        match=r"columns\.n\.unit: unknown unit 'furlong/fortnight'"):
         read_trial(p, spec)
+
+
+def test_read_table_only_header_lines_says_no_data(tmp_path) -> None:
+    p = tmp_path / "hdr.dat"
+    p.write_text("a\nb\nc\nd\n")
+    # four lines, skip_rows 4: it is "no data rows", not "fewer lines than skip_rows"
+    with pytest.raises(LogReadError, match="no data rows"):
+        read_trial(p, "hsva_kvlcc2")
+
+
+def test_table_bad_value_names_column_and_line(tmp_path) -> None:
+    spec = {"reader": "table", "delimiter": ",", "header": True,
+            "columns": {"t": {"col": "time", "unit": "s"}, "psi": {"col": "hdg", "unit": "deg"}}}
+    p = tmp_path / "a.csv"
+    p.write_text("time,hdg\n0,1\n1,2\n2,x\n3,4\n")
+    tr = read_trial(p, spec)
+    assert tr.rejected == {"bad_value": 1}
+    f = [x for x in tr.findings if x.code == "bad_value"]
+    # before the fix the rejected row was only counted: no column, no line
+    assert len(f) == 1 and f[0].channel == "psi"
+    assert "'hdg'" in f[0].message and "line 4" in f[0].message and "'x'" in f[0].message
+    q = tmp_path / "b.csv"
+    q.write_text("time,hdg\n0,y\n1,z\n")
+    with pytest.raises(LogReadError, match=r"bad_value: 2\).*hdg.*line 2: 'y'"):
+        read_trial(q, spec)
+
+
+def test_excel_bad_value_names_sheet_row(tmp_path) -> None:
+    p = tmp_path / "x.xlsx"
+    pd.DataFrame({"time": [0.0, 1.0, 2.0, 3.0], "hdg": [1.0, 2.0, "bad", 4.0]}).to_excel(
+        p, index=False)
+    spec = {"reader": "excel",
+            "columns": {"t": {"col": "time", "unit": "s"}, "psi": {"col": "hdg", "unit": "deg"}}}
+    tr = read_trial(p, spec)
+    assert tr.rejected == {"bad_value": 1}
+    (f,) = [x for x in tr.findings if x.code == "bad_value"]
+    # header in spreadsheet row 1, data from row 2: the third data row is row 4
+    assert "sheet 0 row 4" in f.message
+
+
+def test_table_datetime_with_mixed_utc_offsets(tmp_path) -> None:
+    # a clock change inside the log (+01:00 then Z): pandas raised "Mixed timezones detected"
+    # (ValueError, exit code 1) before the fix; now both are put on UTC
+    p = tmp_path / "dt.csv"
+    p.write_text("time,hdg\n2025-03-30T00:59:59+01:00,1\n2025-03-30T00:00:00Z,2\n"
+                 "2025-03-30T00:00:01Z,3\n")
+    spec = {"reader": "table", "delimiter": ",", "header": True,
+            "columns": {"t": {"col": "time", "unit": "datetime"},
+                        "psi": {"col": "hdg", "unit": "deg"}}}
+    tr = read_trial(p, spec)
+    assert list(tr.t) == [0.0, 1.0, 2.0]  # 23:59:59Z, 00:00:00Z, 00:00:01Z
+    assert tr.meta["t0_utc"] == "2025-03-29T23:59:59+00:00"
+
+
+def test_table_utf8_byte_order_mark(tmp_path) -> None:
+    # Excel's "CSV UTF-8" starts with a BOM: before the fix the first header name was
+    # "\ufefftime" (FormatSpecError: no column named 'time'), and in a file without a header the
+    # first data row was rejected as bad_value
+    p = tmp_path / "bom.csv"
+    p.write_bytes(b"\xef\xbb\xbftime,hdg\n0,1\n1,2\n2,3\n")
+    spec = {"reader": "table", "delimiter": ",", "header": True,
+            "columns": {"t": {"col": "time", "unit": "s"}, "psi": {"col": "hdg", "unit": "deg"}}}
+    tr = read_trial(p, spec)
+    assert len(tr) == 3 and tr.rejected == {}
+    q = tmp_path / "bom.dat"
+    q.write_bytes(b"\xef\xbb\xbf0 1\n1 2\n2 3\n")
+    tr = read_trial(q, {"reader": "table", "columns": {"t": {"col": 0, "unit": "s"},
+                                                        "psi": {"col": 1, "unit": "deg"}}})
+    assert len(tr) == 3 and tr.rejected == {}

@@ -7,10 +7,12 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from usvid.errors import ModelFileError, UsvidError
-from usvid.modelfile import load_model, model_from_dict, model_to_dict, save_model
+from usvid.io.modelfile import load_model, model_from_dict, model_to_dict, save_model
+from usvid.models import Nomoto1, VesselModel
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -116,7 +118,8 @@ def _bad(path_and_value):
     ([(("parameters", "K"), "0.7")], 'm.json: parameters.K must be a number (got "0.7")'),
     ([(("parameters", "K"), True)], "m.json: parameters.K must be a number"),
     ([(("parameters", "alpha"), 1.1)], "m.json: unknown key parameters.alpha"),
-    ([(("kind",), "nomoto3")], "m.json: kind must be 'nomoto1'"),
+    ([(("kind",), "nomoto3")], "m.json: kind must be one of nomoto1, nomoto2, norrbin, "
+                               "threedof, catamaran (got \"nomoto3\")"),
     ([(("usvid_model",), 2)], "m.json: usvid_model must be 1"),
     ([(("servo", "kind"), "hydraulic")], "m.json: servo.kind must be one of ideal"),
     ([(("servo", "zeta"), KeyError)], "m.json: servo.zeta is missing"),
@@ -169,11 +172,6 @@ def test_load_errors(tmp_path):
 
 
 def test_batch_model_cannot_be_saved():
-    import numpy as np
-
-    from usvid.models.model import VesselModel
-    from usvid.models.response import Nomoto1
-
     with pytest.raises(ModelFileError, match="batch"):
         model_to_dict(VesselModel(Nomoto1(K=np.array([1.0, 2.0]), T=1.0)))
 

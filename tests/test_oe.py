@@ -1,6 +1,6 @@
-"""Output-error machinery: the batch RK4 kernels against closed-form responses, windowing, the
-autocorrelation factor, the Schur-complement solver against scipy's least_squares, and the
-interval coverage of the output-error fit."""
+"""Output-error machinery: replays of measured windows on the integration core against
+closed-form responses, windowing, the autocorrelation factor, the Schur-complement solver against
+scipy's least_squares, and the interval coverage of the output-error fit."""
 
 from __future__ import annotations
 
@@ -9,69 +9,76 @@ import math
 import numpy as np
 import pytest
 from scipy import signal
+from scipy.optimize import least_squares
 
-from usvid.identify.output_error import (
-    Windows,
-    autocorrelation_factor,
-    make_windows,
-    refine_output_error,
-    simulate_response_batch,
-    simulate_threedof_batch,
-    simulate_windows,
-)
+from usvid.identify.ls import autocorrelation_factor
+from usvid.identify.output_error import OEProblem, refine_output_error
+from usvid.models import Nomoto1, Nomoto2, Norrbin, ThreeDOF, VesselModel, get_kind
+from usvid.sim.replay import Windows, make_windows, replay_windows
+from usvid.trial import Vessel
+
+NOMOTO1 = get_kind("nomoto1")
 
 
-def test_nomoto1_kernel_step_response_closed_form():
+def _windows(h: float, inputs: dict, init: dict, outputs=("psi", "r")) -> Windows:
+    """Windows with the given inputs (B, W) and initial values; outputs are placeholders."""
+    shape = next(iter(inputs.values())).shape
+    return Windows(h=h, inputs=inputs, outputs={c: np.zeros(shape) for c in outputs},
+                   init={k: np.asarray(v, float) for k, v in init.items()})
+
+
+def test_nomoto1_replay_step_response_closed_form():
     # T r' + r = K delta, step delta = d from rest: r = K d (1 - e^{-t/T}),
     # psi = K d (t - T (1 - e^{-t/T}))
     K, T, d, h = 0.4, 5.0, 0.1, 0.05
     t = np.arange(0, 30.0 + h / 2, h)
-    delta = np.full((2, len(t)), d)
-    r, psi = simulate_response_batch(0, np.array([K, T, 0.0]), delta, h, np.zeros(2),
-                                     np.zeros(2), np.zeros(2))
+    win = _windows(h, {"delta": np.full((2, len(t)), d)}, {"r": np.zeros(2), "psi": np.zeros(2)})
+    sim = replay_windows(VesselModel(Nomoto1(K=K, T=T), vessel=Vessel(speed=2.0)), win)
+    assert sim["psi"].shape == sim["r"].shape == (2, len(t))
     r_ex = K * d * (1 - np.exp(-t / T))
     psi_ex = K * d * (t - T * (1 - np.exp(-t / T)))
-    assert np.max(np.abs(r[0] - r_ex)) < 1e-9  # RK4 with h/T = 0.01: error ~ (h/T)^4
-    # psi by the trapezoid rule on r: error ~ h^2/12 * max|r''| * t = ~3e-6 rad here
-    assert np.max(np.abs(psi[1] - psi_ex)) < 1e-5
+    assert np.max(np.abs(sim["r"][0] - r_ex)) < 1e-9  # RK4 with h/T = 0.01: error ~ (h/T)^4
+    # psi is integrated with the yaw rate by RK4 (was the trapezoid rule on r, error ~3e-6 rad)
+    assert np.max(np.abs(sim["psi"][1] - psi_ex)) < 1e-9
 
 
-def test_nomoto2_kernel_matches_scipy_lsim():
+def test_nomoto2_replay_matches_scipy_lsim():
     # seed 000 eq. 29: K (1 + T3 s) / ((1 + T1 s)(1 + T2 s)); input a smooth rudder sweep
     K, T1, T2, T3, h = 0.5, 6.0, 1.2, 0.7, 0.02
     t = np.arange(0, 40.0, h)
     u = 0.2 * np.sin(0.3 * t) * (1 - np.exp(-t))
     sys = signal.lti([K * T3, K], [T1 * T2, T1 + T2, 1.0])
     _, y, _ = signal.lsim(sys, u, t)
-    r, _ = simulate_response_batch(1, np.array([K, T1, T2, T3, 0.0]), u[None, :], h,
-                                   np.zeros(1), np.zeros(1), np.zeros(1))
-    # lsim assumes linear input between samples as the kernel does: agreement to 1e-6 rad/s
-    assert np.max(np.abs(r[0] - y)) < 1e-6
+    win = _windows(h, {"delta": u[None, :]}, {"r": [0.0], "psi": [0.0], "rdot": [0.0]})
+    sim = replay_windows(VesselModel(Nomoto2(K=K, T1=T1, T2=T2, T3=T3),
+                                     vessel=Vessel(speed=1.0)), win)
+    # lsim assumes linear input between samples as the replay does: agreement to 1e-6 rad/s
+    assert np.max(np.abs(sim["r"][0] - y)) < 1e-6
 
 
-def test_norrbin_kernel_steady_turn_is_eq36():
+def test_norrbin_replay_steady_turn_is_eq36():
     # steady turn: n1 r + n3 r^3 = K (delta + delta0)  (seed 000 eq. 36)
     K, T, n1, n3, d = 0.5, 2.0, 1.0, 3.0, 0.2
-    h = 0.05
-    delta = np.full((1, 2000), d)
-    r, _ = simulate_response_batch(2, np.array([K, T, n1, n3, 0.0]), delta, h, np.zeros(1),
-                                   np.zeros(1), np.zeros(1))
-    rs = r[0, -1]
+    win = _windows(0.05, {"delta": np.full((1, 2000), d)}, {"r": [0.0], "psi": [0.0]})
+    sim = replay_windows(VesselModel(Norrbin(K=K, T=T, n1=n1, n3=n3), vessel=Vessel(speed=1.0)),
+                         win)
+    rs = sim["r"][0, -1]
     assert n1 * rs + n3 * rs ** 3 == pytest.approx(K * d, rel=1e-9)
 
 
-def test_threedof_kernel_surge_closed_form():
-    # v = r = 0: u' = a_u u + a_tau tau_u  ->  u = u_inf + (u0 - u_inf) e^{a_u t}
-    p = np.array([1.0, -0.5, 0.01, -1.0, -2.0, 0.1, -1.0, 0.02])
+def test_threedof_replay_surge_closed_form():
+    # v = r = 0 under a straight constant thrust: m11 u' = -d11 u + T ->
+    # u = u_inf + (u0 - u_inf) e^{-d11 t / m11}, u_inf = T / d11
+    dyn = ThreeDOF(m11=100.0, m22=150.0, m33=40.0, d11=50.0, d22=60.0, d33=30.0, x_l=1.0,
+                   thrust=100.0)
     h, n = 0.05, 400
-    tau_u = np.full((1, n), 100.0)
-    tau_r = np.zeros((1, n))
-    U, V, R, P = simulate_threedof_batch(p, tau_u, tau_r, h, np.array([0.5]), np.zeros(1),
-                                         np.zeros(1), np.zeros(1))
+    win = _windows(h, {"delta": np.zeros((1, n))},
+                   {"u": [0.5], "v": [0.0], "r": [0.0], "psi": [0.0]},
+                   outputs=("psi", "r", "u", "v"))
+    sim = replay_windows(VesselModel(dyn), win)
     t = np.arange(n) * h
-    u_inf = -p[2] * 100.0 / p[1]
-    assert np.max(np.abs(U[0] - (u_inf + (0.5 - u_inf) * np.exp(p[1] * t)))) < 1e-8
-    assert np.all(V == 0) and np.all(R == 0) and np.all(P == 0)
+    assert np.max(np.abs(sim["u"][0] - (2.0 + (0.5 - 2.0) * np.exp(-0.5 * t)))) < 1e-8
+    assert np.all(sim["v"] == 0) and np.all(sim["r"] == 0) and np.all(sim["psi"] == 0)
 
 
 def test_make_windows_covers_record_with_last_window_aligned_to_end():
@@ -104,37 +111,49 @@ def test_autocorrelation_factor_white_and_ar1():
 
 
 def _windows_from_truth(p, n_windows=12, W=201, h=0.1, noise=(0.002, 0.001), seed=0):
+    """Noisy windows of a Nomoto 1 model p = (K, T, delta0) replayed on the core."""
     rng = np.random.default_rng(seed)
     t = np.arange(W) * h
     delta = 0.2 * np.sign(np.sin(2 * np.pi * (t[None, :] + rng.uniform(0, 10, (n_windows, 1)))
                                  / 12.0))
     r0 = rng.normal(0, 0.02, n_windows)
     psi0 = rng.normal(0, 0.1, n_windows)
-    r, psi = simulate_response_batch(0, np.asarray(p, float), delta, h, r0, np.zeros(n_windows),
-                                     psi0)
-    rm = r + rng.normal(0, noise[1], r.shape)
-    pm = psi + rng.normal(0, noise[0], psi.shape)
+    truth = _windows(h, {"delta": delta}, {"r": r0, "psi": psi0})
+    K, T, d0 = p
+    sim = replay_windows(VesselModel(Nomoto1(K=K, T=T, delta0=d0), vessel=Vessel(speed=1.0)),
+                         truth)
+    rm = sim["r"] + rng.normal(0, noise[1], delta.shape)
+    pm = sim["psi"] + rng.normal(0, noise[0], delta.shape)
     return Windows(h=h, inputs={"delta": delta}, outputs={"psi": pm, "r": rm},
                    init={"r": rm[:, 0], "psi": pm[:, 0], "rdot": np.zeros(n_windows)})
 
 
 def test_schur_solver_matches_scipy_least_squares():
-    win = _windows_from_truth([0.3, 4.0, 0.01])
-    p0 = np.array([0.25, 3.0, 0.0])
-    a = refine_output_error("nomoto1", p0, win, solver="schur")
-    b = refine_output_error("nomoto1", p0, win, solver="scipy")
-    assert a.params == pytest.approx(b.params, rel=1e-5)
-    assert a.std_errors == pytest.approx(b.std_errors, rel=1e-3)
-    assert a.params == pytest.approx([0.3, 4.0, 0.01], rel=0.02, abs=1e-3)
+    # 6 windows (< MIN_CLUSTERS): the Gauss-Newton covariance (J^T J)^-1 s^2 f_ac
+    win = _windows_from_truth([0.3, 4.0, 0.01], n_windows=6)
+    start = {"K": 0.25, "T": 3.0, "delta0": 0.0}
+    a = refine_output_error(NOMOTO1, start, {}, win, reweight=False)
+    # the same problem for scipy: parameters and every window's initial (r, psi), residuals
+    # weighted by the first-pass noise proxy of refine_output_error
+    prob = OEProblem(NOMOTO1, {}, win, ("psi", "r"))
+    B = win.batch_size
+    sig = {c: max(float(np.std(np.diff(win.outputs[c], axis=1))),
+                  1e-3 * float(np.std(win.outputs[c])), 1e-9) for c in ("psi", "r")}
 
+    def resid(x):
+        sim = prob.simulate(x[:3], {"r": x[3:3 + B], "psi": x[3 + B:]})
+        return np.concatenate([((sim[c] - win.outputs[c]) / sig[c])[:, 1:].ravel()
+                               for c in ("psi", "r")])
 
-def test_oe_fixed_parameter_and_simulate_windows():
-    win = _windows_from_truth([0.3, 4.0, 0.01], seed=3)
-    free = np.array([True, True, False])
-    res = refine_output_error("nomoto1", np.array([0.25, 3.0, 0.01]), win, free=free)
-    assert res.params[2] == 0.01 and res.std_errors[2] == 0.0
-    sim = simulate_windows("nomoto1", res.params, win)
-    assert sim["psi"].shape == win.outputs["psi"].shape
+    x0 = np.concatenate([[0.25, 3.0, 0.0], win.init["r"], win.init["psi"]])
+    b = least_squares(resid, x0, method="lm", xtol=1e-14, ftol=1e-14)
+    np.testing.assert_allclose(a.x, b.x[:3], rtol=1e-5, atol=1e-8)
+    f = b.fun
+    s2 = float(f @ f) / (f.size - b.x.size)
+    fac = max(autocorrelation_factor(f.reshape(2, B, -1)[i]) for i in range(2))
+    cov = np.linalg.inv(b.jac.T @ b.jac)[:3, :3] * s2 * fac
+    np.testing.assert_allclose(np.sqrt(np.diag(a.cov)), np.sqrt(np.diag(cov)), rtol=1e-3)
+    assert list(a.params.values()) == pytest.approx([0.3, 4.0, 0.01], rel=0.02, abs=1e-3)
 
 
 def test_oe_interval_coverage_on_20_repetitions():
@@ -143,7 +162,8 @@ def test_oe_interval_coverage_on_20_repetitions():
     hits = 0
     for seed in range(20):
         win = _windows_from_truth([0.3, 4.0, 0.01], seed=100 + seed)
-        res = refine_output_error("nomoto1", np.array([0.28, 3.5, 0.0]), win)
-        hits += abs(res.params[0] - 0.3) < 1.96 * res.std_errors[0]
+        res = refine_output_error(NOMOTO1, {"K": 0.28, "T": 3.5, "delta0": 0.0}, {}, win)
+        se = math.sqrt(res.cov[0, 0])
+        hits += abs(res.params["K"] - 0.3) < 1.96 * se
     assert hits >= 16
     assert math.isfinite(res.ac_factor)

@@ -92,3 +92,10 @@ def test_unwrap_bridges_nan():
     # -3.0 follows 3.0: a wrap, so it becomes -3.0 + 2 pi
     np.testing.assert_allclose(out[[0, 2, 3]], [3.0, -3.0 + 2 * np.pi, -2.9 + 2 * np.pi])
     np.testing.assert_allclose(wrap_angle([np.pi, 3 * np.pi / 2]), [-np.pi, -np.pi / 2])
+
+
+def test_lowpass_zero_step_is_usvid_error() -> None:
+    # dt = 0 raised a bare ZeroDivisionError before the fix
+    for dt in (0.0, -0.1, float("nan")):
+        with pytest.raises(UsvidError, match="sample step"):
+            lowpass(np.ones(100), dt, 1.0)

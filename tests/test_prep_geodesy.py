@@ -143,3 +143,12 @@ def test_follower_channel_blanked_only_on_stale_rows():
     assert "U" in rep.channels and "psi" not in rep.channels
     assert np.isnan(out["U"][1::2]).all() and np.isfinite(out["U"][0::2]).all()
     assert np.isfinite(out["psi"]).all()
+
+
+def test_geodetic_to_ned_scalar_fix() -> None:
+    # one fix as scalars raised IndexError (0-d array indexed) before the fix
+    n, e, org = geodetic_to_ned(54.0, 10.0)
+    assert org == (54.0, 10.0) and float(n) == 0.0 and float(e) == 0.0
+    n, e, _ = geodetic_to_ned(54.001, 10.0, (54.0, 10.0))
+    assert abs(float(n) - 111.4) < 0.5  # 0.001 deg of latitude at 54 N is about 111.4 m
+    assert n.shape == ()

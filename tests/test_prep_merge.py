@@ -32,3 +32,17 @@ def test_merge_puts_logs_on_one_clock_and_counts_repeats():
 def test_merge_needs_trials():
     with pytest.raises(UsvidError, match="no trials"):
         merge_trials([])
+
+
+def test_merge_trials_mixed_naive_and_utc_epochs() -> None:
+    # NMEA readers give "+00:00" epochs, the Excel reader a naive date-time: before the fix the
+    # comparison raised pandas' TypeError (tz-naive vs tz-aware). Naive is taken as UTC.
+    a = Trial(data=pd.DataFrame({"t": [0.0, 1.0, 2.0], "psi": [0.0, 0.1, 0.2]}), name="a",
+              meta={"t0_utc": "2025-01-01T00:00:00+00:00"})
+    b = Trial(data=pd.DataFrame({"t": [0.0, 1.0, 2.0], "delta": [0.0, 0.1, 0.2]}), name="b",
+              meta={"t0_utc": "2025-01-01T00:00:01"})
+    m = merge_trials([a, b])
+    assert list(m.t) == [0.0, 1.0, 2.0, 3.0]
+    assert list(m.data["delta"].iloc[1:]) == [0.0, 0.1, 0.2]  # b shifted by +1 s
+    with pytest.raises(UsvidError, match="t0_utc"):
+        merge_trials([a, b], t0_utc="garbage")

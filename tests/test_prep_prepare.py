@@ -147,3 +147,14 @@ def test_nmea0183_round_trip_prepares(tmp_path):
     np.testing.assert_allclose(p["u"][core], U0, atol=0.02)
     np.testing.assert_allclose(p["v"][core], V0, atol=0.02)
     np.testing.assert_allclose(p["r"][core], R0, atol=1e-3)
+
+
+def test_prepare_counts_nan_time_as_rejected_not_as_reversal() -> None:
+    n = 50
+    t = np.arange(n) * 0.1
+    t[10] = np.nan  # one row without a time, no time reversal at all
+    tr = Trial(data=pd.DataFrame({"t": t, "psi": np.linspace(0.0, 1.0, n)}), name="nan_t")
+    out = prepare(tr)
+    # before the fix the NaN time was reported as a "time stamp earlier than its predecessor"
+    assert not [f for f in out.findings if f.code == "time_reversal"]
+    assert out.rejected.get("nan_time") == 1

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import browser
 from usvid.cli import main
 from usvid.errors import UsvidError
-from usvid.report import browser
-from usvid.report.html import build_html, esc, external_urls
+from usvid.report.html import build_html, esc, external_urls, fit_label
 from usvid.report.run import REPORT_FILE, load_run, save_run, write_report
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -146,8 +146,8 @@ def test_chromium_probe_detects_broken_image_and_console_error(tmp_path: Path) -
 
 def test_to_transfer_function_nomoto_and_servo() -> None:
     control = pytest.importorskip("control")
+    from usvid.models import Nomoto1, Nomoto2, Norrbin
     from usvid.models.export import to_transfer_function
-    from usvid.models.response import Nomoto1, Nomoto2, Norrbin
     from usvid.models.servo import SecondOrderServo
 
     K, T = 0.707, 0.332  # seed 000 eq. 38 (consistent reading)
@@ -172,7 +172,7 @@ def test_to_transfer_function_nomoto_and_servo() -> None:
     full = to_transfer_function(Wrapped(), include_servo=True, pade_order=2)
     assert control.dcgain(full) == pytest.approx(K, rel=1e-9)
     assert len(control.poles(full)) == 1 + 2 + 2  # Nomoto + servo + Pade(2)
-    with pytest.raises(UsvidError, match="not a response model"):
+    with pytest.raises(UsvidError, match="not a model parameter set"):
         to_transfer_function(object())
     with pytest.raises(UsvidError, match="output must be"):
         to_transfer_function(Nomoto1(K=K, T=T), output="x")
@@ -187,3 +187,24 @@ def test_report_prints_to_pdf(tmp_path: Path) -> None:
     assert data.startswith(b"%PDF")
     # print CSS starts every h2 section on a new page: 7 sections -> at least 7 pages
     assert len(re.findall(rb"/Type\s*/Page[^s]", data)) >= 7
+
+
+def test_report_labels_units_of_vessel_fit_and_gains():
+    run = {
+        "vessel": {"length": 7.02, "displacement": 2.73},
+        "models": [{"kind": "nomoto1", "params": {"K": 0.7}, "units": {"K": "1/s"},
+                    "fit": {"r.rmse": 0.0037, "psi.max_error": 0.01, "r.nrmse": 0.03}},
+                   {"kind": "servo", "params": {"gain": 1.0}, "units": {"gain": "-"},
+                    "fit": {"rmse": 0.003}}],
+        "course_keeping": {"runs": [{"label": "PD", "kp": 0.7, "ki": 0.0, "kd": 1.0,
+                                     "itae": 58.5, "iae": 8.2, "max_rudder_deg": 35.0}]},
+    }
+    html = build_html(run)
+    assert external_urls(html) == []
+    # displacement is 2.73 m^3 (seed 000 Table 1), not "SI" in general
+    assert "<td>m^3</td>" in html and "value (SI)" not in html
+    assert "r.rmse [rad/s] = " in html and "psi.max_error [rad] = " in html
+    assert "rmse [rad] = " in html  # the servo's output is delta [rad]
+    assert "ITAE [rad s^2]" in html and "Ki [1/s]" in html
+    assert fit_label("u.rmse") == "u.rmse [m/s]" and fit_label("r2") == "r2 [-]"
+    assert fit_label("window_s") == "window_s"

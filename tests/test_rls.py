@@ -97,8 +97,8 @@ def test_seed001_chain_rls_on_arx_then_d2c():
     """
     from scipy import signal
 
-    from usvid.identify.d2c import d2c
     from usvid.identify.ls import arx_regressors, arx_transfer_function
+    from usvid.models.d2c import d2c
 
     dt, K, T, nk = 0.05, 0.707, 0.332, 3  # nk = 1 (ZOH) + 2 samples dead time
     nd, dd, _ = signal.cont2discrete(([K], [T, 1.0]), dt, "zoh")

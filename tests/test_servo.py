@@ -1,4 +1,4 @@
-"""Servo models: numpy dynamics and their behaviour inside the simulator."""
+"""Servo models: their equations and behaviour inside the simulator (the integration core)."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
 from usvid.errors import UsvidError
 from usvid.models import (
@@ -14,17 +15,15 @@ from usvid.models import (
     Nomoto1,
     SecondOrderServo,
     VesselModel,
-    first_order_servo_f,
-    second_order_servo_f,
     seed000_servo,
 )
 from usvid.sim import Commanded, Turning, simulate
 from usvid.trial import Vessel
 
 
-def _run(servo, logic, t_end, dt=0.01):
+def _run(servo, logic, t_end, dt=0.01, **kw):
     m = VesselModel(Nomoto1(K=0.5, T=1.0), servo=servo, vessel=Vessel(speed=2.0))
-    return simulate(m, logic, t_end=t_end, dt=dt)
+    return simulate(m, logic, t_end=t_end, dt=dt, **kw)
 
 
 def test_seed000_servo_from_transfer_function():
@@ -37,23 +36,38 @@ def test_seed000_servo_from_transfer_function():
     assert s.delay_samples(0.02) == 50
 
 
-def test_first_order_f_hand_values():
+def test_first_order_rate_and_limits_hand_values():
+    # the servo equations live in the integration core only: their hand values are checked on
+    # simulated angles
+    dt = 0.01
     s = FirstOrderServo(T=0.5, max_rate=math.radians(10))
-    # (0.1 - 0)/0.5 = 0.2 rad/s, clipped to 10 deg/s = 0.1745
-    out = s.f(np.array([[0.0], [0.05]]), np.array([0.1, 0.1]))
-    np.testing.assert_allclose(out[:, 0], [math.radians(10), 0.1])
-    # at the angle limit a rate pushing outwards is zeroed, inwards allowed
+    # (0.1 - 0)/0.5 = 0.2 rad/s, clipped to 10 deg/s = 0.1745 while delta < 0.0127
+    d = _run(s, Turning(0.1), t_end=0.05, dt=dt)["delta"][0]
+    np.testing.assert_allclose(np.diff(d) / dt, math.radians(10), rtol=1e-12)
+    # from 0.05: (0.1 - 0.05)/0.5 = 0.1 rad/s, below the limit: the exponential approach
+    res = _run(s, Turning(0.1), t_end=2.0, dt=dt, initial={"delta": 0.05})
+    np.testing.assert_allclose(res["delta"][0], 0.1 - 0.05 * np.exp(-res.t / 0.5), atol=1e-9)
+    # at the angle limit a rate pushing outwards is zeroed, inwards allowed (at the rate limit)
     lim = s.max_angle
-    np.testing.assert_allclose(first_order_servo_f(np.array([[lim], [lim]]),
-                                                   np.array([1.0, -1.0]), s)[:, 0],
-                               [0.0, -math.radians(10)])
+    out = _run(s, Turning(1.0), t_end=0.05, dt=dt, initial={"delta": lim})["delta"][0]
+    np.testing.assert_allclose(out, lim, rtol=1e-15)
+    inw = _run(s, Turning(-1.0), t_end=0.05, dt=dt, initial={"delta": lim})["delta"][0]
+    np.testing.assert_allclose(np.diff(inw) / dt, -math.radians(10), rtol=1e-9)
 
 
-def test_second_order_f_hand_values():
-    s = SecondOrderServo(omega_n=2.0, zeta=0.5, gain=1.2)
-    out = second_order_servo_f(np.array([0.1, 0.3]), 0.2, s)
-    # delta'' = 4 (1.2 * 0.2 - 0.1) - 2 * 0.5 * 2 * 0.3 = 0.56 - 0.6 = -0.04
-    np.testing.assert_allclose(out, [0.3, -0.04])
+def test_second_order_equation_hand_values():
+    # delta'' = omega_n^2 (gain delta_cmd - delta) - 2 zeta omega_n delta': from delta = 0.1,
+    # delta' = 0.3 under a command of 0.2, delta''(0) = 4 (1.2 * 0.2 - 0.1) - 2 * 0.5 * 2 * 0.3
+    # = -0.04; the simulated angle follows the equation's exact solution
+    s = SecondOrderServo(omega_n=2.0, zeta=0.5, gain=1.2, max_angle=1.0)
+    res = _run(s, Turning(0.2), t_end=5.0, dt=0.01, initial={"delta": 0.1, "delta_dot": 0.3})
+    sol = solve_ivp(lambda t, z: [z[1], 4 * (1.2 * 0.2 - z[0]) - 2 * z[1]], (0, 5.0),
+                    [0.1, 0.3], t_eval=res.t, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(res["delta"][0], sol.y[0], atol=1e-9)
+    d0, d1 = res["delta"][0][:2]
+    # initial angular acceleration from the first step, 2 (d1 - d0 - 0.3 h)/h^2, off by
+    # h/3 times the third derivative (-1.12 rad/s^3): -0.004 rad/s^2
+    assert 2 * (d1 - d0 - 0.3 * 0.01) / 0.01**2 == pytest.approx(-0.04, abs=0.005)
 
 
 @pytest.mark.parametrize(("wn", "zeta"), [(2.0, 0.3), (1.3964, 0.5), (5.0, 0.15)])

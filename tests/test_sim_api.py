@@ -127,3 +127,11 @@ def test_initial_state():
         simulate(M, Turning(0.1), t_end=1.0, initial={"u": 3.0})
     with pytest.raises(SimulationError, match="3-DOF"):
         simulate(M, Turning(0.1), t_end=1.0, initial={"v": 0.1})
+
+
+@pytest.mark.parametrize("kw", [{"u0": math.nan}, {"psi0": math.inf},
+                                {"initial": {"r": math.nan}}, {"channels": []}])
+def test_simulate_rejects_non_finite_state_and_empty_channels(kw):
+    m = VesselModel(Nomoto1(K=0.5, T=2.0), vessel=Vessel(speed=2.0))
+    with pytest.raises(SimulationError):
+        simulate(m, Turning(0.2), t_end=1.0, **kw)

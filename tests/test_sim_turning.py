@@ -1,4 +1,5 @@
-"""Turning circles: simulated steady diameter against the Nomoto closed form."""
+"""Turning circles: simulated steady diameter against the Nomoto closed form; the sign
+convention of every kind."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from usvid.models import Nomoto1, Nomoto2, Norrbin, VesselModel
+from usvid.models import Catamaran, Nomoto1, Nomoto2, Norrbin, VesselModel, seed000_threedof
 from usvid.sim import Turning, simulate, simulate_turning
 from usvid.trial import Vessel
 
@@ -81,3 +82,24 @@ def test_nomoto1_step_response_is_exponential():
     res = simulate(m, Turning(0.1), t_end=10.0)
     exact = K * 0.11 * (1 - np.exp(-res.t / T))  # delta0 adds to the rudder
     np.testing.assert_allclose(res["r"][0], exact, atol=1e-9)  # RK4 at dt/T = 0.01: ~1e-11
+
+
+# --- sign conventions for every kind (ARCHITECTURE.md) ----------------------------------------
+def _models():
+    v = Vessel(length=7.0, speed=2.0)
+    t3 = seed000_threedof(thrust=848.1 * 2.0)  # constant thrust holding 2 m/s
+    cat = Catamaran(m11=100.0, m22=120.0, m33=30.0, d11=50.0, d22=200.0, d33=60.0, b=1.0,
+                    thrust=1.0, cmd=50.0, steer_gain=40.0)
+    return [VesselModel(Nomoto1(K=0.5, T=2.0), vessel=v),
+            VesselModel(Nomoto2(K=0.5, T1=2.0, T2=0.3, T3=0.5), vessel=v),
+            VesselModel(Norrbin(K=0.5, T=2.0, n1=1.0, n3=0.5), vessel=v),
+            VesselModel(t3, vessel=v), VesselModel(cat, vessel=v)]
+
+
+@pytest.mark.parametrize("model", _models(), ids=lambda m: m.kind)
+def test_positive_rudder_turns_to_starboard_in_ned(model):
+    res = simulate(model, Turning(math.radians(10.0)), t_end=20.0, dt=0.02)
+    r, psi, y = res["r"][0], res["psi"][0], res["y"][0]
+    assert r[-1] > 0 and psi[-1] > 0  # r and psi clockwise positive
+    # heading north at first, turning to starboard: the track bends east (y > 0)
+    assert y[-1] > 0

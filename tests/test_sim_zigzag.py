@@ -12,7 +12,7 @@ from usvid.models import IdealServo, Nomoto1, VesselModel
 from usvid.sim import ZigZag, simulate, simulate_zigzag
 from usvid.trial import Vessel
 
-K, T, U = 0.707, 0.332, 5.144  # seed 000 Nomoto (T/K read as in models.response), 10 kn
+K, T, U = 0.707, 0.332, 5.144  # seed 000 Nomoto (T/K read as in models.kinds.nomoto1), 10 kn
 
 
 def reference_zigzag(amp: float, switch: float, first: int, t_end: float) -> list[float]:
@@ -109,3 +109,18 @@ def test_zigzag_t_start_and_batch_of_amplitudes():
     zm = res.zigzag_metrics()
     assert zm[1].overshoot_deg[0] > zm[0].overshoot_deg[0]  # bigger rudder, bigger overshoot
     assert zm[0].execute_time_s == pytest.approx(2.0)
+
+
+def test_metrics_use_the_logic_reference_heading():
+    # ZigZag(psi_ref=3 deg): the logic switches at 3 +- 10 deg; SimResult.zigzag_metrics
+    # measures from the same reference, so its reversals are the logic's (event-located; linear
+    # interpolation between 0.02-s samples of the curving heading errs by ~2e-4 s, a 3-deg
+    # reference error would be ~0.5 s)
+    m = VesselModel(Nomoto1(K=K, T=T), vessel=Vessel(speed=U))
+    res = simulate(m, ZigZag(math.radians(10), math.radians(10), psi_ref=math.radians(3)),
+                   t_end=40.0)
+    rev = res.zigzag_online["reversal_t"][0]
+    n = int(np.sum(np.isfinite(rev[1:])))
+    assert n >= 3
+    np.testing.assert_allclose(res.zigzag_metrics()[0].reversal_times_s[:n], rev[1:n + 1],
+                               atol=1e-3)

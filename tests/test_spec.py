@@ -141,8 +141,9 @@ def test_nmea_spec_renames_only():
 def test_shipped_specs_all_load():
     names = shipped_specs()
     assert {"hsva_kvlcc2", "hsva_kvlcc2_catalogue", "twin_thruster_xlsx"} <= set(names)
+    assert {"ros2_usv", "px4_boat", "ardupilot_rover", "ardupilot_skid_steer"} <= set(names)
     for n in names:
-        assert shipped_spec(n).reader in ("table", "excel")
+        assert shipped_spec(n).reader in ("table", "excel", "rosbag", "ulog", "dataflash")
     with pytest.raises(UsvidError, match="no shipped format spec"):
         shipped_spec("nope")
 

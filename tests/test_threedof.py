@@ -6,22 +6,35 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 
+from reference import reference_run
 from usvid.errors import UsvidError
 from usvid.models import (
     SEED000_EQ37,
     IdealServo,
     ThreeDOF,
     VesselModel,
+    get_kind,
     seed000_servo,
     seed000_threedof,
-    threedof_f_tau,
-    vector_thrust_tau,
 )
 from usvid.models.thrust import PodThrust, Propeller
 from usvid.sim import Commanded, Turning, simulate, simulate_zigzag
 from usvid.trial import Vessel
+
+KIND = get_kind("threedof")
+
+
+def _accelerations(p: ThreeDOF, nu, tau) -> np.ndarray:
+    """(u', v', r') of the right-hand side under the force (tau_u, tau_v, tau_r) [N, N, N m],
+    made by a constant thrust T at the angle delta: tau = (T cos delta, -T sin delta,
+    x_l T sin delta) (tau_v only with ``sway_force``)."""
+    tu, tv, tr = tau
+    T = math.hypot(tu, tr / p.x_l)
+    delta = math.atan2(tr / p.x_l, tu)
+    if p.sway_force:
+        assert -T * math.sin(delta) == pytest.approx(tv)
+    return KIND.derivatives(p.replace(thrust=T), nu, delta=delta)[3]
 
 
 def test_seed000_eq37_is_consistent_with_eq17():
@@ -50,42 +63,45 @@ def test_from_regression_rejects_inconsistent_coefficients():
     assert m.regression_coefficients()["b_ur"] == pytest.approx(SEED000_EQ37["b_ur"], rel=1e-5)
 
 
-def test_f_tau_reduces_to_eq17():
+def test_rhs_reduces_to_eq17():
     p = ThreeDOF(m11=100.0, m22=150.0, m33=40.0, d11=20.0, d22=60.0, d33=30.0, x_l=1.0)
-    s = np.array([0, 0, 0.3, 2.0, 0.1, 0.2])
-    tau = np.array([50.0, 0.0, 5.0])
-    out = threedof_f_tau(s, tau, p)
     u, v, r = 2.0, 0.1, 0.2
-    np.testing.assert_allclose(out[3:], [(150 * v * r - 20 * u + 50) / 100,
-                                         (-100 * u * r - 60 * v) / 150,
-                                         ((100 - 150) * u * v - 30 * r + 5) / 40])
-    np.testing.assert_allclose(out[:3], [u * math.cos(0.3) - v * math.sin(0.3),
-                                         u * math.sin(0.3) + v * math.cos(0.3), r])
+    out = _accelerations(p, [u, v, r], (50.0, 0.0, 5.0))
+    np.testing.assert_allclose(out, [(150 * v * r - 20 * u + 50) / 100,
+                                     (-100 * u * r - 60 * v) / 150,
+                                     ((100 - 150) * u * v - 30 * r + 5) / 40], rtol=1e-12)
+    # the body velocities the kinematics integrate are the states
+    assert KIND.derivatives(p.replace(thrust=1.0), [u, v, r])[:3] == (u, v, r)
 
 
-def test_f_tau_general_coupling_solves_m_nu_dot():
-    p = ThreeDOF(m11=100.0, m22=150.0, m33=40.0, d11=20.0, d22=60.0, d33=30.0, x_l=1.0,
-                 m23=8.0, m32=5.0, d23=3.0, d32=-2.0)
+def test_rhs_general_coupling_solves_m_nu_dot():
+    p = ThreeDOF(m11=100.0, m22=150.0, m33=40.0, d11=20.0, d22=60.0, d33=30.0, x_l=1.25,
+                 m23=8.0, m32=5.0, d23=3.0, d32=-2.0, sway_force=True)
     u, v, r = 2.0, 0.1, 0.2
-    tau = np.array([50.0, 4.0, 5.0])
+    tau = np.array([50.0, -4.0, 5.0])
     M = np.array([[100, 0, 0], [0, 150, 8], [0, 5, 40]], float)
     C = np.array([[0, 0, -(150 * v + 8 * r)], [0, 0, 100 * u], [150 * v + 8 * r, -100 * u, 0]])
     D = np.array([[20, 0, 0], [0, 60, 3], [0, -2, 30]], float)
     nu = np.array([u, v, r])
     want = np.linalg.solve(M, tau - C @ nu - D @ nu)  # seed 000 eq. 13
-    out = threedof_f_tau(np.array([0, 0, 0, u, v, r]), tau, p)
-    np.testing.assert_allclose(out[3:], want, rtol=1e-12)
+    np.testing.assert_allclose(_accelerations(p, nu, tau), want, rtol=1e-12)
 
 
 def test_vector_thrust_signs():
-    tau = vector_thrust_tau(100.0, math.radians(30), 3.0, sway_force=True)
-    np.testing.assert_allclose(tau, [100 * math.cos(math.radians(30)), -50.0, 150.0])
-    assert vector_thrust_tau(100.0, 0.1, 3.0)[1] == 0.0  # seed 000: tau_v neglected
+    # at rest the accelerations are tau / M: tau = (T cos delta, -T sin delta, x_l T sin delta)
+    p = ThreeDOF(m11=100.0, m22=150.0, m33=40.0, d11=20.0, d22=60.0, d33=30.0, x_l=3.0,
+                 thrust=100.0, sway_force=True)
+    d30 = math.radians(30)
+    out = KIND.derivatives(p, [0.0, 0.0, 0.0], delta=d30)[3]
+    np.testing.assert_allclose(out * [100, 150, 40], [100 * math.cos(d30), -50.0, 150.0],
+                               rtol=1e-12)
+    q = p.replace(sway_force=False)  # seed 000: tau_v neglected
+    assert KIND.derivatives(q, [0.0, 0.0, 0.0], delta=0.1)[3][1] == 0.0
     # positive delta -> positive yaw acceleration -> turns to starboard
     p = seed000_threedof(thrust=1000.0)
-    out = p.f(np.array([0, 0, 0, 5.0, 0, 0]), np.array([0.1, 0.0]))
-    assert out[5] == pytest.approx((3.5 * 1000 * math.sin(0.1)) / p.m33 - 0.0)
-    assert out[5] > 0
+    out = KIND.derivatives(p, [5.0, 0.0, 0.0], delta=0.1)[3]
+    assert out[2] == pytest.approx((3.5 * 1000 * math.sin(0.1)) / p.m33 - 0.0)
+    assert out[2] > 0
 
 
 def test_positive_delta_turns_to_starboard_and_straight_speed():
@@ -110,36 +126,36 @@ def _compare_with_solve_ivp(p: ThreeDOF, u0: float, n_series=None):
     dt = 0.01
     t = np.arange(4001) * dt
     cmd = 0.3 * np.sin(0.3 * t)
-    logic = Commanded(t, delta_cmd=cmd, n=n_series(t) if n_series else None)
+    logic = Commanded(t, delta=cmd, n=n_series(t) if n_series else None)
     res = simulate(VesselModel(p, servo=IdealServo(max_angle=1.0)), logic, t_end=40.0, dt=dt,
                    u0=u0)
 
-    def rhs(tt, s):
-        th = tt - dt / 2  # the kernel holds inputs over a step: ~ half-step delay
-        n = n_series(th) if n_series else p.n
-        return p.f(s, np.array([0.3 * np.sin(0.3 * th), 0.0 if n is None else n]))
+    def inputs(tt):
+        n = n_series(tt) if n_series else p.n
+        return {"delta": 0.3 * np.sin(0.3 * tt), "n": math.nan if n is None else n}
 
-    s0 = np.array([0, 0, 0, u0, 0, 0])
-    sol = solve_ivp(rhs, (0, 40), s0, t_eval=res.t[::200], rtol=1e-10, atol=1e-10)
+    ref = reference_run(p, inputs, [0, 0, 0, u0, 0, 0], res.t[::200])
     for j, name in enumerate(("x", "y", "psi", "u", "v", "r")):
-        # hold vs half-step delay: O(dt^2) input difference; over 40 s a few 1e-5 relative
-        scale = max(1.0, float(np.max(np.abs(sol.y[j]))))
-        np.testing.assert_allclose(res[name][0, ::200], sol.y[j], atol=5e-5 * scale)
+        # the measured inputs are linear between steps (first-order hold), off the sines by
+        # O(dt^2): over 40 s at most 1.7e-6 of a channel's range. Was 5e-5 for the old zero-order
+        # hold's half-step delay (such a delay now gives 7e-4 and fails)
+        scale = max(1.0, float(np.max(np.abs(ref[j]))))
+        np.testing.assert_allclose(res[name][0, ::200], ref[j], atol=1e-5 * scale)
 
 
-def test_kernel_matches_numpy_f_constant_thrust_with_coupling():
+def test_kernel_matches_solve_ivp_constant_thrust_with_coupling():
     p = ThreeDOF(m11=300.0, m22=450.0, m33=200.0, d11=60.0, d22=400.0, d33=500.0, x_l=2.0,
                  m23=20.0, m32=15.0, d23=10.0, d32=5.0, thrust=300.0, sway_force=True)
     _compare_with_solve_ivp(p, 5.0)
 
 
-def test_kernel_matches_numpy_f_propeller_thrust():
+def test_kernel_matches_solve_ivp_propeller_thrust():
     prop = Propeller(D=0.46, pitch_ratio=0.9, disk_ratio=0.55, t_P=0.05, w_P=0.04)
     p = seed000_threedof(thrust=prop, n=20.0)
     _compare_with_solve_ivp(p, 4.0, n_series=lambda t: 20.0 + 3.0 * np.sin(0.2 * t))
 
 
-def test_kernel_matches_numpy_f_pod_thrust():
+def test_kernel_matches_solve_ivp_pod_thrust():
     p = seed000_threedof(thrust=PodThrust(c=-5.0, d=12.0), n=20.0)
     _compare_with_solve_ivp(p, 4.0)
 

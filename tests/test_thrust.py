@@ -23,7 +23,8 @@ from usvid.models.thrust import (
     lagrange_weights,
     pod_thrust_nb,
     propeller_thrust_nb,
-    twin_thrust_nb,
+    thrust_nb,
+    thrust_row,
     wake_fraction,
 )
 
@@ -205,7 +206,8 @@ def test_twin_thrust_code_voltage_polynomial_by_hand():
     assert tau_u == pytest.approx(61.875, abs=EXACT)
     assert tau_r == pytest.approx(13.25, abs=EXACT)
     for c in (60.0, 150.0, -3.0, 0.0, 119.5):
-        assert twin_thrust_nb(c, *tt.nb_args()) == pytest.approx(float(tt.thrust(c)), abs=1e-12)
+        assert thrust_nb(tuple(thrust_row(tt)), 0.0, c) == pytest.approx(float(tt.thrust(c)),
+                                                                          abs=1e-12)
 
 
 def test_twin_thrust_pwm_mapping_by_hand():
@@ -217,7 +219,7 @@ def test_twin_thrust_pwm_mapping_by_hand():
     # 2100: clipped s=1 -> 40; 900: clipped s=-1 -> -30
     assert np.allclose(tt.thrust(pwm), [10.0, -7.5, 0.0, 40.0, -30.0], atol=EXACT)
     for c in pwm:
-        assert twin_thrust_nb(float(c), *tt.nb_args()) == pytest.approx(float(tt.thrust(c)),
+        assert thrust_nb(tuple(thrust_row(tt)), 0.0, float(c)) == pytest.approx(float(tt.thrust(c)),
                                                                          abs=1e-12)
 
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from usvid.errors import SimulationError, UsvidError
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
+from usvid.models import Nomoto1
 from usvid.models.model import VesselModel
-from usvid.models.response import Nomoto1
 from usvid.models.servo import IdealServo
-from usvid.prep.metrics import turning_metrics, zigzag_metrics
 from usvid.sim import Turning, ZigZag, simulate
 from usvid.sim.virtual import SensorModel, virtual_trial, virtual_trial_uniform
 from usvid.trial import Vessel

@@ -23,7 +23,8 @@ import pandas as pd
 
 from usvid.errors import UsvidError
 
-#: Channels of the Trial contract and their SI units (extensions may add more columns).
+#: Channels of the Trial contract (and of simulation results) and their SI units; extensions
+#: may add more columns. ``dist`` is a simulated rudder-equivalent disturbance.
 CHANNEL_UNITS: dict[str, str] = {
     "t": "s",
     "x": "m",
@@ -44,6 +45,7 @@ CHANNEL_UNITS: dict[str, str] = {
     "lon": "deg",
     "cog": "rad",
     "sog": "m/s",
+    "dist": "rad",
 }
 
 

@@ -19,7 +19,8 @@ from usvid.errors import LogReadError
 
 LogArg = Annotated[Path, typer.Argument(help="Log file to check.", show_default=False)]
 FormatOpt = Annotated[str, typer.Option(
-    "--format", "-f", help="Trial format spec: a YAML path or a shipped spec name.")]
+    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto "
+    "(detect the format by content and pick the shipped preset).")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
 
 
@@ -28,6 +29,10 @@ def load_log(log: Path, fmt: str) -> Any:
     from usvid.io import read_trial
 
     trial = read_trial(log, fmt)
+    if "format_detected" in trial.meta:  # --format auto: say what was chosen
+        import sys
+
+        print(f"usvid: {log}: {trial.meta['format_detected']}", file=sys.stderr)
     if len(trial) < 3:
         rej = ", ".join(f"{k}: {v}" for k, v in trial.rejected.items()) or "none"
         raise LogReadError(
@@ -59,7 +64,7 @@ def register(app: typer.Typer) -> None:
     """Register ``usvid audit``."""
 
     @app.command("audit")
-    def audit_cmd(log: LogArg, fmt: FormatOpt, json_out: JsonOpt = False) -> None:
+    def audit_cmd(log: LogArg, fmt: FormatOpt = "auto", json_out: JsonOpt = False) -> None:
         """Check each channel of a log against the physics and report what is wrong."""
         from usvid.commands._common import emit_json
 

@@ -5,7 +5,7 @@ reads them back, audits them, identifies the servo, Nomoto, Norrbin (two-step) a
 validates them against the trials, compares PD and PID course keeping (ITAE), fits the seed 004
 turning-diameter model, and writes ``DIR/models/*.json``, ``DIR/run.json`` and the
 self-contained ``DIR/report.html`` (all atomically). The pipeline is
-:mod:`usvid.report.demo`; ``usvid report DIR`` regenerates the report from ``run.json``.
+:mod:`usvid.demo.pipeline`; ``usvid report DIR`` regenerates the report from ``run.json``.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def register(app: typer.Typer) -> None:
         import warnings
 
         from usvid.commands._common import emit_json
-        from usvid.report.demo import print_summary, run_demo, summary_rows
+        from usvid.demo.pipeline import print_summary, run_demo, summary_rows
 
         progress = (not as_json) or sys.stderr.isatty()
         with warnings.catch_warnings():

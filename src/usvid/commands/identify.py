@@ -15,19 +15,30 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
+from usvid.commands._common import emit_json
+from usvid.commands.audit import load_log
 from usvid.errors import UsvidError
+from usvid.files import to_json
+from usvid.identify.estimator import ModelEstimator
+from usvid.identify.series import IdentificationWarning
+from usvid.identify.validate import validation_table
+from usvid.io.modelfile import save_model
+from usvid.models.registry import names as kind_names
+from usvid.prep import prepare
 
 LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify from.",
                                                show_default=False)]
 FormatOpt = Annotated[str, typer.Option(
-    "--format", "-f", help="Trial format spec: a YAML path or a shipped spec name.")]
+    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto "
+    "(detect the format by content and pick the shipped preset).")]
 ModelOpt = Annotated[str, typer.Option(
-    "--model", "-m", help="Model kind: nomoto1 | nomoto2 | norrbin | threedof | catamaran.")]
+    "--model", "-m", help="Model kind: " + " | ".join(kind_names()) + ".")]
 MethodOpt = Annotated[str, typer.Option(
     "--method", help="ls (least squares) | rls (recursive, --lam) | oe (LS + output error) | "
     "oe-zigzag (LS + closed-loop zig-zag replay output error).")]
@@ -41,16 +52,18 @@ OverlapOpt = Annotated[float, typer.Option(
     "--overlap", help="Overlap of output-error windows, 0 <= overlap < 1.")]
 LamOpt = Annotated[float, typer.Option("--lam", help="RLS forgetting factor (0, 1].")]
 NorrbinOpt = Annotated[str, typer.Option(
-    "--norrbin", help="Norrbin fit: joint (n1 free) | two_step (seed 000, needs turning logs).")]
+    "--norrbin", help="Norrbin fit: joint (n1 free) | two_step (Mu et al. 2018, with --turning "
+    "logs).")]
+TurningOpt = Annotated[list[Path] | None, typer.Option(
+    "--turning", help="Turning-test log(s) for --norrbin two_step (repeat for several).")]
+XlOpt = Annotated[float | None, typer.Option(
+    "--x-l", help="Thruster arm behind the pivot [m] (threedof; else vessel.extra.x_l).")]
+VesselOpt = Annotated[list[str] | None, typer.Option(
+    "--vessel", help="A vessel particular NAME=VALUE in SI units, overriding the format spec's "
+    "vessel block (e.g. propeller_diameter=0.46); repeat for several.")]
 
 
 def _load(paths: list[Path], fmt: str) -> list[Any]:
-    import warnings
-
-    from usvid.commands.audit import load_log
-    from usvid.identify.regressors import IdentificationWarning
-    from usvid.prep import prepare
-
     out = []
     for p in paths:
         tr = load_log(p, fmt)
@@ -69,21 +82,37 @@ def _load(paths: list[Path], fmt: str) -> list[Any]:
     return out
 
 
+def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in vessel or []:
+        key, sep, val = item.partition("=")
+        try:
+            if not sep or not key.strip():
+                raise ValueError
+            out[key.strip()] = float(val)
+        except ValueError:
+            raise UsvidError(f"--vessel {item!r}: expected NAME=NUMBER (SI units)") from None
+        if not math.isfinite(out[key.strip()]):
+            raise UsvidError(f"--vessel {item!r}: the value must be finite")
+    if x_l is not None:
+        if not math.isfinite(x_l):
+            raise UsvidError(f"--x-l must be a finite number of metres (got {x_l!r})")
+        out["x_l"] = x_l
+    return out
+
+
 def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
                   validate: list[Path] | None = None, out: Path | None = None,
                   window_s: float = 20.0, overlap: float = 0.0, lam: float = 1.0,
-                  norrbin: str = "joint") -> dict[str, Any]:
+                  norrbin: str = "joint", turning: list[Path] | None = None,
+                  x_l: float | None = None, vessel: list[str] | None = None) -> dict[str, Any]:
     """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``)."""
-    from usvid.commands._common import write_atomic
-    from usvid.identify.estimator import ModelEstimator
-    from usvid.identify.output_error import RESPONSE_KINDS
-
     if not logs:
         raise UsvidError("identify: give at least one LOG")
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
-                         norrbin=norrbin)
+                         norrbin=norrbin, particulars=_particulars(x_l, vessel))
     trials = _load(logs, fmt)
-    est.fit(trials)
+    est.fit(trials, turning=_load(turning, fmt) if turning else None)
     res = est.result_
     summary: dict[str, Any] = {
         "model_file": str(out) if out is not None else None,
@@ -91,26 +120,11 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
         "data": res.data,
     }
     if validate:
-        from usvid.identify.validate import zigzag_check
-
-        vals = []
-        for tr in _load(validate, fmt):
-            row: dict[str, Any] = {"file": tr.sources[0] if tr.sources else tr.name,
-                                   "metrics": est.score(tr)}
-            if kind in RESPONSE_KINDS:
-                try:
-                    row["zigzag"] = zigzag_check(est, tr)
-                except UsvidError as exc:
-                    row["zigzag"] = {"error": str(exc)}
-            vals.append(row)
-        summary["validation"] = vals
+        summary["validation"] = validation_table(est, _load(validate, fmt))
     if out is not None:
-        from usvid.commands._common import to_json
-
-        d = res.to_dict()
         if "validation" in summary:
-            d["identification"]["validation"] = json.loads(to_json(summary["validation"]))
-        write_atomic(out, to_json(d) + "\n")
+            est.model_.identification["validation"] = json.loads(to_json(summary["validation"]))
+        save_model(est.model_, out)
     return summary
 
 
@@ -120,12 +134,14 @@ def _print_summary(s: dict[str, Any]) -> None:
         lo, hi = s["ci95"].get(k, (math.nan, math.nan))
         # the interval's own half-width: Student-t for the cluster-robust OE covariance
         print(f"  {k:8s} = {v: .6g}  +- {(hi - lo) / 2:.3g} (95 %)")
-    for ch, m in s["fit"].items():
-        if isinstance(m, dict):
-            print(f"  fit {ch:4s} rmse {m['rmse']:.4g}  nrmse {m['nrmse']:.3g}  r2 {m['r2']:.4f}")
+    for label, fit in (("fit", s["fit"]), ("free run", s["fit"].get("free_run", {}))):
+        for ch, m in fit.items():
+            if isinstance(m, dict) and "rmse" in m:
+                print(f"  {label} {ch:4s} rmse {m['rmse']:.4g}  nrmse {m['nrmse']:.3g}  "
+                      f"r2 {m['r2']:.4f}")
     for v in s.get("validation", []):
         z = v.get("zigzag", {})
-        line = f"  validation {Path(str(v['file'])).name}:"
+        line = f"  validation {Path(str(v.get('file', v.get('trial')))).name}:"
         if "overshoot_error_deg" in z:
             line += " overshoot error [deg] " + ", ".join(
                 f"{e:+.2f}" for e in z["overshoot_error_deg"][:3])
@@ -136,16 +152,16 @@ def register(app: typer.Typer) -> None:
     """Register ``usvid identify``."""
 
     @app.command("identify")
-    def identify_cmd(logs: LogsArg, fmt: FormatOpt, model: ModelOpt, out: OutOpt,
+    def identify_cmd(logs: LogsArg, model: ModelOpt, out: OutOpt, fmt: FormatOpt = "auto",
                      method: MethodOpt = "ls", validate: ValidateOpt = None,
                      json_out: JsonOpt = False, window_s: WindowOpt = 20.0,
                      overlap: OverlapOpt = 0.0, lam: LamOpt = 1.0,
-                     norrbin: NorrbinOpt = "joint") -> None:
+                     norrbin: NorrbinOpt = "joint", turning: TurningOpt = None,
+                     x_l: XlOpt = None, vessel: VesselOpt = None) -> None:
         """Identify a manoeuvring model from trial logs and write the model file."""
-        from usvid.commands._common import emit_json
-
         s = identify_logs(logs, fmt, model, method, validate=validate, out=out,
-                          window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin)
+                          window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin,
+                          turning=turning, x_l=x_l, vessel=vessel)
         if json_out:
             emit_json(s)
         else:

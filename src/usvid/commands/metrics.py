@@ -1,8 +1,8 @@
 """CLI: ``usvid metrics LOG --format SPEC [--json]`` - measured manoeuvre metrics of a log.
 
-Finds the zig-zags and turning circles in the log (:func:`usvid.prep.find_manoeuvres`) and
-measures them with the definitions the simulator uses (:mod:`usvid.prep.metrics`), so the keys are
-those of ``usvid simulate``: ``overshoot_deg`` (list, first first), ``period_s``,
+Finds the zig-zags and turning circles in the log (:func:`usvid.manoeuvres.find_manoeuvres`)
+and measures them with the definitions the simulator uses (:mod:`usvid.manoeuvres.metrics`), so
+the keys are those of ``usvid simulate``: ``overshoot_deg`` (list, first first), ``period_s``,
 ``initial_turning_time_s``, ``time_to_check_yaw_s`` for a zig-zag; ``advance_m``, ``transfer_m``,
 ``tactical_diameter_m``, ``steady_diameter_m``, ``steady_yaw_rate_rad_s``, ``steady_speed_m_s`` for
 a turning circle. JSON: ``file``, ``format``, ``rejected`` (per reason), ``count`` and
@@ -32,7 +32,7 @@ TurnOpt = Annotated[float, typer.Option(
 def metrics_log(log: Path, fmt: str, psi_deg: float | None = None,
                 min_turn_deg: float = 180.0) -> dict[str, Any]:
     """The JSON object of ``usvid metrics`` for one log."""
-    from usvid.prep import measured_metrics
+    from usvid.manoeuvres import measured_metrics
 
     if psi_deg is not None and not (math.isfinite(psi_deg) and psi_deg > 0):
         raise UsvidError(f"--psi-deg must be > 0 deg (got {psi_deg!r})")
@@ -71,7 +71,7 @@ def register(app: typer.Typer) -> None:
     """Register ``usvid metrics``."""
 
     @app.command("metrics")
-    def metrics_cmd(log: LogArg, fmt: FormatOpt, json_out: JsonOpt = False,
+    def metrics_cmd(log: LogArg, fmt: FormatOpt = "auto", json_out: JsonOpt = False,
                     psi_deg: PsiOpt = None, min_turn_deg: TurnOpt = 180.0) -> None:
         """Find zig-zags and turning circles in a log and print their measured metrics."""
         from usvid.commands._common import emit_json

@@ -10,7 +10,8 @@ JSON object whose keys are the ``ARCHITECTURE.md`` contract, followed by extras)
   the maximum angle, 35 deg or the servo limit: MSC.137(76) 5.2.1);
 - ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder_deg``.
 
-Metric definitions: :mod:`usvid.prep.metrics`; IMO criteria: :mod:`usvid.sim.imo`.
+The runs are :mod:`usvid.sim.runs`; metric definitions :mod:`usvid.manoeuvres.metrics`; IMO
+criteria :mod:`usvid.manoeuvres.imo`.
 """
 
 from __future__ import annotations
@@ -23,9 +24,6 @@ from typing import Annotated, Any
 import typer
 
 from usvid.errors import SimulationError, UsvidError
-
-#: Largest simulated time [s] when the run is extended automatically.
-MAX_T_END = 3600.0
 
 
 class Side(StrEnum):
@@ -47,7 +45,7 @@ SpeedOpt = Annotated[float | None, typer.Option(
 
 
 def _load(path: Path) -> Any:
-    from usvid.modelfile import load_model
+    from usvid.io.modelfile import load_model
 
     return load_model(path)
 
@@ -69,6 +67,8 @@ def _check_dt(dt: float) -> None:
 def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | None = None
            ) -> tuple[Any, float]:
     """Check ``--dt`` (and a given ``--t-end``), load the model file; returns (model, u0 [m/s])."""
+    from usvid.sim.runs import MAX_T_END
+
     _check_dt(dt)
     if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= MAX_T_END):
         raise SimulationError(f"--t-end must be in (0, {MAX_T_END:g}] s (got {t_end!r})")
@@ -86,43 +86,6 @@ def _output(out: dict[str, Any], as_json: bool, title: str, rows: list[tuple[str
         emit_json(out)
         return
     _print_table(title, rows + (_imo_rows(check) if check else []))
-
-
-def _default_ki(controller: str) -> float:
-    """Integral gain [1/s] when none is given: seed 000's 0.00095 for PID, 0 for PD."""
-    return 0.00095 if controller == "pid" else 0.0
-
-
-def _default_t_end(model: Any, u0: float) -> float:
-    """A first guess of the run length [s]: a few yaw time constants and L/U, at least 60 s."""
-    dyn = model.dynamics
-    T = 0.0
-    for k in ("T", "T1"):
-        if hasattr(dyn, k):
-            T = float(abs(getattr(dyn, k)))
-            break
-    delay = float(getattr(model.servo, "delay", 0.0))
-    L = getattr(model.vessel, "length", None) or 0.0
-    # capped: a slow vessel (tiny --speed) would otherwise ask for days of simulated time
-    return min(MAX_T_END, max(60.0, 20.0 * T + 10.0 * delay + 40.0 * L / u0))
-
-
-def _check_finite(res: Any, dt: float) -> None:
-    """Raise :class:`SimulationError` when the trajectory is not finite (an unstable model or an
-    RK4 step too large for the model's fastest mode), instead of reporting null metrics."""
-    import numpy as np
-
-    for name in ("x", "y", "psi"):
-        if name in res.channels and not np.all(np.isfinite(res.channels[name])):
-            raise SimulationError(f"the simulation diverged ({name} is not finite) with "
-                                  f"--dt {dt:g} s; reduce --dt or check the model parameters")
-
-
-def _imo_turning_applies(model: Any, delta_deg: float) -> bool:
-    """MSC.137(76) 5.2.1 judges the turning circle at the maximum rudder angle (35 deg, or the
-    servo's limit when that is smaller); a circle at a smaller angle gets no IMO verdict."""
-    max_deg = math.degrees(float(model.servo.max_angle))
-    return min(abs(delta_deg), max_deg) >= min(35.0, max_deg) - 1e-9
 
 
 def _print_table(title: str, rows: list[tuple[str, Any, str]]) -> None:
@@ -157,85 +120,6 @@ def _imo_rows(check: Any) -> list[tuple[str, Any, str]]:
 
 
 # ---------------------------------------------------------------------------------------------
-# library-level runners (used by the CLI and by the demo)
-# ---------------------------------------------------------------------------------------------
-def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
-               t_end: float | None = None, dt: float = 0.02, u0: float) -> tuple[Any, Any]:
-    """Simulate a zig-zag ``delta_deg/psi_deg`` [deg] and return (SimResult, ZigZagMetrics).
-
-    Without ``t_end`` the run is doubled until it shows the second overshoot and one full
-    period (four reversals), up to :data:`MAX_T_END`.
-    """
-    from usvid.sim import ZigZag, simulate
-
-    if not (0 < delta_deg <= 90):
-        raise SimulationError(f"--delta-deg must be in (0, 90] (got {delta_deg!r})")
-    if not (0 < psi_deg <= 180):
-        raise SimulationError(f"--psi-deg must be in (0, 180] (got {psi_deg!r})")
-    logic = ZigZag(delta_amp=math.radians(delta_deg), psi_switch=math.radians(psi_deg),
-                   first=first)
-    auto = t_end is None
-    te = _default_t_end(model, u0) if auto else float(t_end)
-    while True:
-        res = simulate(model, logic, t_end=te, dt=dt, u0=u0)
-        _check_finite(res, dt)
-        m = res.zigzag_metrics()[0]
-        if not auto or (len(m.reversal_times_s) >= 4 and len(m.overshoot_deg) >= 3) \
-                or te >= MAX_T_END:
-            return res, m
-        te = min(2 * te, MAX_T_END)
-
-
-def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt: float = 0.02,
-                u0: float) -> tuple[Any, Any]:
-    """Simulate a turning circle with ``delta_deg`` [deg] (negative: to port); returns
-    (SimResult, TurningMetrics). Without ``t_end`` the run is doubled until the heading has
-    changed by 540 deg (180 deg for the tactical diameter plus a full steady circle), up to
-    :data:`MAX_T_END`."""
-    from usvid.sim import Turning, simulate
-
-    if not (0 < abs(delta_deg) <= 90):
-        raise SimulationError(f"--delta-deg must be non-zero and within +-90 (got {delta_deg!r})")
-    logic = Turning(delta=math.radians(delta_deg))
-    auto = t_end is None
-    te = _default_t_end(model, u0) if auto else float(t_end)
-    while True:
-        res = simulate(model, logic, t_end=te, dt=dt, u0=u0)
-        _check_finite(res, dt)
-        psi = res["psi"][0]
-        turned = abs(float(psi[-1] - psi[0]))
-        if not auto or turned >= 3 * math.pi or te >= MAX_T_END:
-            return res, res.turning_metrics()[0]
-        te = min(2 * te, MAX_T_END)
-
-
-def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float | None = None,
-               kd: float = 1.0, target_deg: float = 100.0, noise_deg: float = 1.0,
-               seed: int = 1, t_end: float = 100.0, dt: float = 0.02, u0: float
-               ) -> tuple[Any, dict[str, float]]:
-    """Course change 0 -> ``target_deg`` with a PD or PID autopilot (seed 000 section 6.1).
-
-    Gains are dimensionless kp [rad/rad], ki [1/s], kd [s] (seed 000: kp = 0.7, ki = 0.00095,
-    kd = 1; PD: ki = 0). ``noise_deg``: std [deg] of the seed 000 rudder-equivalent disturbance
-    (0 = calm). Returns (SimResult, {"itae", "iae", "max_rudder_deg"}).
-    """
-    from usvid.sim import PID, CourseChange, Disturbance, simulate
-
-    if ki is None:
-        ki = _default_ki(controller)
-    if controller == "pd" and ki != 0:
-        raise UsvidError("--controller pd takes no integral gain (give --controller pid)")
-    if not (math.isfinite(noise_deg) and noise_deg >= 0):
-        raise UsvidError(f"--noise must be >= 0 deg (got {noise_deg!r})")
-    dist = Disturbance(intensity=math.radians(noise_deg), seed=seed) if noise_deg > 0 else None
-    logic = CourseChange(target=math.radians(target_deg), controller=PID(kp=kp, ki=ki, kd=kd),
-                         disturbance=dist)
-    res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0)
-    _check_finite(res, dt)
-    return res, res.course_metrics()[0]
-
-
-# ---------------------------------------------------------------------------------------------
 # typer commands
 # ---------------------------------------------------------------------------------------------
 sim_app = typer.Typer(name="simulate", no_args_is_help=True, add_completion=False,
@@ -258,10 +142,15 @@ def zigzag_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Zig-zag test: overshoot angles, period, initial turning time, time to check yaw."""
-    from usvid.sim.imo import imo_zigzag_check, zigzag_kind
+    from usvid.manoeuvres.imo import imo_zigzag_check, zigzag_kind
+    from usvid.sim.runs import run_zigzag
 
-    model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     psi_deg = delta_deg if psi_deg is None else psi_deg
+    if not 0 < delta_deg <= 90:
+        raise SimulationError(f"--delta-deg must be in (0, 90] (got {delta_deg!r})")
+    if not 0 < psi_deg <= 180:
+        raise SimulationError(f"--psi-deg must be in (0, 180] (got {psi_deg!r})")
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     _, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
                       t_end=t_end, dt=dt, u0=u0)
     out: dict[str, Any] = m.to_dict()
@@ -291,13 +180,17 @@ def turning_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Turning circle: advance, transfer, tactical and steady diameters, steady yaw rate/speed."""
-    from usvid.sim.imo import imo_turning_check
+    from usvid.manoeuvres.imo import imo_turning_applies, imo_turning_check
+    from usvid.sim.runs import run_turning
 
+    if not 0 < abs(delta_deg) <= 90:
+        raise SimulationError(f"--delta-deg must be non-zero and within +-90 (got {delta_deg!r})")
     model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     _, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
     out: dict[str, Any] = m.to_dict()
     L = model.vessel.length
-    check = imo_turning_check(m, L) if L and _imo_turning_applies(model, delta_deg) else None
+    applies = imo_turning_applies(math.radians(delta_deg), float(model.servo.max_angle))
+    check = imo_turning_check(m, L) if L and applies else None
     out.update(manoeuvre="turning", model=str(model_path), model_kind=model.kind,
                delta_deg=delta_deg, speed_m_s=u0, imo=check.to_dict() if check else None)
     rows = [("advance", m.advance_m, "m"), ("transfer", m.transfer_m, "m"),
@@ -329,6 +222,10 @@ def course_cmd(
     as_json: JsonOpt = False,
 ) -> None:
     """Course change 0 -> target with a PD/PID autopilot: ITAE, IAE, largest rudder angle."""
+    from usvid.sim.runs import default_ki, run_course
+
+    if not (math.isfinite(noise) and noise >= 0):
+        raise UsvidError(f"--noise must be >= 0 deg (got {noise!r})")
     model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     _, m = run_course(model, controller=controller.value, kp=kp, ki=ki, kd=kd,
                       target_deg=target_deg, noise_deg=noise, seed=seed, t_end=t_end, dt=dt,
@@ -336,7 +233,7 @@ def course_cmd(
     out: dict[str, Any] = dict(m)
     out.update(manoeuvre="course-keeping", model=str(model_path), model_kind=model.kind,
                controller=controller.value, kp=kp,
-               ki=ki if ki is not None else _default_ki(controller.value),
+               ki=ki if ki is not None else default_ki(controller.value),
                kd=kd, target_deg=target_deg, noise_deg=noise, seed=seed, t_end_s=t_end,
                speed_m_s=u0)
     _output(out, as_json, f"course change 0 -> {target_deg:g} deg, {controller.value.upper()}, "

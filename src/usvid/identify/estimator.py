@@ -5,33 +5,40 @@ one or many :class:`usvid.Trial` and returns ``self``; learned attributes end in
 (``params_``, ``std_errors_``, ``ci95_``, ``cov_``, ``fit_``, ``model_``, ``result_``);
 :meth:`~ModelEstimator.simulate` replays a trial's inputs on the identified model,
 :meth:`~ModelEstimator.score` gives fit metrics on other trials, :meth:`~ModelEstimator.to_dict`
-is exactly the model file (ARCHITECTURE.md schema plus ``identification``).
+is exactly the model file.
+
+**The identified model is the model file is the model that is simulated.** The kind's
+parameters come from its registry entry (:mod:`usvid.models.registry`): the fitted ones from the
+data, the particulars (thrust law, thruster arm, nominal shaft speed or command, ...) from the
+trials' vessel particulars (the format spec's ``vessel`` block) or the user's options, or
+identification stops with an error naming what is missing. Every method integrates the kind's
+own right-hand side with the one core of :mod:`usvid.sim`, and the fit metrics are replays of
+the final model through it, so loading the model file and replaying the training data with
+:mod:`usvid.sim.replay` reproduces them.
 
 Methods
 -------
-``"ls"``   batch least squares on the regressors of :mod:`usvid.identify.regressors` (seed 000
-           eq. 37-40 with forgetting factor 1), covariance mapped to the model parameters by the
-           delta method (numerical Jacobian of the coefficient -> parameter map).
-``"rls"``  recursive least squares with forgetting factor ``lam`` (seed 000 eq. 37-40).
-``"oe"``   least squares, then output-error refinement by multiple shooting
+``"ls"``   equation-error least squares on the kind's regression form
+           (:mod:`usvid.identify.equation_error`; Mu et al. 2018, eq. 37-40 with forgetting
+           factor 1), covariance by the delta method.
+``"rls"``  recursive least squares with forgetting factor ``lam``.
+``"oe"``   least squares, then output error by multiple shooting over windows
            (:mod:`usvid.identify.output_error`), intervals from the Jacobian.
 ``"oe-zigzag"`` least squares, then closed-loop output error replaying every training zig-zag
-           with its own switching logic (:mod:`usvid.identify.manoeuvre_oe`).
+           with its own switching logic (:mod:`usvid.identify.replay`).
 
-Standard errors: the equation-error and output-error residuals of manoeuvring data are coloured
-(smoothing, disturbances); both methods inflate the white-noise covariance by the residual
-autocorrelation factor ``1 + 2 sum rho_k`` (see :func:`usvid.identify.output_error.
-autocorrelation_factor`); the output-error fit with enough windows uses the cluster-robust
-(sandwich) covariance with the windows as clusters. Intervals are ``p +- q se`` with q = 1.96
-(normal), or for the cluster-robust covariance the Student-t quantile with (windows - 1) degrees
-of freedom.
+Standard errors: equation-error and output-error residuals of manoeuvring data are coloured;
+both inflate the white-noise covariance by the residual autocorrelation factor; the output-error
+fit with enough windows uses the cluster-robust (sandwich) covariance with the windows as
+clusters and Student-t intervals with (windows - 1) degrees of freedom.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,39 +47,29 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
-from usvid.identify.ls import (
-    FittedAttributes,
-    LeastSquares,
-    check_collinearity,
-    interval95,
-    numerical_jacobian,
-    quantile975,
-    standard_errors,
-)
+from usvid.identify.equation_error import fit_equation_error, two_step_norrbin
+from usvid.identify.ls import FittedAttributes, interval95, quantile975, standard_errors
 from usvid.identify.metrics import fit_metrics
-from usvid.identify.output_error import (
-    PARAM_NAMES,
-    RESPONSE_KINDS,
-    OEResult,
-    autocorrelation_factor,
-    make_windows,
-    refine_output_error,
-    simulate_windows,
-)
-from usvid.identify.regressors import (
-    KINDS,
-    IdentificationWarning,
-    Series,
-    regressions,
-    steady_thrust_speed,
-    theta_to_params,
-    trial_series,
-)
-from usvid.identify.rls import RecursiveLeastSquares
+from usvid.identify.output_error import OEResult, refine_output_error
+from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
+from usvid.identify.series import IdentificationWarning, Series, trial_series
+from usvid.identify.servo import identify_second_order_servo
+from usvid.io.modelfile import model_to_dict
+from usvid.manoeuvres import find_manoeuvres, rudder_rate
+from usvid.models.kind import ModelKind
+from usvid.models.model import VesselModel
+from usvid.models.registry import get as get_kind
+from usvid.models.registry import names as kind_names
+from usvid.models.servo import IdealServo
+from usvid.prep import prepare, resample
+from usvid.sim.replay import Windows, make_windows, replay_windows
+from usvid.trial import Trial, Vessel
 
 METHODS = ("ls", "rls", "oe", "oe-zigzag")
 MIN_DELTA_STD = math.radians(0.2)  # [rad] rudder scatter below which there is no excitation
 REL_WEAK = 0.5  # 95 % half-width / |parameter| above which fit() warns "poorly determined"
+#: Default step [s] of output error, ARX regressions and replays (or the log step if coarser).
+DEFAULT_STEP = 0.1
 
 
 def _sha256(path: str) -> str | None:
@@ -86,47 +83,93 @@ def _sha256(path: str) -> str | None:
     return h.hexdigest()
 
 
-def _as_list(trials: Any) -> list:
+def _as_list(trials: Any) -> list[Trial]:
     if trials is None:
         return []
-    if isinstance(trials, (list, tuple)):
-        out = list(trials)
-    else:
-        out = [trials]
-    from usvid.trial import Trial
-
+    out = list(trials) if isinstance(trials, (list, tuple)) else [trials]
     for i, tr in enumerate(out):
         if not isinstance(tr, Trial):
             raise UsvidError(f"trials[{i}] is a {type(tr).__name__}, expected usvid.Trial")
     return out
 
 
-def _is_turning(s: Series) -> bool:
-    """A turning test: rudder constant (std < 0.5 deg) and non-zero over the last half."""
-    d = s["delta"][len(s) // 2:]
-    return bool(np.std(d) < math.radians(0.5) and abs(np.mean(d)) > math.radians(0.5))
+def _is_turning(tr: Trial) -> bool:
+    """A turning test: a turning circle and no zig-zag found in it (``find_manoeuvres``)."""
+    kinds = {g.kind for g in find_manoeuvres(tr)}
+    return "turning" in kinds and "zigzag" not in kinds
 
 
-def _norrbin_to_t1(p: np.ndarray) -> np.ndarray:
-    """(K, T, n1, n3, delta0) -> the same dynamics with T = 1: (K/T, 1, n1/T, n3/T, delta0)."""
-    K, T, n1, n3, d0 = p
-    return np.array([K / T, 1.0, n1 / T, n3 / T, d0])
+def one_grid(trials: Sequence[Trial]) -> list[Trial]:
+    """Trials on uniform grids of one step: multi-rate or jittered logs are prepared
+    (:func:`usvid.prep.prepare`), logs of different rates resampled to the coarsest one
+    (never upsampled), with a warning saying so."""
+    out = []
+    for tr in trials:
+        if not tr.is_uniform or tr.data.isna().any().any():
+            uniform, before = tr.is_uniform, tr.data.isna().sum()
+            if not uniform:  # a multi-rate or jittered log (NMEA, virtual sensors)
+                warnings.warn(f"trial {tr.name or '?'}: not on a uniform time grid; resampled "
+                              "with usvid.prep.prepare", IdentificationWarning, stacklevel=3)
+            tr = prepare(tr, derivatives=False)
+            after = tr.data.isna().sum()
+            for ch, n in before.items():  # gaps of a single-rate log: say what was repaired
+                k = int(n - after.get(ch, 0))
+                if uniform and k > 0:
+                    warnings.warn(f"trial {tr.name}: channel '{ch}' has {k} NaN samples; "
+                                  "interpolated linearly (usvid.prep.prepare)",
+                                  IdentificationWarning, stacklevel=3)
+        out.append(tr)
+    rates = [tr.sample_rate for tr in out]
+    if len({round(r, 6) for r in rates}) > 1:
+        target = min(rates)
+        warnings.warn(f"trials have different sample rates ({', '.join(f'{r:.4g}' for r in rates)}"
+                      f" Hz); resampled to {target:.4g} Hz", IdentificationWarning, stacklevel=3)
+        out = [tr if abs(tr.sample_rate - target) < 1e-6 * target else
+               resample(tr, rate_hz=target) for tr in out]
+    return out
 
 
-def _norrbin_from_t1(q: np.ndarray) -> np.ndarray:
-    """T = 1 normalisation -> |n1| = 1 normalisation (regressors.py): T = 1/|n1'|."""
-    k, _, m1, m3, d0 = q
-    T = 1.0 / max(abs(m1), 1e-12)
-    return np.array([k * T, T, math.copysign(1.0, m1), m3 * T, d0])
+#: Longest stretch of a log [s] the steering servo is fitted on (its time constants are seconds).
+SERVO_WINDOW_S = 300.0
+
+
+def _most_active(u: np.ndarray, dt: float, window_s: float) -> slice:
+    """The ``window_s`` stretch of command ``u`` with the most movement (sum of |du|)."""
+    n = int(round(window_s / dt))
+    if u.size <= n:
+        return slice(None)
+    act = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(u)))])
+    k = int(np.argmax(act[n:] - act[:-n]))
+    return slice(k, k + n + 1)
+
+
+def _vessel(trials: Sequence[Trial]) -> Vessel:
+    return next((tr.vessel for tr in trials if tr.vessel is not None and tr.vessel.to_dict()),
+                Vessel())
+
+
+def _approach_speed(trials: Sequence[Trial], vessel: Vessel) -> float | None:
+    """The vessel's nominal speed [m/s], else the median measured speed over the first 5 s of
+    the training trials (the approach of a manoeuvre)."""
+    if vessel.speed is not None:
+        return float(vessel.speed)
+    vals = []
+    for tr in trials:
+        t = tr.t
+        sel = t <= t[0] + 5.0
+        for ch in ("U", "u"):
+            if tr.has(ch):
+                vals.append(np.nanmedian(tr[ch][sel]))
+                break
+    vals = [v for v in vals if np.isfinite(v) and v > 0]
+    return float(np.median(vals)) if vals else None
 
 
 @dataclass
 class IdentifiedModel:
-    """An identified model: parameters [SI], standard errors, 95 % intervals, fit metrics,
-    the model object and the provenance (data files with sha256, method, options).
-
-    ``to_dict()`` is the model file (ARCHITECTURE.md, ``usvid_model: 1``).
-    """
+    """An identified model: parameters [SI, the model file's names], standard errors, 95 %
+    intervals, covariance, fit metrics, the model and the provenance (data files with sha256,
+    method, options, diagnostics). ``to_dict()`` is the model file."""
 
     kind: str
     method: str
@@ -154,12 +197,7 @@ class IdentifiedModel:
         }
 
     def to_dict(self) -> dict[str, Any]:
-        """The model file as a JSON-ready dict (schema in ARCHITECTURE.md, written by
-        :func:`usvid.modelfile.model_to_dict`; the dynamics' own parameters under
-        ``parameters``, for 3-DOF/catamaran the regression coefficients under
-        ``identification.diagnostics.regression``)."""
-        from usvid.modelfile import model_to_dict
-
+        """The model file as a JSON-ready dict (:func:`usvid.io.modelfile.model_to_dict`)."""
         return model_to_dict(self.model)
 
     def summary(self) -> dict[str, Any]:
@@ -168,384 +206,310 @@ class IdentifiedModel:
                 "std_errors": self.std_errors, "ci95": self.ci95, "fit": self.fit}
 
 
-def _build_dynamics(kind: str, params: dict[str, float], x_l: float | None,
-                    half_beam: float | None, thrust: Any = None) -> Any:
-    """The dynamics dataclass of the identified parameters (``usvid.models``)."""
-    from usvid.models import response
-
-    try:
-        if kind == "nomoto1":
-            return response.Nomoto1(**params)
-        if kind == "nomoto2":
-            return response.Nomoto2(**params)
-        if kind == "norrbin":
-            return response.Norrbin(**params)
-        if kind == "threedof":
-            from usvid.models.threedof import ThreeDOF
-
-            return ThreeDOF.from_regression(**params, x_l=0.0 if x_l is None else x_l,
-                                            strict=False,
-                                            thrust=thrust if hasattr(thrust, "thrust") else None)
-        from usvid.models.catamaran import Catamaran
-        from usvid.models.threedof import fossen_from_regression
-
-        hb = 1.0 if half_beam is None else half_beam
-        # c_tau was fitted on (T_p - T_s) b/2 with the given b/2: c_tau = 1/m33
-        # thrust map kept when it can be written to the model file (TwinThrust or k)
-        cat_thrust = thrust if (hasattr(thrust, "thrust") or isinstance(thrust, (int, float))
-                                ) else 1.0
-        fossen = fossen_from_regression(params["a_vr"], params["a_u"], params["a_tau"],
-                                        params["b_v"], params["c_r"], params["c_tau"])
-        return Catamaran(**fossen, b=2.0 * hb, thrust=cat_thrust)
-    except UsvidError as exc:
-        hint = (" (a negative T means a course-unstable vessel: use --model norrbin)"
-                if kind == "nomoto1" and params.get("T", 1) <= 0 else "")
-        raise IdentificationError(f"identified {kind} parameters are not a valid model: {exc}"
-                                  f"{hint}") from exc
-
-
 class ModelEstimator(FittedAttributes):
     """Identify a manoeuvring model of kind ``kind`` from one or many trials.
 
     Parameters
     ----------
-    kind : {"nomoto1", "nomoto2", "norrbin", "threedof", "catamaran"}
+    kind : str
+        A registered kind (:func:`usvid.models.registry.names`).
     method : {"ls", "rls", "oe", "oe-zigzag"}
-        ``"oe-zigzag"``: least squares, then closed-loop zig-zag replay output error
-        (:mod:`usvid.identify.manoeuvre_oe`; zig-zag trials, response models; the model's servo
-        gets the rudder rate limit used, the vessel's helm rate when known).
-    form : {"continuous", "arx"}
-        Regression form for nomoto1 (nomoto2 is always ARX(2,2) + d2c).
+    form : str
+        Regression form of the equation-error step (the kind's forms, e.g. ``"continuous"``
+        or ``"arx"`` for nomoto1; nomoto2 is always ARX + d2c).
     norrbin : {"joint", "two_step"}
-        Norrbin: joint fit with n1 free (default), or seed 000's two steps (Nomoto on the
-        zig-zag trials, alpha from the mean steady yaw rate of turning trials, eq. 36).
+        Norrbin: joint fit with n1 free, or Mu et al. 2018's two steps (Nomoto on the zig-zags,
+        alpha from turning trials, eq. 36; ``fit(..., turning=...)``).
     smooth_s : float
         Savitzky-Golay window [s] for smoothed states and derivatives.
     window_s : float
-        Multiple-shooting window [s] of the output-error fit and of the fit metrics.
-    arx_step : float or None
-        Decimated step [s] for ARX regressions (default: 0.1 s or the log step if coarser).
+        Multiple-shooting window [s] of the output-error fit and of the windowed fit metrics.
+    overlap : float
+        Overlap of successive output-error windows, in [0, 1).
+    step : float, optional
+        Step [s] of output error, ARX regressions and replays (default 0.1 s, or the log step
+        if coarser).
     lam : float
         RLS forgetting factor (method "rls").
-    oe_step : float
-        Simulation/residual step [s] of the output-error fit (data decimated to it; default
-        0.1 s or the log step if coarser).
-    thrust, x_l, half_beam :
-        Thrust source for threedof (``thrust(n, u) -> T [N]``, lever x_l [m]) and catamaran
-        half spacing b/2 [m] (see :func:`usvid.identify.regressors.trial_series`).
     cond_max : float
         Collinearity limit (condition number of the equilibrated regressors).
-    servo : usvid.models.servo servo object
-        Servo of the identified model (default ``IdealServo``: 35 deg limit, rate limit [rad/s]
-        the one fitted by "oe-zigzag", else the vessel's ``helm_rate_deg_s`` when known, else
-        none).
+    servo : servo object or "auto"
+        Servo of the identified model: "auto" (default) identifies a second-order servo with
+        dead time when the trials log both ``delta_cmd`` and ``delta`` (on the
+        :data:`SERVO_WINDOW_S` of each trial with the most rudder movement), else an ideal
+        servo at the vessel's helm rate (``helm_rate_deg_s``), the rate fitted by "oe-zigzag"
+        or the rate measured on the rudder ramps.
     oe_channels : tuple of str
-        Outputs the output-error fit compares (default psi and r; u, v, r, psi for 3-DOF).
-    overlap : float
-        Overlap of successive output-error windows, in [0, 1) (see ``make_windows``).
+        Outputs the output-error fit compares (default the kind's outputs).
+    particulars : dict
+        The kind's particulars by name, overriding the trials' vessel particulars (e.g.
+        ``{"x_l": 3.5}`` for threedof; see the kind's module).
+    x_l, thrust : optional
+        Shortcuts for ``particulars["x_l"]`` [m] and a thrust law object.
     """
+
+    _fit_call = "fit(trials)"
 
     def __init__(self, kind: str, method: str = "ls", *, form: str = "continuous",
                  norrbin: str = "joint", smooth_s: float = 1.0, window_s: float = 20.0,
-                 arx_step: float | None = None, lam: float = 1.0, oe_step: float | None = None,
-                 thrust: Callable | None = None, x_l: float | None = None,
-                 half_beam: float | None = None, cond_max: float = 1e8,
-                 servo: Any = None,
-                 oe_channels: tuple[str, ...] | None = None, overlap: float = 0.0) -> None:
-        if kind not in KINDS:
-            raise UsvidError(f"`kind` must be one of {', '.join(KINDS)} (got {kind!r})")
+                 overlap: float = 0.0, step: float | None = None, lam: float = 1.0,
+                 cond_max: float = 1e8, servo: Any = "auto",
+                 oe_channels: tuple[str, ...] | None = None,
+                 particulars: dict[str, Any] | None = None, x_l: float | None = None,
+                 thrust: Any = None, arx_step: float | None = None,
+                 oe_step: float | None = None) -> None:
+        if kind not in kind_names():
+            raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
+        k = get_kind(kind)
         if method not in METHODS:
             raise UsvidError(f"`method` must be one of {', '.join(METHODS)} (got {method!r})")
-        if form not in ("continuous", "arx"):
-            raise UsvidError(f"`form` must be 'continuous' or 'arx' (got {form!r})")
-        if method == "oe-zigzag" and kind not in RESPONSE_KINDS:
-            raise UsvidError("method 'oe-zigzag' (zig-zag replay) fits response models "
-                             f"(nomoto1, nomoto2, norrbin), not {kind!r}")
+        if k.regression is None:
+            raise UsvidError(f"model '{kind}' has no regression form to start from")
+        forms = k.regression.forms
+        if form not in forms:
+            if form == "continuous" and len(forms) == 1:
+                form = forms[0]
+            else:
+                raise UsvidError(f"`form` must be one of {', '.join(forms)} for {kind} "
+                                 f"(got {form!r})")
+        if method == "oe-zigzag" and not {"psi", "r"} <= set(k.outputs):
+            raise UsvidError(f"method 'oe-zigzag' replays zig-zags on heading and yaw rate; "
+                             f"kind {kind!r} has outputs {', '.join(k.outputs)}")
         if norrbin not in ("joint", "two_step"):
             raise UsvidError(f"`norrbin` must be 'joint' or 'two_step' (got {norrbin!r})")
         for nm, v in (("smooth_s", smooth_s), ("window_s", window_s)):
             if not (isinstance(v, (int, float)) and v > 0):
                 raise UsvidError(f"`{nm}` must be > 0 s (got {v!r})")
+        if not 0 <= overlap < 1:
+            raise UsvidError(f"`overlap` must be in [0, 1) (got {overlap!r})")
         self.kind = kind
         self.method = method
         self.form = form
         self.norrbin = norrbin
         self.smooth_s = float(smooth_s)
         self.window_s = float(window_s)
-        self.arx_step = arx_step
+        self.overlap = float(overlap)
+        self.step = step if step is not None else (oe_step or arx_step)
         self.lam = lam
-        self.oe_step = oe_step
-        self.thrust = thrust
-        self.x_l = x_l
-        self.half_beam = half_beam
         self.cond_max = cond_max
         self.servo = servo
         self.oe_channels = oe_channels
-        self.overlap = float(overlap)
-
-    _fit_call = "fit(trials)"
+        self.particulars = dict(particulars or {})
+        if x_l is not None:
+            self.particulars["x_l"] = x_l
+        self.thrust = thrust
 
     def _estimator_label(self) -> str:
         return f"ModelEstimator({self.kind!r})"
 
+    @property
+    def kind_(self) -> ModelKind:
+        return get_kind(self.kind)
+
     # -- data ------------------------------------------------------------------------------------
-    def _series(self, trials: list) -> list[Series]:
-        out = []
-        for tr in trials:
-            if not tr.is_uniform:
-                # a multi-rate or jittered log (NMEA, virtual sensors): put it on one grid first
-                import warnings
+    def _fixed(self, trials: Sequence[Trial]) -> dict[str, Any]:
+        kind = self.kind_
+        if kind.particulars is None:
+            return {}
+        opts = {k: v for k, v in self.particulars.items() if not hasattr(v, "thrust")}
+        if self.thrust is not None:
+            opts["thrust"] = self.thrust
+        data = [{c: tr[c] for c in tr.channels} for tr in trials]
+        fixed = kind.particulars(_vessel(trials), data, opts)
+        if self.thrust is not None:
+            fixed["thrust"] = self.thrust
+        return fixed
 
-                from usvid.prep import prepare
+    def _series(self, trials: Sequence[Trial], fixed: dict[str, Any]) -> list[Series]:
+        return [trial_series(tr, self.kind_, smooth_s=self.smooth_s, fixed=fixed)
+                for tr in trials]
 
-                warnings.warn(f"trial {tr.name or '?'}: not on a uniform time grid; resampled "
-                              "with usvid.prep.prepare", IdentificationWarning, stacklevel=3)
-                tr = prepare(tr, derivatives=False)
-            out.append(trial_series(tr, self.kind, smooth_s=self.smooth_s, thrust=self.thrust,
-                                    x_l=self.x_l, half_beam=self.half_beam))
-        return out
+    def _decimation(self, s: Series) -> int:
+        target = DEFAULT_STEP if self.step is None else float(self.step)
+        return max(int(round(target / s.h)), 1)
 
-    def _check_excitation(self, series: list[Series]) -> None:
-        if self.kind in RESPONSE_KINDS:
+    def _windows(self, series: Sequence[Series], window_s: float | None,
+                 overlap: float = 0.0) -> Windows:
+        m = self._decimation(series[0])
+        dec = [s.decimated(m).data for s in series]
+        return make_windows(dec, series[0].h * m, window_s, overlap)
+
+    def _check_excitation(self, series: Sequence[Series]) -> None:
+        kind = self.kind_
+        if kind.constant_speed:
             d = np.concatenate([s["delta"] for s in series])
             if np.std(d) < MIN_DELTA_STD:
                 raise IdentificationError(
                     "no excitation: the rudder angle is constant (std "
                     f"{math.degrees(np.std(d)):.3f} deg over {', '.join(s.name for s in series)}"
                     "); a response model needs rudder changes (zig-zag, turning entry)")
-        else:
-            tu = np.concatenate([s["tau_r"] for s in series])
-            if np.std(tu) <= 1e-12 * max(np.max(np.abs(tu)), 1e-300):
-                raise IdentificationError("no excitation: the yaw moment input tau_r is constant;"
-                                          " the yaw equation cannot be identified")
-
-    def _step(self, s: Series, want: float | None) -> tuple[int, float]:
-        target = 0.1 if want is None else want
-        m = max(int(round(target / s.h)), 1)
-        return m, m * s.h
-
-    def _windows(self, series: list[Series], window_s: float | None, overlap: float = 0.0):
-        m, h = self._step(series[0], self.oe_step)
-        hs = {round(s.h, 9) for s in series}
-        if len(hs) > 1:
-            raise IdentificationError(f"trials have different sample steps {sorted(hs)} s; "
-                                      "resample them to one rate first (usvid.prep.prepare)")
-        keys = ["delta", "psi", "r", "r_s", "rdot_s", "psi_s"]
-        if self.kind not in RESPONSE_KINDS:
-            keys = ["tau_u", "tau_r", "psi", "r", "u", "v", "r_s", "psi_s", "u_s", "v_s"]
-        ser = [{k: s[k][::m] for k in keys} for s in series]
-        if window_s is None:
-            window_s = max(len(x["psi"]) for x in ser) * h
-        return make_windows(ser, h, window_s, overlap)
+        elif all("tau_r" in s for s in series):
+            tr = np.concatenate([s["tau_r"] for s in series])
+            if np.std(tr) <= 1e-12 * max(np.max(np.abs(tr)), 1e-300):
+                raise IdentificationError("no excitation: the yaw moment input is constant; "
+                                          "the yaw equation cannot be identified")
 
     # -- fitting ---------------------------------------------------------------------------------
-    def _solve(self, reg) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if self.method == "rls":
-            est = RecursiveLeastSquares(lam=self.lam, p0=1e6).fit(reg.Phi, reg.y, reg.names,
-                                                                  y_name=f"d{reg.block}/dt")
-            theta = est.coef_
-            cov = est.P_ * est.sigma2_
-            res = reg.y - reg.Phi @ theta
-            # RLS does not test collinearity itself: run the same check as batch LS
-            check_collinearity(reg.Phi, list(reg.names), self.cond_max)
-        else:
-            est = LeastSquares(cond_max=self.cond_max).fit(reg.Phi, reg.y, reg.names,
-                                                           y_name=f"d{reg.block}/dt")
-            theta, cov, res = est.coef_, est.cov_, est.residuals_
-        return theta, cov, res
-
-    def _ls_params(self, series: list[Series]) -> tuple[dict[str, float], np.ndarray, dict]:
-        kind = self.kind
-        form = "arx" if kind == "nomoto2" else self.form
-        step = self.arx_step
-        if form == "arx" and step is None:
-            step = max(0.1, series[0].h)
-        regs = regressions(kind, series, form=form, arx_step=step)
-        thetas, covs, diag = [], [], {}
-        lag = max(int(self.window_s / series[0].h), 1)
-        for reg in regs:
-            theta, cov, res = self._solve(reg)
-            fac = autocorrelation_factor(res, max_lag=min(lag, max(len(res) // 4, 1)))
-            thetas.append(theta)
-            covs.append(cov * fac)
-            diag[f"ls_{reg.block}_ac_factor"] = fac
-            ss = float(np.sum((reg.y - reg.y.mean()) ** 2))
-            diag[f"ls_{reg.block}_r2"] = 1 - float(res @ res) / ss if ss > 0 else float("nan")
-        theta = np.concatenate(thetas)
-        names = tuple(n for r in regs for n in r.names)
-        ntot = len(theta)
-        cov_t = np.zeros((ntot, ntot))
-        i = 0
-        for c in covs:
-            k = c.shape[0]
-            cov_t[i:i + k, i:i + k] = c
-            i += k
-        h = step if form == "arx" else series[0].h
-        m = max(int(round((step or series[0].h) / series[0].h)), 1) if form == "arx" else 1
-        h = m * series[0].h
-
-        def mapping(th: np.ndarray) -> np.ndarray:
-            p = theta_to_params(kind, form, names, th, h)
-            return np.array(list(p.values()))
-
-        params = theta_to_params(kind, form, names, theta, h)
-        pnames = list(params.keys())
-        try:
-            G = numerical_jacobian(mapping, theta)
-            cov_p = G @ cov_t @ G.T
-        except IdentificationError:
-            cov_p = np.full((len(pnames), len(pnames)), np.nan)
-        # order as PARAM_NAMES
-        order = [pnames.index(n) for n in PARAM_NAMES[kind]]
-        params = {n: float(params[n]) for n in PARAM_NAMES[kind]}
-        cov_p = cov_p[np.ix_(order, order)]
-        diag["regression"] = {"form": form, "coefficients": dict(zip(names, theta.tolist(),
-                                                                      strict=True))}
-        return params, cov_p, diag
-
-    def _two_step_norrbin(self, series: list[Series], turning: list[Series]):
-        zz = [s for s in series if not _is_turning(s)]
-        tt = list(turning) + [s for s in series if _is_turning(s)]
-        if not zz:
-            raise IdentificationError("two-step Norrbin: no zig-zag (varying rudder) trial for "
-                                      "the Nomoto step")
-        if not tt:
-            raise IdentificationError(
-                "two-step Norrbin (seed 000 eq. 36) needs turning trials (constant rudder over "
-                "their second half); pass them as fit(..., turning=[...]) or use the joint fit")
-        kind0 = self.kind
-        self.kind = "nomoto1"
-        try:
-            p1, cov1, diag = self._ls_params(zz)
-        finally:
-            self.kind = kind0
-        K, T, d0 = p1["K"], p1["T"], p1["delta0"]
-        rr, dd = [], []
-        for s in tt:
-            half = len(s) // 2
-            rr.append(float(np.mean(s["r"][half:])))  # remark 5: average r over the steady turn
-            dd.append(float(np.mean(s["delta"][half:])))
-        r_ = np.array(rr)
-        d_ = np.array(dd)
-        y = K * (d_ + d0) - r_
-        alpha = float(np.sum(r_ ** 3 * y) / np.sum(r_ ** 6))
-        if len(tt) > 1:
-            res = y - alpha * r_ ** 3
-            se_a = math.sqrt(float(res @ res) / max(len(tt) - 1, 1) / float(np.sum(r_ ** 6)))
-        else:
-            se_a = float("nan")
-        params = {"K": K, "T": T, "n1": 1.0, "n3": alpha, "delta0": d0}
-        cov = np.zeros((5, 5))
-        idx = [0, 1, 4]
-        cov[np.ix_(idx, idx)] = cov1
-        cov[3, 3] = se_a ** 2
-        diag["two_step"] = {"turning_trials": [s.name for s in tt],
-                            "mean_r": rr, "mean_delta": dd}
-        return params, cov, diag, zz
-
     def fit(self, trials: Any, *, turning: Any = None) -> ModelEstimator:
-        """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list); returns self.
-
-        ``turning``: extra turning-test trials for the two-step Norrbin fit.
-        """
-        trials = _as_list(trials)
+        """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list); returns
+        self. ``turning``: extra turning trials for the two-step Norrbin fit."""
+        kind = self.kind_
+        trials = one_grid(_as_list(trials))
         if not trials:
             raise IdentificationError("no trials given")
-        series = self._series(trials)
-        tseries = self._series(_as_list(turning)) if turning is not None else []
+        turning = one_grid(_as_list(turning)) if turning is not None else []
+        fixed = self._fixed(trials)
+        series = self._series(trials, fixed)
+        tseries = self._series(turning, fixed) if turning else []
+        if len({round(s.h, 9) for s in series + tseries}) > 1:
+            raise IdentificationError("trials have different sample steps after resampling")
         self._check_excitation(series)
+        h = series[0].h
+        diag: dict[str, Any] = {}
         fit_series = series
         if self.kind == "norrbin" and self.norrbin == "two_step":
-            params, cov, diag, fit_series = self._two_step_norrbin(series, tseries)
+            turn = [_is_turning(tr) for tr in trials]
+            zz = [s for s, tu in zip(series, turn, strict=True) if not tu]
+            tt = list(tseries) + [s for s, tu in zip(series, turn, strict=True) if tu]
+            params, cov, diag = two_step_norrbin(get_kind("nomoto1"), zz, tt, h=h,
+                                                 method="rls" if self.method == "rls" else "ls",
+                                                 lam=self.lam, cond_max=self.cond_max)
+            names = ("K", "T", "n1", "n3", "delta0")
+            fit_series = zz
         else:
-            params, cov, diag = self._ls_params(series)
-        names = PARAM_NAMES[self.kind]
+            reg_series = series
+            h_reg = h
+            if self.form == "arx":
+                m = self._decimation(series[0])
+                reg_series = [s.decimated(m) for s in series]
+                h_reg = h * m
+            ee = fit_equation_error(kind, reg_series, fixed, form=self.form, h=h_reg,
+                                    method="rls" if self.method == "rls" else "ls",
+                                    lam=self.lam, cond_max=self.cond_max,
+                                    max_lag=max(int(self.window_s / h_reg), 1))
+            params, cov, names, diag = ee.params, ee.cov, ee.names, dict(ee.diagnostics)
         p_ls = dict(params)
-        if self.kind in ("threedof", "catamaran"):
-            st = steady_thrust_speed(series)
-            if st is not None:  # seed 002: damping from steady runs, a check on -a_u/a_tau
-                st["d11_from_regression"] = -params["a_u"] / params["a_tau"]
-                diag["steady_runs"] = st
         oe: OEResult | None = None
+        zz_rate = None
         if self.method == "oe":
             win = self._windows(fit_series, self.window_s, self.overlap)
-            free = np.ones(len(names), bool)
-            p0 = np.array([params[n] for n in names])
-            if self.kind == "norrbin":
-                # OE in the T = 1 normalisation (n1 continuous through 0, so the fit can cross
-                # from course-stable to course-unstable), then back to |n1| = 1.
-                free[names.index("T")] = False
-                p0 = _norrbin_to_t1(p0)
-            oe = refine_output_error(self.kind, p0, win, free=free, channels=self.oe_channels)
-            pe, cov = oe.params, oe.cov
-            if self.kind == "norrbin":
-                G = numerical_jacobian(_norrbin_from_t1, pe)
-                pe, cov = _norrbin_from_t1(pe), G @ cov @ G.T
-            params = dict(zip(names, pe.tolist(), strict=True))
+            oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels)
             diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
-                          "message": oe.message, "ac_factor": oe.ac_factor,
-                          "sigma": oe.sigma, "n_residuals": oe.n_residuals,
-                          "window_s": self.window_s}
-            diag["ls_params"] = p_ls
-        zz_rate = None
-        if self.method == "oe-zigzag":  # closed-loop zig-zag replay (manoeuvre_oe.py)
-            from usvid.identify.manoeuvre_oe import fit_zigzag_params
-
-            zz_trials = [t for t, s in zip(trials, series, strict=True) if any(
-                s is f for f in fit_series)]
-            params, cov, diag["oe_zigzag"], oe, zz_rate = fit_zigzag_params(
-                self.kind, params, zz_trials, fit_series)
+                          "message": oe.message, "ac_factor": oe.ac_factor, "sigma": oe.sigma,
+                          "n_residuals": oe.n_residuals, "window_s": self.window_s,
+                          "fit_space": dict(zip(oe.x_names, oe.x.tolist(), strict=True))}
+        elif self.method == "oe-zigzag":
+            zz_trials = [t for t, s in zip(trials, series, strict=True)
+                         if any(s is f for f in fit_series)]
+            m = self._decimation(series[0])
+            runs = zigzag_runs(zz_trials, fit_series, kind, step=h * m)
+            oe = refine_zigzag_oe(kind, params, fixed, runs)
+            zz_rate = float(np.median([r.rate for r in runs]))
+            diag["oe_zigzag"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
+                                 "message": oe.message, "ac_factor": oe.ac_factor,
+                                 "sigma": oe.sigma, "n_residuals": oe.n_residuals,
+                                 "n_replays": len(runs),
+                                 "rudder_rate_deg_s": math.degrees(zz_rate)}
+        if oe is not None:
+            params, cov, names = oe.params, oe.cov, oe.names
             diag["ls_params"] = p_ls
         se = standard_errors(cov)
         q = quantile975(oe.dof if oe is not None else math.inf)
         self.params_ = {n: float(params[n]) for n in names}
         self.cov_ = cov
         self.std_errors_ = dict(zip(names, se.tolist(), strict=True))
-        ci = interval95([self.params_[n] for n in names], se, q)
-        self.ci95_ = dict(zip(names, ci.tolist(), strict=True))
+        self.ci95_ = dict(zip(names, interval95([self.params_[n] for n in names], se,
+                                                q).tolist(), strict=True))
         diag["ci95_quantile"] = q
         self._warn_weak(names, se, q)
+        try:
+            dyn = kind.dynamics(**{**fixed, **self.params_})
+        except UsvidError as exc:
+            hint = (" (a negative T means a course-unstable vessel: use --model norrbin)"
+                    if self.kind == "nomoto1" and self.params_.get("T", 1) <= 0 else "")
+            raise IdentificationError(f"identified {self.kind} parameters are not a valid "
+                                      f"model: {exc}{hint}") from exc
+        vessel = _vessel(trials)
+        speed = _approach_speed(trials, vessel)
+        if speed is not None and vessel.speed is None:
+            vessel = Vessel(**{**{k: getattr(vessel, k) for k in ("length", "beam", "draft",
+                                                                 "mass", "displacement",
+                                                                 "block_coefficient")},
+                               "speed": speed}, extra=dict(vessel.extra))
+        servo, servo_diag = self._servo(trials, zz_rate, vessel)
+        if servo_diag:
+            diag["servo"] = servo_diag
         self.series_ = series
         self.oe_ = oe
-        self.fit_ = self._metrics(series, self.window_s)
+        self.fixed_ = fixed
+        model = VesselModel(dyn, servo=servo, vessel=vessel)
+        self.fit_ = self._metrics(model, series)
         self.data_ = [{"file": str(src), "sha256": _sha256(str(src))}
                       for tr in trials for src in (tr.sources or [tr.name])]
-        vessel = next((tr.vessel for tr in trials if tr.vessel is not None
-                       and tr.vessel.to_dict()), None)
-        opts: dict[str, Any] = {"form": "arx" if self.kind == "nomoto2" else self.form,
-                                "smooth_s": self.smooth_s, "window_s": self.window_s}
+        opts: dict[str, Any] = {"form": self.form, "smooth_s": self.smooth_s,
+                                "window_s": self.window_s, "overlap": self.overlap,
+                                "step_s": series[0].h * self._decimation(series[0])}
         if self.kind == "norrbin":
             opts["norrbin"] = self.norrbin
         if self.method == "rls":
             opts["lam"] = self.lam
-        if self.method == "oe":
-            opts["overlap"] = self.overlap
-        dyn = _build_dynamics(self.kind, self.params_, self.x_l, self.half_beam, self.thrust)
-        from usvid.models.model import VesselModel
-        from usvid.models.servo import IdealServo
-        from usvid.trial import Vessel
-
         result = IdentifiedModel(
             kind=self.kind, method=self.method, params=self.params_,
-            std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_,
-            model=None, data=self.data_, options=opts, diagnostics=diag)
-        if self.servo is None and zz_rate is None and vessel is not None:
-            from usvid.identify.manoeuvre_oe import helm_rate
-
-            zz_rate = helm_rate(vessel)  # the vessel's helm rate, for simulations of the model
-        self.model_ = VesselModel(dyn, servo=self.servo or IdealServo(
-            max_rate=math.inf if zz_rate is None else zz_rate),
-                                  vessel=vessel or Vessel(),
-                                  identification=result.identification())
-        result.model = self.model_
+            std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_, model=None,
+            data=self.data_, options=opts, diagnostics=diag)
+        model.identification = result.identification()
+        self.model_ = model
+        result.model = model
         self.result_ = result
         return self
 
+    def _servo(self, trials: Sequence[Trial], zz_rate: float | None, vessel: Vessel
+               ) -> tuple[Any, dict[str, Any]]:
+        if self.servo not in (None, "auto"):
+            return self.servo, {}
+        both = [tr for tr in trials if tr.has("delta_cmd") and tr.has("delta")]
+        fits, errors = [], []
+        for tr in both:
+            dt = float(np.median(np.diff(tr.t)))
+            u, y = tr["delta_cmd"], tr["delta"]
+            ok = np.isfinite(u) & np.isfinite(y)
+            if ok.sum() < 50 or np.ptp(u[ok]) < 2 * MIN_DELTA_STD:
+                continue  # no steering to fit the servo on
+            try:
+                idx = np.arange(ok.size)
+                u = np.interp(idx, idx[ok], u[ok])
+                y = np.interp(idx, idx[ok], y[ok])
+                sl = _most_active(u, dt, SERVO_WINDOW_S)
+                fits.append((identify_second_order_servo(u[sl], y[sl], dt), tr.name))
+            except UsvidError as exc:
+                errors.append(f"{tr.name}: {exc}")
+        if fits:
+            # the trial the servo model fits best, relative to its rudder motion
+            best, name = min(fits, key=lambda f: f[0].fit.nrmse)
+            return best.servo, {"identified_from": name, "candidates": [f[1] for f in fits],
+                                **{k: v for k, v in best.to_dict().items()
+                                   if k in ("omega_n", "zeta", "gain", "delay", "std_errors",
+                                            "fit")}}
+        if errors:
+            warnings.warn(f"servo not identified ({'; '.join(errors)}); an ideal servo is used",
+                          IdentificationWarning, stacklevel=3)
+        rate = zz_rate if zz_rate is not None else helm_rate(vessel)
+        source = "zig-zag replay fit" if zz_rate is not None else "vessel.extra.helm_rate_deg_s"
+        if rate is None:  # measured on the rudder ramps of the training trials
+            rates = [rudder_rate(tr.t, tr["delta"]) for tr in trials
+                     if tr.has("delta") and np.ptp(tr["delta"]) > 2 * MIN_DELTA_STD]
+            rates = [r for r in rates if math.isfinite(r)]
+            rate = float(np.median(rates)) if rates else None
+            source = "measured rudder ramps"
+        if rate is None:
+            return IdealServo(), {}
+        return IdealServo(max_rate=rate), {"kind": "ideal", "max_rate_deg_s": math.degrees(rate),
+                                           "rate_from": source}
+
     def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> None:
         """Warn when a parameter's 95 % half-width ``q se`` exceeds half its magnitude
-        (REL_WEAK): near-collinear regressors or too little excitation (e.g. a rudder varying so
-        slowly that r ~ K delta) leave it undetermined even below ``cond_max``. The offset
-        ``delta0`` and the fixed ``n1`` are not checked (zero is their usual value)."""
+        (REL_WEAK): nearly collinear regressors or too little excitation leave it
+        undetermined. The offset ``delta0`` and the sign ``n1`` are not checked."""
         weak = []
         for n, e in zip(names, se, strict=True):
             v = self.params_[n]
@@ -554,8 +518,6 @@ class ModelEstimator(FittedAttributes):
             if q * e > REL_WEAK * abs(v):
                 weak.append(f"{n} = {v:.4g} +- {q * e:.3g}")
         if weak:
-            import warnings
-
             warnings.warn(
                 f"{self.kind}: poorly determined parameter(s) {'; '.join(weak)} (95 %): the "
                 "data do not separate their effects (nearly collinear regressors or too little "
@@ -563,59 +525,71 @@ class ModelEstimator(FittedAttributes):
                 IdentificationWarning, stacklevel=3)
 
     # -- use -------------------------------------------------------------------------------------
-    def _metrics(self, series: list[Series], window_s: float | None) -> dict[str, Any]:
-        win = self._windows(series, window_s)
-        sim = simulate_windows(self.kind, np.array(list(self.params_.values())), win)
-        out: dict[str, Any] = {"window_s": window_s}
-        for ch, s in sim.items():
-            fm = fit_metrics(win.outputs[ch][:, 1:].ravel(), s[:, 1:].ravel()).to_dict()
-            out[ch] = fm
+    def _metrics(self, model: VesselModel, series: Sequence[Series]) -> dict[str, Any]:
+        """Windowed (``window_s``) and free-run fit metrics of ``model`` on ``series``: replays
+        through the integration core (:func:`usvid.sim.replay.replay_windows`)."""
+        out: dict[str, Any] = {"window_s": self.window_s}
+        out.update(_replay_metrics(model, self._windows(series, self.window_s)))
+        out["free_run"] = _replay_metrics(model, self._windows(series, None))
         return out
 
     def score(self, trials: Any, *, window_s: float | None = -1.0) -> dict[str, Any]:
         """Fit metrics (RMSE, NRMSE, R^2, max error per output channel) on ``trials``; RMSE and
-        max error in the channel's SI unit (psi [rad], r [rad/s], u, v [m/s]), NRMSE, R^2 [-].
+        max error in the channel's SI unit (psi [rad], r [rad/s], u, v [m/s]).
 
-        ``window_s``: -1 (default) uses the estimator's multiple-shooting window; ``None`` a free
-        run over each whole trial from its measured initial state; a number that window [s].
+        ``window_s``: -1 (default) the estimator's multiple-shooting window; ``None`` a free run
+        over each whole trial from its measured initial state; a number that window [s].
         """
-        _ = self.params_
-        series = self._series(_as_list(trials))
-        return self._metrics(series, self.window_s if window_s == -1.0 else window_s)
+        model = self.model_
+        series = self._series(one_grid(_as_list(trials)), self.fixed_)
+        w = self.window_s if window_s == -1.0 else window_s
+        out: dict[str, Any] = {"window_s": w}
+        out.update(_replay_metrics(model, self._windows(series, w)))
+        return out
 
-    def simulate(self, trial: Any, *, window_s: float | None = None) -> Any:
-        """Replay ``trial``'s inputs on the identified model (free run from its measured initial
-        state, or re-initialised every ``window_s`` seconds). Returns a :class:`usvid.Trial`
-        with the simulated ``psi``, ``r`` (and ``u``, ``v``) on the decimated grid and the
-        measured ``delta``/``tau`` inputs; ``meta["measured"]`` holds the measured outputs."""
-        _ = self.params_
-        s = self._series(_as_list(trial))
+    def simulate(self, trial: Any, *, window_s: float | None = None) -> Trial:
+        """Replay ``trial``'s measured inputs on the identified model (a free run from its
+        measured initial state, or re-initialised every ``window_s`` seconds). Returns a
+        :class:`usvid.Trial` with the simulated outputs on the replay grid and the measured
+        inputs; ``meta["measured"]`` holds the measured outputs."""
+        model = self.model_
+        tr = one_grid(_as_list(trial))[0]
+        s = self._series([tr], self.fixed_)
         win = self._windows(s, window_s)
-        sim = simulate_windows(self.kind, np.array(list(self.params_.values())), win)
-        m, h = self._step(s[0], self.oe_step)
+        sim = replay_windows(model, win)
+        m = self._decimation(s[0])
         t = s[0]["t"][::m]
         cols: dict[str, np.ndarray] = {"t": t}
-        W = win.outputs["psi"].shape[1]
-        starts = list(range(0, len(t) - W + 1, W - 1))
-        if starts[-1] + W < len(t):
-            starts.append(len(t) - W)
+        W = win.width
         for ch, arr in sim.items():
             full = np.full(len(t), np.nan)
-            for b, k in enumerate(starts):
-                full[k:k + W] = arr[b]
+            for b, k in enumerate(win.start):
+                full[k:k + W] = arr[b][:len(t) - k]
             cols[ch] = full
         for k in win.inputs:
             cols[k] = s[0][k][::m]
-        from usvid.trial import Trial
-
-        src = _as_list(trial)[0]
         meas = {ch: s[0][ch][::m] for ch in sim}
-        return Trial(data=pd.DataFrame(cols), vessel=src.vessel, sources=list(src.sources),
-                     name=f"sim:{src.name}", meta={"measured": meas, "params": self.params_})
+        return Trial(data=pd.DataFrame(cols), vessel=tr.vessel, sources=list(tr.sources),
+                     name=f"sim:{tr.name}", meta={"measured": meas, "params": self.params_})
 
     def to_dict(self) -> dict[str, Any]:
         """The model file (dict) of the fitted model."""
         return self.result_.to_dict()
+
+
+def _replay_metrics(model: VesselModel, win: Windows) -> dict[str, Any]:
+    """RMSE, NRMSE, R^2, max error per output of ``model`` replaying ``win`` (from each
+    window's second sample on; samples past a record's end are left out). A replay that
+    diverged gives infinite errors."""
+    sim = replay_windows(model, win)
+    out = {}
+    for ch, s in sim.items():
+        y = win.outputs[ch][:, 1:].ravel()
+        yh = s[:, 1:].ravel()
+        keep = np.isfinite(y)
+        yh = np.where(np.isfinite(yh), yh, np.inf)
+        out[ch] = fit_metrics(y[keep], yh[keep]).to_dict()
+    return out
 
 
 def identify(trials: Any, kind: str, method: str = "ls", *, turning: Any = None,
@@ -624,7 +598,7 @@ def identify(trials: Any, kind: str, method: str = "ls", *, turning: Any = None,
     return ModelEstimator(kind, method, **options).fit(trials, turning=turning).result_
 
 
-#: API.md name: ``usvid.identify.fit(trials, kind, method) -> IdentifiedModel``.
+#: ``usvid.identify.fit(trials, kind, method) -> IdentifiedModel``.
 fit = identify
 
 

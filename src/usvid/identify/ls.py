@@ -295,3 +295,29 @@ class LeastSquares(FittedAttributes):
             "ci95": {k: v.tolist() for k, v in zip(self.names_, self.ci95_, strict=True)},
             "sigma2": self.sigma2_, "cond": self.cond_, "n": self.n_samples_, "dof": self.dof_,
         }
+
+
+def autocorrelation_factor(res: np.ndarray, max_lag: int | None = None) -> float:
+    """Variance inflation ``1 + 2 sum_k (1 - k/L) rho_k`` of a (B, W) residual batch.
+
+    rho_k is the lag-k autocorrelation pooled over windows (lags within a window only), summed with
+    Bartlett weights up to ``L`` = ``max_lag`` (default W/4) or the first non-positive lag. This is
+    the ratio of the true variance of a mean of correlated residuals to the white-noise variance;
+    it is >= 1 by construction (clipped).
+    """
+    res = np.asarray(res, dtype=float)
+    if res.ndim == 1:
+        res = res[None, :]
+    res = res - res.mean()
+    W = res.shape[1]
+    L = max_lag or max(W // 4, 1)
+    var = float(np.mean(res * res))
+    if var <= 0:
+        return 1.0
+    f = 1.0
+    for k in range(1, min(L, W - 1) + 1):
+        rho = float(np.mean(res[:, k:] * res[:, :-k])) / var
+        if rho <= 0:
+            break
+        f += 2.0 * (1.0 - k / (L + 1)) * rho
+    return max(f, 1.0)

@@ -22,8 +22,9 @@ Method (documented choices; the seeds only say "recursive least squares"):
 2. **Output-error refinement** (``refine=True``, default). Equation-error ARX is biased by sensor
    noise on ``delta`` (poles at z ~ 0.97 for dt = 0.02 s are very sensitive), so for delays near
    the ARX one the continuous parameters (omega_n, zeta, K) are refined by
-   ``scipy.optimize.least_squares`` on the *simulation* error (exact ZOH simulation of the model
-   driven by the measured command); the delay with the smallest simulation RMS wins.
+   ``scipy.optimize.least_squares`` on the *simulation* error (the servo simulated by the
+   integration core -- the servo of every usvid simulation -- driven by the measured command,
+   held over each sample); the delay with the smallest simulation RMS wins.
 
 Standard errors. Refined: Gauss-Newton asymptotics ``cov = s^2 (J^T J)^-1`` of the output-error
 fit (J the Jacobian of the simulated output w.r.t. (omega_n, zeta, K), s^2 the residual variance;
@@ -34,14 +35,14 @@ resolution is one sample ``dt``; the scan (``delay_scan``) shows how sharply it 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import optimize, signal
+from scipy import optimize
 
 from usvid.errors import IdentificationError
-from usvid.identify.d2c import d2c
 from usvid.identify.ls import (
     LeastSquares,
     arx_regressors,
@@ -51,7 +52,10 @@ from usvid.identify.ls import (
     standard_errors,
 )
 from usvid.identify.metrics import FitMetrics, fit_metrics, rmse
+from usvid.models import registry
+from usvid.models.d2c import d2c
 from usvid.models.servo import SecondOrderServo
+from usvid.sim.simulate import Lanes, initial_state
 
 PARAM_NAMES = ("omega_n", "zeta", "gain")
 
@@ -137,34 +141,21 @@ def _physical(theta: np.ndarray, dt: float) -> np.ndarray:
     return np.array([wn, den[1] / (2 * wn), c.dc_gain])
 
 
-def _zoh_coefficients(wn: float, zeta: float, gain: float, dt: float
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """ZOH discretisation (b, a) of K wn^2 / (s^2 + 2 zeta wn s + wn^2) in closed form.
-
-    ``expm(A dt) = e^{mu dt} [cosh(nu dt) I + sinh(nu dt) / nu (A - mu I)]`` with
-    mu = -zeta wn, nu = wn sqrt(zeta^2 - 1) (complex when under-damped),
-    ``B_d = A^-1 (A_d - I) B``; then ``a = [1, -tr A_d, det A_d]`` and, for C = [1, 0],
-    ``b = [B_d1, A_d12 B_d2 - A_d22 B_d1]``. (No scipy.linalg.expm: this runs in every
-    output-error evaluation.)
-    """
-    A = np.array([[0.0, 1.0], [-wn * wn, -2.0 * zeta * wn]])
-    mu = -zeta * wn
-    nu = wn * np.sqrt(complex(zeta * zeta - 1.0))
-    x = nu * dt
-    sh = dt if abs(x) < 1e-8 else np.sinh(x) / nu  # sinh(nu dt) / nu -> dt as nu -> 0
-    Ad = (np.exp(mu * dt) * (np.cosh(x) * np.eye(2) + sh * (A - mu * np.eye(2)))).real
-    Bd = np.linalg.solve(A, (Ad - np.eye(2)) @ np.array([0.0, gain * wn * wn]))
-    a = np.array([1.0, -(Ad[0, 0] + Ad[1, 1]), Ad[0, 0] * Ad[1, 1] - Ad[0, 1] * Ad[1, 0]])
-    b = np.array([0.0, Bd[0], Ad[0, 1] * Bd[1] - Ad[1, 1] * Bd[0]])
-    return b, a
-
-
 def _simulate(params: np.ndarray, u: np.ndarray, d: int, dt: float) -> np.ndarray:
-    """Exact ZOH simulation of K wn^2 / (s^2 + 2 zeta wn s + wn^2) e^{-d dt s}, at rest on u[0]."""
-    b, a = _zoh_coefficients(float(params[0]), float(params[1]), float(params[2]), dt)
-    ud = np.concatenate([np.full(d, u[0]), u[: u.size - d]]) if d else u
-    zi = signal.lfilter_zi(b, a) * ud[0]
-    return signal.lfilter(b, a, ud, zi=zi)[0]
+    """The servo ``K wn^2 / (s^2 + 2 zeta wn s + wn^2) e^{-d dt s}`` driven by the command u
+    (held over each sample), at rest on u[0]: integrated by the core (:mod:`usvid.sim.core`,
+    the servo of every simulation) on a zero-gain yaw model. The rows are built directly
+    (not through :class:`SecondOrderServo`), so that the optimiser may cross K <= 0."""
+    wn, zeta, gain = float(params[0]), float(params[1]), float(params[2])
+    kind = registry.get("nomoto1")
+    dyn = kind.dynamics(K=0.0, T=1.0)
+    S = np.zeros((7, 1))
+    S[:, 0] = [math.pi, math.inf, wn, zeta, gain, d * dt, 0.0]
+    Z0 = initial_state(kind, dyn, 1, values={"delta": gain * u[0]})
+    lanes = Lanes(kind=kind, P=kind.pack(dyn, 1.0), servo=2, S=S, Z0=Z0,
+                  nsteps=np.array([u.size - 1]), dt=dt, series={"delta_cmd": u[None, :]},
+                  channels=("delta",))
+    return lanes.run().channels["delta"][0]
 
 
 def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray
@@ -172,8 +163,18 @@ def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray
     lo = np.array([1e-3, 1e-3, -np.inf])
     hi = np.array([np.pi / dt, 10.0, np.inf])
     x0 = np.clip(x0, lo + 1e-9, np.minimum(hi - 1e-9, [np.pi / dt * 0.5, 5.0, np.inf]))
-    return optimize.least_squares(lambda p: _simulate(p, u, d, dt) - y, x0, bounds=(lo, hi),
-                                  x_scale="jac", method="trf")
+    # the core's RK4 at the log step is stable for |pole dt| < 2.78: start inside that region;
+    # a simulation that diverges is a large residual (the step is rejected), not an error
+    fast = x0[0] * dt * (x0[1] + math.sqrt(max(x0[1] ** 2 - 1.0, 0.0)))
+    if fast > 2.0:
+        x0[0] *= 2.0 / fast
+    big = 1e3 * max(float(np.ptp(y)), 1e-3)
+
+    def resid(p: np.ndarray) -> np.ndarray:
+        e = _simulate(p, u, d, dt) - y
+        return np.where(np.isfinite(e), e, big)
+
+    return optimize.least_squares(resid, x0, bounds=(lo, hi), x_scale="jac", method="trf")
 
 
 def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
@@ -230,8 +231,9 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
         d_best, params, scan, method = d_arx, phys, arx_scan, "arx"
         q = quantile975()
     else:
-        x0 = phys if np.all(np.isfinite(phys)) and phys[2] != 0 else np.array(
-            [1.0, 0.7, float(np.mean(y) / np.mean(u)) if np.mean(u) != 0 else 1.0])
+        g0 = float(u @ y / (u @ u)) if u @ u > 0 else 1.0  # least-squares static gain
+        x0 = phys if np.all(np.isfinite(phys)) and phys[2] > 0 else np.array(
+            [1.0, 0.7, g0 if g0 > 0 else 1.0])
         results: dict[int, optimize.OptimizeResult] = {}
         lo, hi = max(0, d_arx - refine_window), min(dmax, d_arx + refine_window)
         while True:

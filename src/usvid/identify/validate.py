@@ -21,40 +21,35 @@ import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.estimator import ModelEstimator, _as_list, compare_kinds
-from usvid.identify.output_error import RESPONSE_KINDS
+from usvid.manoeuvres import find_manoeuvres, rudder_amplitude, rudder_rate, zigzag_metrics
+from usvid.models.model import VesselModel
+from usvid.models.registry import get as get_kind
+from usvid.models.servo import IdealServo
 from usvid.prep.filters import unwrap_angle
+from usvid.sim import ZigZag, simulate
 
 __all__ = ["zigzag_response", "zigzag_check", "cross_validate", "compare_kinds",
            "validation_table"]
 
 
-def zigzag_response(kind: str, params: dict[str, float], delta_amp: float, psi_switch: float, *,
-                    first: int = 1, rate: float = math.inf, t_end: float = 200.0,
-                    h: float = 0.05) -> dict[str, np.ndarray]:
-    """Simulate a ``delta_amp``/``psi_switch`` zig-zag [rad] on a response model.
+def zigzag_response(model: VesselModel, delta_amp: float, psi_switch: float, *,
+                    first: int = 1, rate: float | None = None, t_end: float = 200.0,
+                    h: float = 0.05, u0: float | None = None) -> dict[str, np.ndarray]:
+    """Simulate a ``delta_amp``/``psi_switch`` zig-zag [rad] on ``model`` (any kind).
 
-    Starts from r = 0, psi = 0, delta = 0 with the first rudder order at t = 0 towards ``first``
-    (+1 starboard); rudder rate limited to ``rate`` [rad/s] (an ideal servo otherwise), step
-    ``h`` [s]. The simulation is :func:`usvid.sim.simulate` with its :class:`usvid.sim.ZigZag`
-    logic, so validation uses the same switching logic as ``usvid simulate zigzag``. Returns
-    ``t`` [s], ``psi`` [rad], ``r`` [rad/s], ``delta`` [rad] (1-D arrays).
+    Starts from a straight approach at ``u0`` [m/s] (default the model's approach speed) with
+    the first rudder order at t = 0 towards ``first`` (+1 starboard); ``rate`` [rad/s] replaces
+    an ideal servo's rate limit (a dynamic servo is kept as identified). The simulation is
+    :func:`usvid.sim.simulate` with its ``ZigZag`` logic, as ``usvid simulate zigzag``.
+    Returns ``t`` [s], ``psi`` [rad], ``r`` [rad/s], ``delta`` [rad] (1-D arrays).
     """
-    if kind not in RESPONSE_KINDS:
-        raise UsvidError(f"zigzag_response: kind must be one of {RESPONSE_KINDS} (got {kind!r})")
-    from usvid.identify.output_error import PARAM_NAMES
-    from usvid.models.model import VesselModel
-    from usvid.models.response import Nomoto1, Nomoto2, Norrbin
-    from usvid.models.servo import DEFAULT_MAX_ANGLE, IdealServo
-    from usvid.sim import ZigZag, simulate
-    from usvid.trial import Vessel
-
-    dynamics = {"nomoto1": Nomoto1, "nomoto2": Nomoto2, "norrbin": Norrbin}[kind](
-        **{n: float(params[n]) for n in PARAM_NAMES[kind]})
-    servo = IdealServo(max_angle=max(DEFAULT_MAX_ANGLE, float(delta_amp)),
-                       max_rate=float(rate) if rate > 0 else math.inf)
-    model = VesselModel(dynamics, servo=servo, vessel=Vessel(speed=1.0))
-    res = simulate(model, ZigZag(float(delta_amp), float(psi_switch), first=1 if first >= 0
-                                 else -1), t_end=float(t_end), dt=float(h),
+    servo = model.servo
+    if isinstance(servo, IdealServo) and rate is not None:
+        servo = IdealServo(max_angle=max(float(servo.max_angle), float(delta_amp)),
+                           max_rate=float(rate) if rate > 0 else math.inf)
+    m = VesselModel(model.dynamics, servo=servo, vessel=model.vessel)
+    res = simulate(m, ZigZag(float(delta_amp), float(psi_switch), first=1 if first >= 0
+                             else -1), t_end=float(t_end), dt=float(h), u0=u0,
                    channels=("psi", "r", "delta"))
     return {"t": np.asarray(res.t), "psi": res.channels["psi"][0], "r": res.channels["r"][0],
             "delta": res.channels["delta"][0]}
@@ -74,54 +69,31 @@ def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
     the median plateau |delta| (samples above 80 % of the largest). Returns
     measured and simulated overshoots [deg], their differences and periods.
     """
-    from usvid.prep.metrics import zigzag_metrics
-
     tr = _as_list(trial)[0]
-    if est.kind not in RESPONSE_KINDS:
-        raise UsvidError("zigzag_check compares response models (nomoto1, nomoto2, norrbin)")
     t = tr.t
     d = tr["delta"]
     psi = unwrap_angle(tr["psi"])
-    ad = np.abs(d)
-    # rudder amplitude: the median plateau level (max |delta| of a noisy record is biased high)
-    amp = float(np.median(ad[ad > 0.8 * np.max(ad)])) if np.max(ad) > 0 else 0.0
-    big = np.flatnonzero(ad > 0.5 * amp)
-    if len(big) == 0 or amp < math.radians(0.5):
+    segs = [g for g in find_manoeuvres(tr) if g.kind == "zigzag"]
+    if not segs:
+        raise IdentificationError(f"trial {tr.name}: no zig-zag found in the record")
+    t_exec, first = segs[0].t_execute, segs[0].side
+    amp = rudder_amplitude(t, d, t_exec, segs[0].t_end)
+    if amp < math.radians(0.5):
         raise IdentificationError(f"trial {tr.name}: no rudder movement, not a zig-zag")
-    first = 1 if d[big[0]] > 0 else -1
-    t_exec = None
-    sw = tr.meta.get("psi_switch")
+    sw = tr.meta.get("psi_switch", segs[0].psi_switch)
     if psi_switch is not None:
         sw = psi_switch
-    if sw is None:
-        from usvid.prep import find_manoeuvres
-
-        segs = [s for s in find_manoeuvres(tr) if s.kind == "zigzag"]
-        if not segs:
-            raise IdentificationError(f"trial {tr.name}: no zig-zag found in the record")
-        sw = segs[0].psi_switch
-        first = segs[0].side
-        t_exec = segs[0].t_execute
     sw = float(sw)
     servo_rate = float(getattr(getattr(vars(est).get("model_"), "servo", None), "max_rate",
                                math.inf))
     if rate is None and math.isfinite(servo_rate):
         rate = servo_rate  # the model's servo (the rate its fit used, or the vessel's helm rate)
     if rate is None:
-        # rudder rate on the ramps: derivative of the smoothed (0.5 s) rudder angle, median over
-        # the samples where it exceeds half its maximum
-        from scipy.signal import savgol_filter
-
-        hs = float(np.median(np.diff(t)))
-        win = max(int(round(0.5 / hs)) | 1, 5)
-        dd = np.abs(savgol_filter(d, win, 2, deriv=1, delta=hs)) if len(d) > win else np.abs(
-            np.gradient(d, t))
-        moving = dd > 0.5 * np.max(dd)
-        rate = float(np.median(dd[moving])) if np.any(moving) else math.inf
+        rate = rudder_rate(t, d)
     meas = zigzag_metrics(t, psi, d, delta_amp=amp, psi_switch=sw, t_execute=t_exec,
                           first=first)
     t_end = t_end or float(t[-1] - meas.execute_time_s)
-    sim = zigzag_response(est.kind, est.params_, amp, sw, first=first, rate=rate, t_end=t_end)
+    sim = zigzag_response(est.model_, amp, sw, first=first, rate=rate, t_end=t_end)
     simm = zigzag_metrics(sim["t"], sim["psi"], sim["delta"], delta_amp=amp, psi_switch=sw,
                           t_execute=0.0, first=first)
     n = min(len(meas.overshoot_deg), len(simm.overshoot_deg))
@@ -179,8 +151,10 @@ def validation_table(est: ModelEstimator, trials: Sequence[Any], *,
     zig-zag overshoot comparison for response models when the trial is a zig-zag."""
     rows = []
     for tr in _as_list(list(trials)):
-        row: dict[str, Any] = {"trial": tr.name, "metrics": est.score(tr, window_s=window_s)}
-        if est.kind in RESPONSE_KINDS:
+        row: dict[str, Any] = {"trial": tr.name,
+                               "file": tr.sources[0] if tr.sources else tr.name,
+                               "metrics": est.score(tr, window_s=window_s)}
+        if {"psi", "r"} <= set(get_kind(est.kind).outputs) and tr.has("delta"):
             try:
                 row["zigzag"] = zigzag_check(est, tr)
             except UsvidError as exc:

@@ -1,5 +1,6 @@
-"""usvid.io: trial format specs, readers (tables, Excel, Parquet, NMEA 0183, NMEA 2000 candump)
-and writers (CSV, Parquet, NMEA 0183, candump). Readers return :class:`usvid.Trial` in SI units and
+"""usvid.io: trial format specs, readers (tables, Excel, Parquet, NMEA 0183, NMEA 2000, ROS bags,
+PX4 ULog, ArduPilot DataFlash and tlog) and writers (CSV, Parquet, NMEA 0183, candump, ROS bags,
+ULog, DataFlash, tlog). Readers return :class:`usvid.Trial` in SI units and
 radians (``lat``/``lon`` in degrees); bad input raises a :class:`usvid.errors.UsvidError` subclass.
 """
 
@@ -9,8 +10,17 @@ from pathlib import Path
 
 from usvid.errors import FormatSpecError, LogReadError
 from usvid.io._assemble import read_log_bytes
+from usvid.io.ardupilot import (
+    is_dataflash_bin,
+    is_dataflash_text,
+    is_tlog,
+    read_dataflash,
+    read_tlog,
+    servo1_function,
+)
 from usvid.io.n2k import read_candump, write_candump
 from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
+from usvid.io.rosbag import bag_kind, read_rosbag
 from usvid.io.spec import (
     ColumnSpec,
     FormatSpec,
@@ -22,12 +32,15 @@ from usvid.io.spec import (
     shipped_specs,
 )
 from usvid.io.table import read_excel, read_parquet, read_table
+from usvid.io.ulog import is_ulog, read_ulog
 from usvid.io.writers import table_spec, write_csv, write_parquet
-from usvid.trial import Trial
+from usvid.trial import CHANNEL_UNITS, Trial
 
 __all__ = [
     "ColumnSpec",
     "FormatSpec",
+    "auto_spec",
+    "detect_message_log",
     "detect_reader",
     "load_spec",
     "parse_spec",
@@ -48,12 +61,66 @@ __all__ = [
 ]
 
 
+#: Plain-words names of the message-log kinds (for messages).
+LOG_KINDS = {
+    "rosbag": "ROS bag / MCAP file",
+    "ulog": "PX4 ULog",
+    "dataflash": "ArduPilot DataFlash log",
+    "tlog": "MAVLink telemetry log (tlog)",
+}
+
+
+def detect_message_log(path: str | Path) -> str | None:
+    """The message-log reader of ``path`` by content (``rosbag``, ``ulog``, ``dataflash``,
+    ``tlog``) or ``None`` for any other file (text logs, tables)."""
+    path = Path(path)
+    if path.is_dir():
+        return "rosbag" if bag_kind(path) else None
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(256)
+    except OSError as exc:
+        raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if bag_kind(path):
+        return "rosbag"
+    if is_ulog(head):
+        return "ulog"
+    if is_dataflash_bin(head) or is_dataflash_text(head):
+        return "dataflash"
+    if is_tlog(head):
+        return "tlog"
+    return None
+
+
+def auto_spec(path: str | Path, reader: str) -> tuple[FormatSpec, str]:
+    """The shipped preset for a message log of ``reader`` and a sentence saying what was detected
+    and chosen: ``ros2_usv`` (ROS bags), ``px4_boat`` (ULog), ``ardupilot_rover`` or
+    ``ardupilot_skid_steer`` (DataFlash / tlog: skid steering when the log's parameters say
+    SERVO1_FUNCTION = 73, left throttle)."""
+    name = {"rosbag": "ros2_usv", "ulog": "px4_boat"}.get(reader)
+    why = ""
+    if name is None:
+        f = servo1_function(Path(path), reader)
+        skid = f in (73, 74)
+        name = "ardupilot_skid_steer" if skid else "ardupilot_rover"
+        why = (f", SERVO1_FUNCTION {f:g}" if f is not None else
+               ", no SERVO1_FUNCTION parameter: rudder steering assumed")
+    spec = shipped_spec(name)
+    if reader in spec.variants:
+        spec = spec.variants[reader]
+    return spec, f"detected {LOG_KINDS[reader]}{why}; format {name}"
+
+
 def detect_reader(path: str | Path) -> str:
-    """Guess the reader of a log without a spec: ``nmea2000`` (candump -L lines), ``nmea0183``
-    (``$``/``!`` sentences), ``parquet`` (PAR1 magic) or ``excel`` (.xlsx zip); ``table`` for a
-    CSV with a header of Trial channel names. Raises :class:`LogReadError` when unreadable/empty.
+    """Guess the reader of a log without a spec: ``rosbag``, ``ulog``, ``dataflash``, ``tlog``
+    (by their headers), ``nmea2000`` (candump -L lines), ``nmea0183`` (``$``/``!`` sentences),
+    ``parquet`` (PAR1 magic) or ``excel`` (.xlsx zip); ``table`` for a CSV with a header of Trial
+    channel names. Raises :class:`LogReadError` when unreadable/empty.
     """
     path = Path(path)
+    msg = detect_message_log(path)
+    if msg is not None:
+        return msg
     head = read_log_bytes(path, 65536)
     if head[:4] == b"PAR1":
         return "parquet"
@@ -69,6 +136,20 @@ def detect_reader(path: str | Path) -> str:
     return "table"
 
 
+def _matching_spec(p: Path, fs: FormatSpec, kind: str | None) -> FormatSpec:
+    """``fs`` or its variant for a log of reader ``kind``; a clear error for a wrong preset."""
+    if kind is not None and kind in fs.variants:
+        return fs.variants[kind]
+    what = LOG_KINDS.get(kind, "text log or table") if kind else "not a message log (text/table)"
+    if kind is None and fs.reader not in LOG_KINDS:
+        return fs
+    want = LOG_KINDS.get(fs.reader, f"{fs.reader} logs")
+    raise FormatSpecError(
+        f"{p}: is a {what}, but format spec {fs.source} is for {want} "
+        "(give the spec for this format, or leave --format out to detect it)"
+        if kind else f"{p}: is {what}, but format spec {fs.source} is for {want}")
+
+
 def _identity_spec(reader: str) -> FormatSpec:
     """Spec for tables written by usvid (header names are Trial channels, SI units)."""
     return FormatSpec(reader=reader, header=True, delimiter=",", source="<usvid table>")
@@ -78,16 +159,39 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
     """Read one log into a :class:`Trial` (SI units, radians; lat/lon in degrees).
 
     ``spec``: a YAML path, a shipped spec name (``"hsva_kvlcc2"``), a mapping, a
-    :class:`FormatSpec`, or ``None`` to detect NMEA 0183 / candump logs (and CSV/Parquet tables
-    written by usvid, whose header names are Trial channels in SI). Dispatches on ``spec.reader``.
+    :class:`FormatSpec`, or ``None`` / ``"auto"`` to detect the format by content: ROS bags, PX4
+    ULog, ArduPilot DataFlash and tlog get their shipped preset (:func:`auto_spec`; the choice is
+    in ``trial.meta["format_detected"]``), NMEA 0183 / candump logs their reader, CSV/Parquet
+    tables written by usvid (header names are Trial channels in SI) the identity spec. A message
+    log read with the spec of another format is a :class:`FormatSpecError` (one line); a spec
+    with ``variants`` uses the variant of the log's format. Dispatches on ``spec.reader``.
     """
-    fs = coerce_spec(spec)
+    fs = None if isinstance(spec, str) and spec == "auto" else coerce_spec(spec)
     p = Path(path)
     if not p.exists():
         raise LogReadError(f"{p}: no such file")
-    if p.is_dir():
-        raise LogReadError(f"{p}: is a folder, not a log file")
+    kind = detect_message_log(p)
+    if p.is_dir() and kind is None:
+        raise LogReadError(f"{p}: is a folder, not a log file (nor a ROS 2 bag with "
+                           "metadata.yaml)")
+    note = None
+    if fs is None and kind is not None:
+        fs, note = auto_spec(p, kind)
+    elif fs is not None and kind != fs.reader and (kind or fs.reader in LOG_KINDS):
+        fs = _matching_spec(p, fs, kind)
     reader = fs.reader if fs is not None else detect_reader(p)
+    if note is not None:
+        tr = read_trial(p, fs)
+        tr.meta["format_detected"] = note
+        return tr
+    if reader == "rosbag":
+        return read_rosbag(p, fs)
+    if reader == "ulog":
+        return read_ulog(p, fs)
+    if reader == "dataflash":
+        return read_dataflash(p, fs)
+    if reader == "tlog":
+        return read_tlog(p, fs)
     if reader == "nmea0183":
         return read_nmea0183(p, fs)
     if reader == "nmea2000":
@@ -108,8 +212,6 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
 def _usvid_table_spec(p: Path, reader: str) -> FormatSpec:
     """Spec for a CSV/Parquet written by usvid: header names are channels in SI units."""
     import pandas as pd
-
-    from usvid.trial import CHANNEL_UNITS
 
     try:
         if reader == "parquet":

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from usvid.errors import LogReadError
+from usvid.files import write_atomic
 from usvid.io._assemble import apply_renames, assemble, ignored_finding, read_log_bytes
 from usvid.io.spec import FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
@@ -333,7 +334,5 @@ def write_candump(
     rate 0.25 rpm. Time stamps: microseconds, t = 0 at ``t0_utc`` (default
     ``trial.meta["t0_utc"]`` or 2025-01-01).
     """
-    from usvid.commands._common import write_atomic
-
     lines = candump_lines(trial, t0_utc=t0_utc, source=source, interface=interface)
     return write_atomic(path, "\n".join(lines) + "\n")

@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from usvid.errors import LogReadError
+from usvid.files import write_atomic
 from usvid.io._assemble import apply_renames, assemble, ignored_finding, read_log_bytes
 from usvid.io.spec import FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
@@ -786,8 +787,6 @@ def write_nmea0183(
     ``t0_utc`` (default ``trial.meta["t0_utc"]`` or 2025-01-01). Quantisation: positions 1e-6
     arc-minutes (< 2 mm), heading/rate/rudder 1e-3 deg (deg/min), speed 1e-3 kn.
     """
-    from usvid.commands._common import write_atomic
-
     lines = nmea0183_lines(
         trial,
         t0_utc=t0_utc,

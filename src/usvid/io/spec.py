@@ -32,12 +32,44 @@ rudder angle positive to port gets ``sign: -1``).
 For the ``nmea0183`` and ``nmea2000`` readers ``columns`` is optional: the readers decode the
 standard channels themselves (``lat lon psi r delta U sog cog n ...``); an entry there renames or
 re-signs a decoded channel (``delta: {col: delta, sign: -1}``) and must not name a unit other than
-the channel's Trial unit.
+the channel's Trial unit. ``n2k_format`` (nmea2000 only) names the wire format of the log (one of
+:data:`N2K_FORMATS`, default ``auto``).
+
+Message-based logs (readers ``rosbag``, ``ulog``, ``dataflash``, ``tlog``) map each channel onto one
+field of one message type; the time of a row is the time of its message, and messages of different
+rates are merged on one clock (the union of their times, NaN elsewhere)::
+
+    columns:
+      lat:   {topic: /gps/fix, field: latitude, unit: deg}
+      psi:   {topic: /imu/data, field: orientation, convert: yaw, frame: enu}
+      r:     {topic: /imu/data, field: angular_velocity.z, unit: rad/s, sign: -1}
+      delta: {message: RCOU, field: C1, convert: pwm, pwm: [1100, 1500, 1900], scale: 35,
+              unit: deg}
+      n:     {message: ESC, field: RPM, instance: 0, unit: rpm}
+
+``topic`` and ``message`` are synonyms (a ROS topic, a PX4 uORB topic, an ArduPilot DataFlash or
+MAVLink message name). ``field`` is a dotted path with ``[i]`` indices (``twist.twist.linear.x``,
+``xyz[2]``, ``rpm[0]``). ``instance`` selects a multi-instance message (PX4 ``multi_id``,
+DataFlash instance column ``I``/``Instance``). ``convert``:
+
+- ``yaw``: the field is a quaternion (ROS ``geometry_msgs/Quaternion`` with x, y, z, w, or PX4's
+  ``q[0..3]`` = w, x, y, z); the heading is its yaw. ``frame: enu`` (ROS REP 103: x east, y north,
+  z up, yaw counter-clockwise from east; the default for ``rosbag``) gives ``psi = pi/2 - yaw``;
+  ``frame: ned`` (PX4, ArduPilot; the default elsewhere) gives ``psi = yaw``. Wrapped to
+  [0, 2 pi).
+- ``pwm``: a servo pulse width [us] becomes a normalised command in [-1, 1] through
+  ``pwm: [min, trim, max]`` (default ``[1100, 1500, 1900]``); ``scale``/``unit`` then turn it
+  into a rudder angle (``scale: 35, unit: deg``) or leave it a dimensionless thruster command.
+- ``speed`` / ``course``: the field is a horizontal velocity vector (x, y) in ``frame``; the
+  channel is its norm [m/s] or its direction [rad, clockwise from north, in [0, 2 pi)].
+
+After the conversion ``value = sign * factor(unit) * (scale * raw + offset)`` as for tables.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,9 +78,20 @@ import yaml
 
 from usvid.errors import FormatSpecError
 from usvid.io import units as _units
-from usvid.trial import VESSEL_FIELDS, Vessel
+from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Vessel
 
-READERS = ("table", "excel", "parquet", "nmea0183", "nmea2000")
+_FIELD_PATH = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*(\.[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*)*$")
+
+READERS = ("table", "excel", "parquet", "nmea0183", "nmea2000", "rosbag", "ulog", "dataflash",
+           "tlog")
+#: Readers of message-based logs (columns name a message type and a field).
+MESSAGE_READERS = ("rosbag", "ulog", "dataflash", "tlog")
+#: NMEA 2000 wire formats the ``nmea2000`` reader reads (names as
+#: ``nmea2000.input_formats.N2KFormat``): so far only ``candump3`` (``candump -L``); ``auto``
+#: detects it. The package's other formats are not bound yet (issue 11, open part).
+N2K_FORMATS = ("auto", "candump3")
+CONVERTS = ("yaw", "pwm", "speed", "course")
+FRAMES = ("enu", "ned")
 DELIMITERS = {"whitespace": None, ",": ",", ";": ";", "\t": "\t", "tab": "\t"}
 SPEC_KEYS = (
     "reader",
@@ -60,11 +103,15 @@ SPEC_KEYS = (
     "sheet",
     "non_monotonic",
     "time_source",
+    "n2k_format",
     "description",
+    "variants",
     "columns",
     "vessel",
 )
 COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional")
+MESSAGE_COLUMN_KEYS = ("topic", "message", "field", "unit", "sign", "offset", "scale", "optional",
+                       "convert", "frame", "instance", "pwm")
 VESSEL_KEYS = (*VESSEL_FIELDS, "extra")
 _SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
 
@@ -76,6 +123,12 @@ class ColumnSpec:
     ``col`` is a 0-based index or a header name; ``unit`` a key of :data:`usvid.io.units.UNITS`
     (or ``datetime`` for the time column); ``sign`` +1/-1; ``offset``/``scale`` in the source unit;
     ``optional`` columns may be absent from the file.
+
+    Message-based logs (see the module docstring): ``topic`` is the message type or topic,
+    ``col`` the field path, ``conversion`` (YAML ``convert``) one of :data:`CONVERTS`
+    (``None``: the field's value), ``frame`` the earth frame of a quaternion or velocity vector,
+    ``instance`` the instance of a multi-instance message, ``pwm`` the (min, trim, max) pulse
+    widths [us] of ``convert: pwm``.
     """
 
     name: str
@@ -85,6 +138,11 @@ class ColumnSpec:
     offset: float = 0.0
     scale: float = 1.0
     optional: bool = False
+    topic: str | None = None
+    conversion: str | None = None
+    frame: str = "ned"
+    instance: int | None = None
+    pwm: tuple[float, float, float] = (1100.0, 1500.0, 1900.0)
 
     @property
     def factor(self) -> float:
@@ -112,9 +170,11 @@ class FormatSpec:
     sheet: int | str = 0
     non_monotonic: str = "sort"
     time_source: str = "auto"
+    n2k_format: str = "auto"
     description: str = ""
     vessel: Vessel = field(default_factory=Vessel)
     source: str = "<spec>"
+    variants: dict[str, FormatSpec] = field(default_factory=dict)
 
     @property
     def uses_names(self) -> bool:
@@ -144,8 +204,88 @@ def _number(v: Any, source: str, where: str, *, positive: bool = False) -> float
     return f
 
 
+def _unit(name: str, unit: Any, source: str, where: str) -> str | None:
+    if unit is None:
+        return None
+    cu = _units.canonical_unit(str(unit))
+    if cu is None:
+        raise _err(source, f"{where}.unit",
+                   f"unknown unit '{unit}' (known: {', '.join(_units.known_units())})")
+    if cu == _units.DATETIME and name != "t":
+        raise _err(source, f"{where}.unit", "unit 'datetime' is only allowed for 't'")
+    if cu != _units.DATETIME:
+        try:
+            _units.target_factor(name, cu)
+        except ValueError as exc:
+            raise _err(source, f"{where}.unit", str(exc)) from None
+    return cu
+
+
+def _message_column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
+    """A column of a message-based log: ``{topic|message: NAME, field: PATH, ...}``."""
+    where = f"columns.{name}"
+    if not isinstance(v, dict):
+        raise _err(source, where, f"expected a mapping {{topic: ..., field: ..., unit: ...}}, "
+                                  f"got {v!r}")
+    _check_keys(v, MESSAGE_COLUMN_KEYS, source, where)
+    if name == "t":
+        raise _err(source, where, f"the {reader} reader takes the time of each message; "
+                                  "no 't' column")
+    if "topic" in v and "message" in v:
+        raise _err(source, where, "give 'topic' or 'message', not both")
+    key = "topic" if "topic" in v else "message"
+    topic = v.get(key)
+    if not isinstance(topic, str) or not topic.strip():
+        raise _err(source, f"{where}.{key}", f"missing or not a name (got {topic!r}): the "
+                                            "topic / message the channel is read from")
+    fld = v.get("field")
+    if not isinstance(fld, str) or not _FIELD_PATH.match(fld):
+        raise _err(source, f"{where}.field", f"expected a field path such as 'latitude', "
+                                             f"'twist.twist.linear.x' or 'xyz[2]', got {fld!r}")
+    conv = v.get("convert")
+    if conv is not None and conv not in CONVERTS:
+        raise _err(source, f"{where}.convert", f"expected one of {', '.join(CONVERTS)}, "
+                                               f"got {conv!r}")
+    frame = v.get("frame", "enu" if reader == "rosbag" else "ned")
+    if frame not in FRAMES:
+        raise _err(source, f"{where}.frame", f"expected enu or ned, got {frame!r}")
+    if "frame" in v and conv not in ("yaw", "speed", "course"):
+        raise _err(source, f"{where}.frame", "only used with convert: yaw, speed or course")
+    unit = _unit(name, v.get("unit"), source, where)
+    if conv in ("yaw", "course") and unit not in (None, "rad"):
+        raise _err(source, f"{where}.unit", f"convert: {conv} gives radians; no unit needed")
+    if conv == "speed" and unit not in (None, "m/s"):
+        raise _err(source, f"{where}.unit", "convert: speed gives m/s; no unit needed")
+    inst = v.get("instance")
+    if inst is not None and (isinstance(inst, bool) or not isinstance(inst, int) or inst < 0):
+        raise _err(source, f"{where}.instance", f"expected an integer >= 0, got {inst!r}")
+    pwm = v.get("pwm", [1100, 1500, 1900])
+    if "pwm" in v and conv != "pwm":
+        raise _err(source, f"{where}.pwm", "only used with convert: pwm")
+    if not isinstance(pwm, list | tuple) or len(pwm) != 3:
+        raise _err(source, f"{where}.pwm", f"expected [min, trim, max] in us, got {pwm!r}")
+    lo, trim, hi = (_number(x, source, f"{where}.pwm") for x in pwm)
+    if not lo < trim < hi:
+        raise _err(source, f"{where}.pwm", f"expected min < trim < max, got {list(pwm)!r}")
+    sign = _number(v.get("sign", 1), source, f"{where}.sign")
+    if sign not in (1.0, -1.0):
+        raise _err(source, f"{where}.sign", f"must be 1 or -1 (got {v['sign']!r})")
+    optional = v.get("optional", False)
+    if not isinstance(optional, bool):
+        raise _err(source, f"{where}.optional", f"expected true or false, got {optional!r}")
+    return ColumnSpec(
+        name=name, col=fld, unit=unit, sign=sign,
+        offset=_number(v.get("offset", 0.0), source, f"{where}.offset"),
+        scale=_number(v.get("scale", 1.0), source, f"{where}.scale"),
+        optional=optional, topic=topic.strip(), conversion=conv, frame=frame, instance=inst,
+        pwm=(lo, trim, hi),
+    )
+
+
 def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
     where = f"columns.{name}"
+    if reader in MESSAGE_READERS:
+        return _message_column(name, v, reader, source)
     if isinstance(v, int | str) and not isinstance(v, bool):
         v = {"col": v}
     if not isinstance(v, dict):
@@ -158,23 +298,7 @@ def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
         raise _err(source, f"{where}.col", f"expected an index or a header name, got {col!r}")
     if isinstance(col, int) and col < 0:
         raise _err(source, f"{where}.col", f"column index must be >= 0 (got {col})")
-    unit = v.get("unit")
-    if unit is not None:
-        cu = _units.canonical_unit(str(unit))
-        if cu is None:
-            raise _err(
-                source,
-                f"{where}.unit",
-                f"unknown unit '{unit}' (known: {', '.join(_units.known_units())})",
-            )
-        if cu == _units.DATETIME and name != "t":
-            raise _err(source, f"{where}.unit", "unit 'datetime' is only allowed for 't'")
-        if cu != _units.DATETIME:
-            try:
-                _units.target_factor(name, cu)
-            except ValueError as exc:
-                raise _err(source, f"{where}.unit", str(exc)) from None
-        unit = cu
+    unit = _unit(name, v.get("unit"), source, where)
     sign = _number(v.get("sign", 1), source, f"{where}.sign")
     if sign not in (1.0, -1.0):
         raise _err(source, f"{where}.sign", f"must be 1 or -1 (got {v['sign']!r})")
@@ -231,6 +355,7 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
     only("encoding", ("table", "nmea0183"))
     only("skip_rows", ("table", "excel"))
     only("header", ("table", "excel"))
+    only("n2k_format", ("nmea2000",))
 
     delim = d.get("delimiter", "whitespace")
     if delim not in DELIMITERS:
@@ -264,6 +389,10 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
     ts = d.get("time_source", "auto")
     if ts not in ("auto", "prefix", "sentence"):
         raise _err(source, "time_source", f"expected auto, prefix or sentence, got {ts!r}")
+    n2kf = d.get("n2k_format", "auto")
+    if n2kf not in N2K_FORMATS:
+        raise _err(source, "n2k_format", f"unknown NMEA 2000 format {n2kf!r} (one of: "
+                                         f"{', '.join(N2K_FORMATS)})")
     desc = d.get("description", "")
     if not isinstance(desc, str):
         raise _err(source, "description", f"expected text, got {desc!r}")
@@ -286,9 +415,11 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
             isinstance(c.col, str) for c in columns.values()
         ):
             raise _err(source, "header", "columns are named by header, but header is false")
+    elif reader in MESSAGE_READERS:
+        if not columns:
+            raise _err(source, "columns", f"missing: the {reader} reader needs at least one "
+                                          "column {topic: ..., field: ...}")
     else:
-        from usvid.trial import CHANNEL_UNITS
-
         for c in columns.values():
             if not isinstance(c.col, str):
                 raise _err(
@@ -305,6 +436,7 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
                 )
 
     vessel = _vessel(d["vessel"], source) if "vessel" in d else Vessel()
+    variants = _variants(d, reader, source)
     return FormatSpec(
         reader=reader,
         columns=columns,
@@ -316,10 +448,31 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
         sheet=sheet,
         non_monotonic=nm,
         time_source=ts,
+        n2k_format=n2kf,
         description=desc,
         vessel=vessel,
         source=source,
+        variants=variants,
     )
+
+
+def _variants(d: dict, reader: str, source: str) -> dict[str, FormatSpec]:
+    """``variants: {READER: {columns: ...}}``: the same setup logged in another format (e.g. an
+    ArduPilot DataFlash preset's MAVLink tlog columns); each inherits ``description`` and
+    ``vessel`` and is used when the log turns out to be of that reader's format."""
+    v = d.get("variants", {}) or {}
+    if not isinstance(v, dict):
+        raise _err(source, "variants", f"expected a mapping reader -> spec, got {v!r}")
+    out = {}
+    for k, sub in v.items():
+        if k not in MESSAGE_READERS or k == reader or reader not in MESSAGE_READERS:
+            raise _err(source, f"variants.{k}", f"expected another message-log reader than "
+                                                f"{reader} (one of {', '.join(MESSAGE_READERS)})")
+        if not isinstance(sub, dict) or "reader" in sub or "variants" in sub:
+            raise _err(source, f"variants.{k}", "expected a mapping without 'reader'/'variants'")
+        base = {x: d[x] for x in ("description", "vessel") if x in d}
+        out[k] = parse_spec({**base, **sub, "reader": k}, source=f"{source} (variants.{k})")
+    return out
 
 
 def load_spec(path: str | Path) -> FormatSpec:

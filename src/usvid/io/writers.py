@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from usvid.files import write_atomic
 from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Trial
 
 #: Start time of a written log when neither the caller nor ``trial.meta["t0_utc"]`` gives one.
@@ -61,8 +62,6 @@ def write_csv(trial: Trial, path: str | Path, *, spec_path: str | Path | None = 
     Full float precision (``repr``), NaN as empty fields. With ``spec_path`` also writes the YAML
     format spec that reads it back.
     """
-    from usvid.commands._common import write_atomic
-
     buf = io.StringIO()
     trial.data.to_csv(buf, index=False, float_format="%.17g", na_rep="")
     out = write_atomic(path, buf.getvalue())
@@ -75,8 +74,6 @@ def write_parquet(trial: Trial, path: str | Path) -> Path:
     """Write the channel table as Parquet (SI units, radians; trial summary in the metadata)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
-
-    from usvid.commands._common import write_atomic
 
     table = pa.Table.from_pandas(pd.DataFrame(trial.data), preserve_index=False)
     meta = dict(table.schema.metadata or {})

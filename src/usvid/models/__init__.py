@@ -1,34 +1,29 @@
-"""usvid.models: parameter dataclasses and vectorised dynamics ``f(state, inputs)``.
+"""usvid.models: model kinds (parameter sets and their one right-hand side), servos, thrust
+laws, hull regressions. No integration (see ``usvid.sim``), no files (see ``usvid.io``).
 
-Response models (:mod:`.response`): Nomoto1, Nomoto2, Norrbin; servos (:mod:`.servo`):
-IdealServo, FirstOrderServo, SecondOrderServo; 3-DOF vector thruster (:mod:`.threedof`):
-ThreeDOF; twin-thruster catamaran (:mod:`.catamaran`): Catamaran; thrust laws (:mod:`.thrust`);
-the complete model (:mod:`.model`): VesselModel. No integration here (see ``usvid.sim``).
+Kinds (:mod:`usvid.models.registry`, one module each in :mod:`usvid.models.kinds`): Nomoto1,
+Nomoto2, Norrbin, ThreeDOF, Catamaran; servos (:mod:`.servo`); thrust laws (:mod:`.thrust`);
+the complete model (:mod:`.model`): VesselModel.
 """
 
-from usvid.models.catamaran import Catamaran, catamaran_f
-from usvid.models.model import KINDS, VesselModel
-from usvid.models.response import Nomoto1, Nomoto2, Norrbin, nomoto1_f, nomoto2_f, norrbin_f
-from usvid.models.servo import (
-    FirstOrderServo,
-    IdealServo,
-    SecondOrderServo,
-    first_order_servo_f,
-    second_order_servo_f,
-    seed000_servo,
-)
-from usvid.models.threedof import (
-    SEED000_EQ37,
-    ThreeDOF,
-    seed000_threedof,
-    threedof_f,
-    threedof_f_tau,
-    vector_thrust_tau,
-)
+from usvid.models import registry
+from usvid.models.kinds.catamaran import Catamaran
+from usvid.models.kinds.nomoto1 import Nomoto1
+from usvid.models.kinds.nomoto2 import Nomoto2
+from usvid.models.kinds.norrbin import Norrbin
+from usvid.models.kinds.threedof import SEED000_EQ37, ThreeDOF
+from usvid.models.model import VesselModel
+from usvid.models.registry import get as get_kind
+from usvid.models.registry import names as kind_names
+from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo, seed000_servo
 
 __all__ = [
-    "KINDS", "SEED000_EQ37", "Catamaran", "FirstOrderServo", "IdealServo", "Nomoto1", "Nomoto2",
-    "Norrbin", "SecondOrderServo", "ThreeDOF", "VesselModel", "catamaran_f",
-    "first_order_servo_f", "nomoto1_f", "nomoto2_f", "norrbin_f", "second_order_servo_f",
-    "seed000_servo", "seed000_threedof", "threedof_f", "threedof_f_tau", "vector_thrust_tau",
+    "SEED000_EQ37", "Catamaran", "FirstOrderServo", "IdealServo", "Nomoto1", "Nomoto2",
+    "Norrbin", "SecondOrderServo", "ThreeDOF", "VesselModel", "get_kind", "kind_names",
+    "registry", "seed000_servo", "seed000_threedof",
 ]
+
+
+def seed000_threedof(x_l: float = 3.5, **kw: object) -> ThreeDOF:
+    """The Lanxin model of Mu et al. 2018, eq. 37 (x_l [m] is not printed; ~half the length)."""
+    return ThreeDOF.from_regression(**SEED000_EQ37, x_l=x_l, **kw)

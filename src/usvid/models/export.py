@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
+from usvid.models.registry import kind_of
 
 
 def _scalar(value: Any, name: str) -> float:
@@ -32,27 +33,17 @@ def _scalar(value: Any, name: str) -> float:
 
 
 def response_polynomials(dynamics: Any) -> tuple[list[float], list[float]]:
-    """Numerator and denominator (highest power first) of r/delta for a response model.
-
-    ``dynamics`` is a ``Nomoto1``, ``Nomoto2`` or ``Norrbin`` (units: K [1/s], T's [s]).
-    """
-    kind = getattr(dynamics, "kind", None)
-    if kind == "nomoto1":
-        K, T = _scalar(dynamics.K, "K"), _scalar(dynamics.T, "T")
-        return [K], [T, 1.0]
-    if kind == "nomoto2":
-        K = _scalar(dynamics.K, "K")
-        T1, T2 = _scalar(dynamics.T1, "T1"), _scalar(dynamics.T2, "T2")
-        T3 = _scalar(dynamics.T3, "T3")
-        num = [K * T3, K] if T3 != 0 else [K]
-        return num, [T1 * T2, T1 + T2, 1.0]
-    if kind == "norrbin":
-        K, T, n1 = _scalar(dynamics.K, "K"), _scalar(dynamics.T, "T"), _scalar(dynamics.n1, "n1")
-        return [K], [T, n1]
-    raise UsvidError(
-        f"to_transfer_function: model kind {kind!r} is not a response model "
-        "(expected nomoto1, nomoto2 or norrbin; linearise a 3-DOF model by identifying one)"
-    )
+    """Numerator and denominator (highest power first) of r/delta for a response model (the
+    kind's ``transfer``: Nomoto 1st/2nd order, Norrbin linearised; units K [1/s], T's [s])."""
+    kind = kind_of(dynamics)
+    if kind.transfer is None:
+        raise UsvidError(
+            f"to_transfer_function: model kind {kind.name!r} has no linear yaw response "
+            "(nomoto1, nomoto2 or norrbin; linearise a 3-DOF model by identifying one)")
+    for name, v in dynamics.values().items():
+        if not hasattr(v, "thrust") and v is not None:
+            _scalar(v, name)
+    return kind.transfer(dynamics)
 
 
 def servo_transfer_function(servo: Any, pade_order: int = 2) -> Any:

@@ -13,6 +13,9 @@ with its source:
   added mass ``A11 = 2.7 rho V^(5/3) / L^2`` (MSS ``addedMassSurge``).
 * Zhou Zhaoming et al. (1983), regression of Motora's charts (as used in the MMG literature,
   e.g. Jia & Yang, "Mathematical model of ship motion", Dalian Maritime Univ. Press 1999).
+* Kijima, K., Katsuno, T., Nakiri, Y. and Furukawa, Y. (1990), "On the manoeuvring performance
+  of a ship with the parameter of loading condition", J. Soc. Naval Arch. Japan 168, 141-148:
+  linear MMG hull derivatives (non-dimensional, prime system of the MMG model).
 
 Signs: Fossen's notation, ``X_udot, Y_vdot, ... <= 0`` are hydrodynamic derivatives and the added
 mass matrix is ``M_A = -[[X_udot, 0, 0], [0, Y_vdot, Y_rdot], [0, N_vdot, N_rdot]]``; Zhou's
@@ -31,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usvid.errors import UsvidError
 from usvid.models._validate import check_params
 
 ArrayLike = float | np.ndarray
@@ -159,8 +163,6 @@ def clarke83_added_mass(L: ArrayLike, B: ArrayLike, T: ArrayLike, Cb: ArrayLike,
     elif surge == "ten_percent":
         Xud = -0.1 * rho * vol
     else:
-        from usvid.errors import UsvidError
-
         raise UsvidError(f"clarke83_added_mass: surge must be 'soding' or 'ten_percent' "
                          f"(got {surge!r})")
     return AddedMass(X_udot=np.asarray(Xud)[()], Y_vdot=(Yvd * half * L ** 3)[()],
@@ -246,7 +248,51 @@ def zhou_added_mass(L: ArrayLike, B: ArrayLike, d: ArrayLike, Cb: ArrayLike,
     return ZhouAddedMass(m_x=mx[()], m_y=my[()], J_zz=jz[()])
 
 
+@dataclass(frozen=True)
+class MMGLinearDerivatives:
+    """Linear hull derivatives of the MMG model, non-dimensional (prime system of Yasukawa &
+    Yoshimura 2015: forces by 0.5 rho L d U^2, moments by 0.5 rho L^2 d U^2, v' = v/U,
+    r' = r L/U): Y_v, Y_r, N_v, N_r [-]."""
+
+    Y_v: ArrayLike
+    Y_r: ArrayLike
+    N_v: ArrayLike
+    N_r: ArrayLike
+
+
+def kijima1990_linear_derivatives(L: ArrayLike, B: ArrayLike, d: ArrayLike, Cb: ArrayLike, *,
+                                  m_prime: ArrayLike, m_x_prime: ArrayLike = 0.0
+                                  ) -> MMGLinearDerivatives:
+    """Linear MMG hull derivatives from main particulars (Kijima et al. 1990), even keel.
+
+    With ``k = 2 d / L`` (Kijima et al. write the drift angle beta = -v' for small angles, so
+    Y_v' = -Y_beta', N_v' = -N_beta')::
+
+        Y_v' = -(pi/2 k + 1.4 Cb B/L)
+        Y_r' = m' + m_x' - 1.5 Cb B/L
+        N_v' = -k
+        N_r' = -0.54 k + k^2
+
+    L, B [m], d [m] draught, Cb [-] block coefficient, m_prime = m / (0.5 rho L^2 d) [-],
+    m_x_prime the surge added mass on the same basis [-]. The trim terms of the original are
+    omitted (even keel). For KVLCC2 (L 7.00, B 1.27, d 0.46, Cb 0.810, m' 0.290, m_x' 0.022)
+    this gives Y_v' -0.412, Y_r' 0.092, N_v' -0.131, N_r' -0.054 against the captive-test values
+    -0.315, 0.083, -0.137, -0.049 of Yasukawa & Yoshimura (2015).
+    """
+    check_params("kijima1990", {"L": L, "B": B, "d": d, "Cb": Cb, "m_prime": m_prime,
+                                "m_x_prime": m_x_prime},
+                 positive=("L", "B", "d", "Cb", "m_prime"), nonnegative=("m_x_prime",))
+    L = np.asarray(L, dtype=float)
+    cbl = np.asarray(Cb, dtype=float) * np.asarray(B, dtype=float) / L
+    k = 2.0 * np.asarray(d, dtype=float) / L
+    Yv = -(0.5 * np.pi * k + 1.4 * cbl)
+    Yr = np.asarray(m_prime, dtype=float) + np.asarray(m_x_prime, dtype=float) - 1.5 * cbl
+    return MMGLinearDerivatives(Y_v=np.asarray(Yv)[()], Y_r=np.asarray(Yr)[()],
+                                N_v=np.asarray(-k)[()], N_r=np.asarray(-0.54 * k + k ** 2)[()])
+
+
 __all__ = [
-    "LANXIN", "AddedMass", "HullParticulars", "LinearDamping", "ZhouAddedMass",
-    "clarke83_added_mass", "clarke83_damping", "soding_surge_added_mass", "zhou_added_mass",
+    "LANXIN", "AddedMass", "HullParticulars", "LinearDamping", "MMGLinearDerivatives",
+    "ZhouAddedMass", "clarke83_added_mass", "clarke83_damping", "kijima1990_linear_derivatives",
+    "soding_surge_added_mass", "zhou_added_mass",
 ]

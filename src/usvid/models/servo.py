@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from usvid.errors import UsvidError
 from usvid.models._validate import check_params
 
 DEFAULT_MAX_ANGLE = math.radians(35.0)
@@ -28,7 +29,7 @@ class IdealServo:
 
     def __post_init__(self) -> None:
         check_params("servo", {"max_angle": self.max_angle}, positive=("max_angle",))
-        if not self.max_rate > 0:
+        if not np.all(np.asarray(self.max_rate) > 0):
             raise_bad_rate(self.max_rate)
 
     def delay_samples(self, dt: float) -> int:
@@ -53,12 +54,8 @@ class FirstOrderServo:
     def __post_init__(self) -> None:
         check_params("servo", {"T": self.T, "max_angle": self.max_angle},
                      nonnegative=("T",), positive=("max_angle",))
-        if not self.max_rate > 0:
+        if not np.all(np.asarray(self.max_rate) > 0):
             raise_bad_rate(self.max_rate)
-
-    def f(self, state: np.ndarray, delta_cmd: np.ndarray) -> np.ndarray:
-        """See :func:`first_order_servo_f`."""
-        return first_order_servo_f(state, delta_cmd, self)
 
     def delay_samples(self, dt: float) -> int:
         """Dead time in samples of dt [s] (always 0)."""
@@ -91,7 +88,7 @@ class SecondOrderServo:
                       "delay": self.delay, "max_angle": self.max_angle},
                      positive=("omega_n", "gain", "max_angle"),
                      nonnegative=("zeta", "delay"))
-        if not self.max_rate > 0:
+        if not np.all(np.asarray(self.max_rate) > 0):
             raise_bad_rate(self.max_rate)
 
     @classmethod
@@ -103,10 +100,6 @@ class SecondOrderServo:
         """
         wn = math.sqrt(a0)
         return cls(omega_n=wn, zeta=a1 / (2.0 * wn), gain=b0 / a0, delay=delay, **limits)
-
-    def f(self, state: np.ndarray, delta_cmd: np.ndarray) -> np.ndarray:
-        """See :func:`second_order_servo_f` (delta_cmd already delayed by the caller)."""
-        return second_order_servo_f(state, delta_cmd, self)
 
     def delay_samples(self, dt: float) -> int:
         """Dead time in whole samples of dt [s]: ``round(delay / dt)``."""
@@ -130,46 +123,7 @@ def seed000_servo() -> SecondOrderServo:
 
 
 def raise_bad_rate(value: float) -> None:
-    from usvid.errors import UsvidError
-
     raise UsvidError(f"servo.max_rate must be > 0 (got {value!r})")
 
 
 Servo = IdealServo | FirstOrderServo | SecondOrderServo
-
-
-def first_order_servo_f(state: np.ndarray, delta_cmd: np.ndarray,
-                        p: FirstOrderServo) -> np.ndarray:
-    """First-order servo (seed 000 eq. 11): ``delta' = (delta_cmd - delta) / T``.
-
-    state ``(..., 1)`` = (delta [rad],); delta_cmd [rad] shape ``(...)``. The rate is clipped to
-    +-max_rate [rad/s]; the angle limit is applied by the integrator (clip after each step) and
-    here by zeroing a rate that pushes past +-max_angle. T = 0 is not allowed here (ideal servo).
-    """
-    d = np.asarray(state, dtype=float)[..., 0]
-    rate = (np.asarray(delta_cmd, dtype=float) - d) / np.asarray(p.T)
-    rate = _limit(d, rate, p.max_angle, p.max_rate)
-    return rate[..., None]
-
-
-def second_order_servo_f(state: np.ndarray, delta_cmd: np.ndarray,
-                         p: SecondOrderServo) -> np.ndarray:
-    """Second-order servo (seed 000 eq. 12, seed 001 eq. 22):
-
-    ``delta'' + 2 zeta omega_n delta' + omega_n^2 delta = gain omega_n^2 delta_cmd(t - delay)``.
-    state ``(..., 2)`` = (delta [rad], delta' [rad/s]); delta_cmd [rad] is the *delayed* command.
-    The angle rate used is clipped to +-max_rate and zeroed when it pushes past +-max_angle.
-    """
-    s = np.asarray(state, dtype=float)
-    d, w = s[..., 0], s[..., 1]
-    wn = np.asarray(p.omega_n, dtype=float)
-    acc = wn**2 * (np.asarray(p.gain) * np.asarray(delta_cmd, dtype=float) - d) \
-        - 2.0 * np.asarray(p.zeta) * wn * w
-    rate = _limit(d, w, p.max_angle, p.max_rate)
-    return np.stack(np.broadcast_arrays(rate, acc), axis=-1)
-
-
-def _limit(d: np.ndarray, rate: np.ndarray, max_angle: float, max_rate: float) -> np.ndarray:
-    rate = np.clip(rate, -max_rate, max_rate)
-    out = ((d >= max_angle) & (rate > 0)) | ((d <= -max_angle) & (rate < 0))
-    return np.where(out, 0.0, rate)

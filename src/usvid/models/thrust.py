@@ -7,9 +7,9 @@ Units everywhere: thrust [N], shaft speed n [rps = rev/s], speed [m/s], lengths 
 Every function is vectorised: arguments broadcast against each other (numpy rules), a scalar in
 gives a numpy scalar out. Parameter dataclasses accept arrays over a leading batch axis.
 
-For the simulator kernels (numba ``@njit`` loops) each thrust law has a scalar twin taking plain
-floats: :func:`kt_nb`, :func:`propeller_thrust_nb`, :func:`pod_thrust_nb`, :func:`twin_thrust_nb`
-(the last one takes the coefficient arrays of :meth:`TwinThrust.nb_args`).
+For the integration core (numba) each thrust law has a scalar twin taking plain floats
+(:func:`kt_nb`, :func:`propeller_thrust_nb`, :func:`pod_thrust_nb`); :func:`thrust_nb` evaluates
+any law from its packed form (:func:`thrust_row`), which is how the model kinds read them.
 
 Seed 000 equation numbers as counted in the paper (the extracted text drops them): (1) thrust,
 (2) t_P = (P - R)/P, (3) Hollo/Holtrop t_P, (4) C_10, (5) C_stern, (6) K_T double sum (J_P defined
@@ -378,7 +378,7 @@ class TwinThrust:
         return np.asarray(Tp + Ts)[()], np.asarray((Tp - Ts) * np.asarray(b) / 2.0)[()]
 
     def nb_args(self) -> tuple[np.ndarray, np.ndarray, float, float, float, float, float]:
-        """Arguments after ``cmd`` for :func:`twin_thrust_nb`:
+        """The packed form read by :func:`thrust_nb` (:func:`thrust_row`):
         ``(fwd, rev, offset, scale, lo, hi, deadband)`` (floats and float64 arrays)."""
         if self.command == "code":
             return (self._fwd.copy(), self._rev.copy(), 0.0, self.voltage_max / self.code_max,
@@ -391,7 +391,7 @@ class TwinThrust:
 # numba scalar twins (for sim kernels)
 # ---------------------------------------------------------------------------------------------
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _kt_row_nb(k: int, J: float, P: float) -> float:
     a = _KT[k]
     J2 = J * J
@@ -400,7 +400,7 @@ def _kt_row_nb(k: int, J: float, P: float) -> float:
             + a[6] * J * P + a[7] * J2 * P + a[8] * J * P2 + a[9] * J2 * P2)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def kt_nb(J: float, P_D: float, theta: float) -> float:
     """Scalar numba twin of :func:`kt` (seed 000 eq. 9, 10, Table 2) [-]."""
     w0 = (theta - 0.8) * (theta - 1.1) / 0.18
@@ -430,35 +430,81 @@ def pod_thrust_nb(V: float, n: float, c: float, d: float) -> float:
     return c * V * n + d * abs(n) * n
 
 
-@numba.njit(cache=True)
-def _polyval_nb(coeffs: np.ndarray, x: float) -> float:
-    out = 0.0
-    for k in range(coeffs.shape[0] - 1, -1, -1):
-        out = out * x + coeffs[k]
-    return out
+# ---------------------------------------------------------------------------------------------
+# thrust laws as flat rows for the integration core
+# ---------------------------------------------------------------------------------------------
+#: Length of a thrust-law row (mode + up to 19 coefficients).
+THRUST_ROW = 20
+#: Nested thrust-law classes by their model-file ``kind`` name.
+THRUST_LAWS: dict[str, type] = {}  # filled at the end of the module
 
 
-@numba.njit(cache=True)
-def twin_thrust_nb(cmd: float, fwd: np.ndarray, rev: np.ndarray, offset: float, scale: float,
-                   lo: float, hi: float, deadband: float) -> float:
-    """Scalar numba twin of :meth:`TwinThrust.thrust` [N]; pass ``*TwinThrust.nb_args()``.
+def thrust_row(thrust: object, constant: ArrayLike | None = None) -> list[ArrayLike]:
+    """The flat row of a thrust law read by :func:`thrust_nb` (values may be (B,) arrays).
 
-    level = clip((cmd - offset) scale, lo, hi), 0 within ``deadband`` of ``offset``;
-    T = P_fwd(level) for level >= 0, -P_rev(-level) otherwise.
+    ``thrust``: a number T [N] (constant thrust), ``None`` (then ``constant`` [N] is used),
+    :class:`Propeller` (mode 1), :class:`PodThrust` (mode 2), :class:`TwinThrust` (mode 4);
+    ``("per_command", k)``: T = k c, k [N per command unit] (mode 3).
     """
-    dev = cmd - offset
-    if abs(dev) <= deadband:
-        x = 0.0
+    row: list[ArrayLike] = [0.0] * THRUST_ROW
+    if thrust is None:
+        if constant is None:
+            raise UsvidError("parameters.thrust is not set (give a thrust [N] or a thrust law)")
+        row[1] = constant
+    elif isinstance(thrust, Propeller):
+        row[0] = 1.0
+        row[1:7] = [thrust.D, thrust.pitch_ratio, thrust.disk_ratio, thrust.t_P, thrust.w_P,
+                    thrust.rho]
+    elif isinstance(thrust, PodThrust):
+        row[0] = 2.0
+        row[1:3] = [thrust.c, thrust.d]
+    elif isinstance(thrust, tuple) and thrust[0] == "per_command":
+        row[0] = 3.0
+        row[1] = thrust[1]
+    elif isinstance(thrust, TwinThrust):
+        fwd, rev, off, sc, lo, hi, db = thrust.nb_args()
+        if fwd.size > 6 or rev.size > 6:
+            raise UsvidError("twin_thrust polynomials above degree 5 are not supported")
+        row[0] = 4.0
+        row[1:8] = [float(fwd.size), float(rev.size), off, sc, lo, hi, db]  # 8.. zero-padded
+        row[8:8 + fwd.size] = list(fwd)
+        row[14:14 + rev.size] = list(rev)
+    elif hasattr(thrust, "thrust"):
+        raise UsvidError(f"thrust law {type(thrust).__name__} is not supported by the simulator "
+                         "(use a number, propeller, pod_thrust or twin_thrust)")
     else:
-        x = min(max(dev * scale, lo), hi)
-    if x >= 0.0:
-        return _polyval_nb(fwd, x)
-    return -_polyval_nb(rev, -x)
+        row[1] = thrust  # a constant thrust [N]
+    return row
+
+
+@numba.njit(cache=True, inline="always")
+def thrust_nb(t: tuple, u: float, n: float) -> float:
+    """Thrust [N] of a packed thrust law ``t`` (the THRUST_ROW values of :func:`thrust_row`,
+    as a tuple) at surge speed u [m/s] and shaft speed / command n; the formulas of
+    :meth:`Propeller.thrust`, :meth:`PodThrust.thrust` and :meth:`TwinThrust.thrust`."""
+    mode = t[0]
+    if mode == 0.0:
+        return t[1]
+    if mode == 1.0:
+        return propeller_thrust_nb(n, u, t[1], t[2], t[3], t[4], t[5], t[6])
+    if mode == 2.0:
+        return pod_thrust_nb(u, n, t[1], t[2])
+    if mode == 3.0:
+        return t[1] * n
+    dev = n - t[3]
+    x = 0.0 if abs(dev) <= t[7] else min(max(dev * t[4], t[5]), t[6])
+    ax = abs(x)
+    if x >= 0.0:  # coefficients zero-padded to degree 5
+        return t[8] + ax * (t[9] + ax * (t[10] + ax * (t[11] + ax * (t[12] + ax * t[13]))))
+    return -(t[14] + ax * (t[15] + ax * (t[16] + ax * (t[17] + ax * (t[18] + ax * t[19])))))
 
 
 __all__ = [
     "C_STERN", "KT_DISK_RATIOS", "KT_TERMS", "SEED000_TABLE2", "PodThrust", "Propeller",
     "TwinThrust", "advance_ratio", "froude_number", "hollo_thrust_deduction", "holtrop_c10",
     "kt", "kt_nb", "kt_regression", "lagrange_weights", "pod_thrust_nb", "propeller_thrust_nb",
-    "twin_thrust_nb", "wake_fraction",
+    "wake_fraction", "THRUST_ROW", "THRUST_LAWS", "thrust_row",
+    "thrust_nb",
 ]
+
+THRUST_LAWS.update(propeller=Propeller, pod_thrust=PodThrust, twin_thrust=TwinThrust)

@@ -2,10 +2,9 @@
 
 Geodetic -> local NED (:func:`to_ned`), stale GNSS fixes (:func:`drop_stale`), multi-rate
 alignment (:func:`resample`), zero-phase filtering and derivatives (:func:`savgol_derivative`),
-body velocities, the one-call :func:`prepare`, the channel :func:`audit`, manoeuvre finding
-(:func:`find_manoeuvres`), merging the logs of several loggers (:func:`merge_trials`) and
-measured manoeuvre metrics (:func:`measured_metrics`, with the
-definitions of :mod:`usvid.prep.metrics`).
+body velocities, the one-call :func:`prepare`, the channel :func:`audit` and merging the logs of
+several loggers (:func:`merge_trials`). Finding and measuring manoeuvres in a log is one layer up,
+in :mod:`usvid.manoeuvres`.
 """
 
 from usvid.prep.channel_audit import audit, position_scale
@@ -24,15 +23,15 @@ from usvid.prep.kinematics import (
     body_velocity_from_positions,
     earth_to_body,
 )
-from usvid.prep.manoeuvres import Segment, find_manoeuvres, manoeuvre_metrics, measured_metrics
 from usvid.prep.merge import merge_trials
 from usvid.prep.prepare import prepare, sort_time
 from usvid.prep.resample import infer_rate, resample
 from usvid.prep.stale import StaleReport, detect_stale, drop_stale
+from usvid.prep.state_estimation import StateEstimate, estimate_states
 
 __all__ = [
-    "Segment",
     "StaleReport",
+    "StateEstimate",
     "audit",
     "body_to_earth",
     "body_velocity_from_cog",
@@ -40,13 +39,11 @@ __all__ = [
     "detect_stale",
     "drop_stale",
     "earth_to_body",
+    "estimate_states",
     "merge_trials",
-    "find_manoeuvres",
     "geodetic_to_ned",
     "infer_rate",
     "lowpass",
-    "manoeuvre_metrics",
-    "measured_metrics",
     "position_scale",
     "prepare",
     "resample",

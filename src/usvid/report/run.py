@@ -27,8 +27,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from usvid.commands._common import to_json, write_atomic
 from usvid.errors import UsvidError
+from usvid.files import to_json, write_atomic
 from usvid.report.html import build_html, external_urls
 
 RUN_FILE = "run.json"

@@ -10,14 +10,9 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import SimulationError
-from usvid.trial import Trial, Vessel
-
-#: SI units of the recorded channels.
-CHANNEL_UNITS = {
-    "x": "m", "y": "m", "psi": "rad", "u": "m/s", "v": "m/s", "r": "rad/s", "U": "m/s",
-    "delta": "rad", "delta_cmd": "rad", "n": "rps", "n_port": "command", "n_stbd": "command",
-    "dist": "rad",
-}
+from usvid.manoeuvres.logic import Turning, ZigZag
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
+from usvid.trial import CHANNEL_UNITS, Trial, Vessel
 
 
 @dataclass
@@ -33,7 +28,7 @@ class SimResult:
         (rudder-equivalent disturbance) where relevant.
     course : dict with ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder`` [rad], each (B,),
         accumulated at every integration step (not the recorded grid). ITAE/IAE are 0 unless
-        the logic is a :class:`~usvid.sim.logic.CourseChange`.
+        the logic is a :class:`~usvid.manoeuvres.logic.CourseChange`.
     zigzag_online : dict with ``overshoot`` (B, 8) [rad] and ``reversal_t`` (B, 9) [s]
         (execute time then reversal times) tracked at every step by a ZigZag logic; NaN where
         not reached / not completed. :meth:`zigzag_metrics` is the full (interpolated) version.
@@ -48,7 +43,31 @@ class SimResult:
     logic: Any
     dt: float
     record_every: int = 1
+    status: np.ndarray | None = None
+    t_fail: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        """True when every run was integrated to its end (none diverged)."""
+        return self.status is None or not bool(np.any(self.status))
+
+    @property
+    def message(self) -> str:
+        """What happened: "ok", or which runs diverged (state not finite or |r| beyond
+        100 rad/s) and when."""
+        if self.success:
+            return "ok"
+        bad = np.flatnonzero(self.status)
+        first = int(bad[0])
+        tf = float(self.t_fail[first]) if self.t_fail is not None else float("nan")
+        return (f"{bad.size} of {self.batch_size} run(s) diverged (state not finite or |r| > "
+                f"100 rad/s), the first (run {first}) at t = {tf:.3g} s; the step dt = "
+                f"{self.dt:g} s may be too large for the model, or the model unstable")
+
+    def units(self) -> dict[str, str]:
+        """SI unit of every recorded channel."""
+        return {k: CHANNEL_UNITS.get(k, "") for k in self.channels}
 
     @property
     def batch_size(self) -> int:
@@ -75,10 +94,8 @@ class SimResult:
 
     # --- metrics --------------------------------------------------------------------------
     def zigzag_metrics(self, **kw: Any) -> list[Any]:
-        """One :class:`usvid.prep.metrics.ZigZagMetrics` per run (needs psi, delta recorded)."""
-        from usvid.prep.metrics import zigzag_metrics
-        from usvid.sim.logic import ZigZag
-
+        """One :class:`usvid.manoeuvres.metrics.ZigZagMetrics` per run (needs psi, delta
+        recorded)."""
         out = []
         for i in range(self.batch_size):
             args: dict[str, Any] = {}
@@ -87,6 +104,8 @@ class SimResult:
                         "psi_switch": self._logic_value("psi_switch", i),
                         "t_execute": self._logic_value("t_start", i),
                         "first": int(self._logic_value("first", i))}
+                if self.logic.psi_ref is not None:
+                    args["psi_ref"] = self._logic_value("psi_ref", i)
             if "x" in self.channels and "y" in self.channels:
                 args.update(x=self.channels["x"][i], y=self.channels["y"][i])
             args.update(kw)
@@ -95,10 +114,7 @@ class SimResult:
         return out
 
     def turning_metrics(self, **kw: Any) -> list[Any]:
-        """One :class:`usvid.prep.metrics.TurningMetrics` per run (needs x, y, psi)."""
-        from usvid.prep.metrics import turning_metrics
-        from usvid.sim.logic import Turning
-
+        """One :class:`usvid.manoeuvres.metrics.TurningMetrics` per run (needs x, y, psi)."""
         out = []
         for i in range(self.batch_size):
             args: dict[str, Any] = {}

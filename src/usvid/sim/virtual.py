@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import SimulationError
+from usvid.io.modelfile import model_to_dict
 from usvid.trial import Trial, Vessel
 
 __all__ = ["SensorModel", "virtual_trial", "virtual_trial_uniform", "run_channels"]
@@ -231,8 +232,6 @@ def virtual_trial(source: Any, sensors: SensorModel | None = None, seed: int = 0
     truth_file: dict[str, Any] | None = None
     if member is not None:
         try:
-            from usvid.modelfile import model_to_dict
-
             truth_file = model_to_dict(member)
         except Exception:  # not a VesselModel, or not writable as one file: keep the object only
             truth_file = None

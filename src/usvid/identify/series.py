@@ -1,0 +1,154 @@
+"""A trial as the arrays identification needs: one uniform grid, smoothed states, derivatives.
+
+:func:`trial_series` takes a :class:`usvid.Trial` (SI channels) and returns a :class:`Series`
+with the measured channels the model kind needs (its inputs and outputs), the Savitzky-Golay
+smoothed states ``<name>_s`` and derivatives ``<name>dot_s`` (cubic, window ``smooth_s``), the
+unwrapped heading, and the kind's own regressors (e.g. forces from the thrust law:
+``ModelKind.series``). Missing samples are interpolated linearly with a warning; more than 20 %
+missing, or a channel the kind needs absent, is an :class:`IdentificationError` naming the trial
+and the channel.
+
+Why the rudder is smoothed too: the regression sees both sides of each equation through one
+linear filter (smoothing r alone biases T by about +3 % on a noise-free zig-zag).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from usvid.errors import IdentificationError
+from usvid.models.kind import ModelKind
+from usvid.prep.filters import savgol_derivative, unwrap_angle, window_samples
+
+#: Fewest samples of a trial for identification.
+MIN_SAMPLES = 20
+
+
+class IdentificationWarning(UserWarning):
+    """The data were repaired or the estimate is weak (interpolated gaps, resampled grid,
+    poorly determined parameters)."""
+
+
+@dataclass
+class Series:
+    """One trial on a uniform grid of step ``h`` [s]: name -> 1-D array (SI units).
+
+    Measured ``t`` [s], ``psi`` [rad, unwrapped], ``r`` [rad/s], ``delta`` [rad], ``u``, ``v``
+    [m/s], ``n`` [rps], ``n_port``, ``n_stbd`` (as present); smoothed ``*_s`` and derivatives
+    ``*dot_s``; kind regressors (``tau_u`` [N], ``tau_r`` [N m], ...).
+    """
+
+    name: str
+    h: float
+    data: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __getitem__(self, k: str) -> np.ndarray:
+        return self.data[k]
+
+    def __contains__(self, k: str) -> bool:
+        return k in self.data
+
+    def __len__(self) -> int:
+        return len(self.data["t"])
+
+    def decimated(self, m: int) -> Series:
+        """Every m-th sample (step m h)."""
+        return Series(self.name, self.h * m, {k: v[::m] for k, v in self.data.items()})
+
+
+def _channel(trial: Any, ch: str, name: str, t: np.ndarray, tg: np.ndarray) -> np.ndarray:
+    x = trial[ch]
+    bad = ~np.isfinite(x)
+    nbad = int(bad.sum())
+    if nbad:
+        frac = nbad / len(x)
+        if frac > 0.2 or nbad > len(x) - 2:
+            raise IdentificationError(
+                f"trial {name}: channel '{ch}' has {nbad} of {len(x)} samples NaN/inf "
+                f"({100 * frac:.0f} %); repair or cut the log before identification")
+        warnings.warn(f"trial {name}: channel '{ch}' has {nbad} NaN/inf samples; interpolated "
+                      "linearly", IdentificationWarning, stacklevel=4)
+        x = np.interp(t, t[~bad], x[~bad])
+    if tg is not t:
+        x = np.interp(tg, t, x)
+    return x
+
+
+def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
+                 fixed: Mapping[str, Any] | None = None) -> Series:
+    """The arrays of ``kind`` from a :class:`usvid.Trial` on a uniform grid (module docstring).
+
+    ``fixed``: the kind's particulars (thrust law, lever arm, ...) for its own regressors.
+    """
+    name = trial.name or (trial.sources[0] if trial.sources else "?")
+    if len(trial) < MIN_SAMPLES:
+        raise IdentificationError(f"trial {name}: too short for identification ({len(trial)} "
+                                  f"samples, need >= {MIN_SAMPLES})")
+    t = np.asarray(trial.t, dtype=float)
+    if not np.all(np.diff(t) > 0):
+        raise IdentificationError(f"trial {name}: time stamps must be strictly increasing")
+    dt = np.diff(t)
+    h = float(np.median(dt))
+    tg = t
+    if np.max(np.abs(dt - h)) > 0.01 * h:
+        warnings.warn(f"trial {name}: time grid not uniform; resampled linearly to "
+                      f"{1 / h:.3g} Hz", IdentificationWarning, stacklevel=3)
+        tg = t[0] + h * np.arange(int(math.floor((t[-1] - t[0]) / h)) + 1)
+    win = window_samples(smooth_s, h)
+    if tg[-1] - tg[0] < 3 * smooth_s or len(tg) < 2 * win:
+        raise IdentificationError(
+            f"trial {name}: too short for identification ({tg[-1] - tg[0]:.1f} s; need at "
+            f"least {max(3 * smooth_s, 2 * win * h):.1f} s with smoothing window {smooth_s} s)")
+    d: dict[str, np.ndarray] = {"t": tg}
+
+    def need(ch: str) -> np.ndarray:
+        if ch in trial.channels and not trial.has(ch):
+            raise IdentificationError(
+                f"trial {name}: channel '{ch}' (needed by model '{kind.name}') has no finite "
+                f"sample (all {len(trial)} NaN/inf); check its column in the format spec")
+        if not trial.has(ch):
+            raise IdentificationError(
+                f"trial {name}: model '{kind.name}' needs channel '{ch}' (present: "
+                f"{', '.join(trial.channels) or 'none'})")
+        return _channel(trial, ch, name, t, tg)
+
+    def sg(x: np.ndarray, deriv: int = 0) -> np.ndarray:
+        return savgol_derivative(x, h, smooth_s, 3, deriv=deriv)
+
+    needs = set(kind.regression.needs if kind.regression else ()) | set(kind.outputs)
+    if kind.constant_speed or "delta" in needs:
+        needs.add("delta")
+    for ch in ("delta", "n", "n_port", "n_stbd", "u", "v", "thrust", "tau_u", "tau_r",
+               "T_port", "T_stbd"):
+        if ch in needs or (ch in kind.inputs and trial.has(ch)) or (
+                ch in ("thrust", "tau_u", "tau_r", "T_port", "T_stbd") and trial.has(ch)):
+            d[ch] = need(ch)
+    if "delta" in d:
+        d["delta_s"] = sg(d["delta"])
+    if trial.has("psi"):
+        d["psi"] = unwrap_angle(need("psi"))
+    if trial.has("r"):
+        d["r"] = need("r")
+    elif "psi" in d:
+        d["r"] = sg(d["psi"], 1)
+    else:
+        raise IdentificationError(f"trial {name}: needs channel 'r' or 'psi' (present: "
+                                  f"{', '.join(trial.channels) or 'none'})")
+    if "psi" not in d:
+        d["psi"] = np.concatenate([[0.0], np.cumsum(0.5 * h * (d["r"][1:] + d["r"][:-1]))])
+    d["r_s"] = sg(d["r"])
+    d["rdot_s"] = sg(d["r"], 1)
+    d["psi_s"] = sg(d["psi"])
+    for ch in ("u", "v"):
+        if ch in d:
+            d[ch + "_s"] = sg(d[ch])
+            d[ch + "dot_s"] = sg(d[ch], 1)
+    if kind.series is not None:
+        kind.series(d, fixed or {})
+    return Series(name=name, h=h, data=d)

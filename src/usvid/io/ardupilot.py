@@ -1,0 +1,634 @@
+"""ArduPilot logs: DataFlash (``.bin`` binary, ``.log`` text) and MAVLink telemetry logs
+(``.tlog``), read through ``pymavlink`` (optional extra ``usvid[ardupilot]``); a tlog writer through
+pymavlink and a minimal DataFlash writer following the ArduPilot "DataFlash log format"
+documentation (pymavlink cannot write DataFlash logs), used for tests and benchmarks.
+
+DataFlash (binary): a stream of messages ``A3 95 <type> <payload>`` whose layouts are declared by
+``FMT`` messages (type 128: type, length, name, format characters, column names). pymavlink's
+``DFReader_binary`` indexes the file (the offset of every message per type, the formats with their
+struct layouts and multipliers); usvid then decodes each wanted type in one numpy step from that
+index (the library's layouts and multipliers, no Python loop per record) -- the tests check the
+values against pymavlink's own per-message decoding. Text logs go through ``DFReader_text``.
+Spec columns name a message (``GPS``, ``ATT``, ``IMU``, ``RCOU``, ``STER``, ``ESC``...) and a column
+(``Lat``, ``Yaw``, ``GyrZ``, ``C1``...); values carry pymavlink's multipliers (``Lat`` in degrees,
+``ATT.Yaw`` in degrees). ``instance`` filters on the message's instance column (``I`` /
+``Instance``). Time: ``TimeUS`` [us since boot]; GPS week and milliseconds (``GWk``/``GMS``) tie it
+to UTC (``meta["t0_utc"]``, GPS - UTC = 18 s).
+
+MAVLink tlog: records of an 8-byte big-endian receive time [us since 1970] followed by one
+MAVLink 1 or 2 packet; pymavlink parses them (checksums checked) one by one, the library's own
+loop. Columns name a MAVLink message (``GLOBAL_POSITION_INT``, ``ATTITUDE``, ``GPS_RAW_INT``,
+``SERVO_OUTPUT_RAW``, ``ESC_TELEMETRY_1_TO_4``...) and a field (``lat``, ``yaw``, ``rpm[0]``);
+values are as on the wire (``lat`` in 1e-7 deg: use ``scale``). Time: the record's receive time.
+
+Frames: ArduPilot works in NED / FRD, so ``ATT.Yaw``, ``ATTITUDE.yaw`` are headings and ``GyrZ`` /
+``yawspeed`` clockwise yaw rates as the Trial's. Rejected records: ``bad_header`` (DataFlash
+bytes skipped to resynchronise), ``truncated`` (a message cut by the end of the file),
+``unknown_type`` (a message type without a FMT: the rest of the log cannot be framed, a warning
+finding says so), ``bad_data`` (tlog bytes that are not a valid MAVLink packet: checksum, unknown
+message id, garbage).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import re
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from usvid.errors import LogReadError
+from usvid.files import write_atomic
+from usvid.io._binlog import interleave, records
+from usvid.io._messages import (
+    ReadState,
+    Series,
+    build_trial,
+    get_path,
+    missing_field,
+    missing_topic,
+    path_steps,
+    require,
+)
+from usvid.io.spec import ColumnSpec, FormatSpec
+from usvid.io.writers import channel_or_none, log_start_epoch
+from usvid.trial import Finding, Trial
+
+DF_HEAD = b"\xa3\x95"
+GPS_EPOCH = 315_964_800  # 1980-01-06 in Unix seconds
+GPS_UTC_LEAP_S = 18  # GPS - UTC since 2017-01-01
+_STRUCT_NP = {"b": "i1", "B": "u1", "h": "<i2", "H": "<u2", "i": "<i4", "I": "<u4", "q": "<i8",
+              "Q": "<u8", "f": "<f4", "d": "<f8", "e": "<f2"}
+
+
+def is_dataflash_bin(head: bytes) -> bool:
+    """True when ``head`` starts with a DataFlash FMT message (``A3 95 80``)."""
+    return head[:3] == DF_HEAD + b"\x80"
+
+
+def is_dataflash_text(head: bytes) -> bool:
+    """True when ``head`` is a text DataFlash log (first line ``FMT, 128, 89, FMT, ...``)."""
+    return head.lstrip().startswith(b"FMT,") and b"FMT" in head[:200]
+
+
+def is_tlog(head: bytes) -> bool:
+    """True when ``head`` looks like a MAVLink tlog: an 8-byte time stamp (1990..2100) followed
+    by a MAVLink 1 (0xFE) or 2 (0xFD) packet start."""
+    if len(head) < 10:
+        return False
+    (us,) = struct.unpack(">Q", head[:8])
+    return 6.3e14 < us < 4.1e15 and head[8] in (0xFE, 0xFD)
+
+
+def _quiet() -> contextlib.ExitStack:
+    stack = contextlib.ExitStack()
+    buf = io.StringIO()
+    stack.enter_context(contextlib.redirect_stdout(buf))
+    stack.enter_context(contextlib.redirect_stderr(buf))
+    stack.buf = buf  # type: ignore[attr-defined]
+    return stack
+
+
+def _np_dtype(msg_struct: str) -> np.dtype:
+    """numpy dtype of a DataFlash struct layout (``"<QBiiffH"``, strings ``"16s"``)."""
+    fields = []
+    for k, (n, c) in enumerate(re.findall(r"(\d*)([a-zA-Z])", msg_struct.lstrip("<>=!@"))):
+        if c == "s":
+            fields.append((f"f{k}", f"S{int(n or 1)}"))
+        else:
+            fields.append((f"f{k}", _STRUCT_NP[c]))
+    return np.dtype(fields)
+
+
+# ----------------------------------------------------------------------------------------------
+# DataFlash reader
+# ----------------------------------------------------------------------------------------------
+def read_dataflash(path: str | Path, spec: FormatSpec) -> Trial:
+    """Read an ArduPilot DataFlash log (``.bin`` or text ``.log``) into a multi-rate Trial.
+
+    Raises :class:`LogReadError` (one line naming the file, message and field) when the file is
+    not a DataFlash log, a message or column of the spec is missing, or no sample is usable.
+    """
+    require("dataflash")
+    path = Path(path)
+    with open(path, "rb") as fh:
+        head = fh.read(256)
+    if is_dataflash_bin(head):
+        return _read_df_binary(path, spec)
+    if is_dataflash_text(head):
+        return _read_df_text(path, spec)
+    raise LogReadError(f"{path}: not an ArduPilot DataFlash log (no FMT message at the start)")
+
+
+def _df_index(path: Path) -> tuple[Any, ReadState]:
+    from pymavlink import DFReader
+
+    state = ReadState()
+    with _quiet() as q:
+        try:
+            dfr = DFReader.DFReader_binary(str(path))
+        except Exception as exc:  # pymavlink raises struct/Index/Key errors on damaged logs
+            raise LogReadError(f"{path}: not a readable DataFlash log ({type(exc).__name__}: "
+                               f"{' '.join(str(exc).split())[:120]})") from None
+    text = q.buf.getvalue()  # type: ignore[attr-defined]
+    nbad = text.count("bad header")
+    if nbad:
+        state.reject("bad_header", nbad)
+    if "unknown msg type" in text:
+        state.reject("unknown_type")
+        state.findings.append(Finding(
+            "warning", "log_damaged",
+            f"{path.name}: a message of a type without FMT definition; the log cannot be framed "
+            "past it and the rest is not read", count=1))
+    return dfr, state
+
+
+def _gps_epoch_ns(time_us: np.ndarray, gwk: np.ndarray, gms: np.ndarray) -> int | None:
+    ok = np.flatnonzero((gwk > 0) & (time_us > 0))
+    if not len(ok):
+        return None
+    k = int(ok[0])
+    utc_us = ((GPS_EPOCH - GPS_UTC_LEAP_S + int(gwk[k]) * 604800) * 10**6
+              + int(gms[k]) * 1000)
+    return (utc_us - int(time_us[k])) * 1000
+
+
+def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
+    dfr, state = _df_index(path)
+    try:
+        buf = np.frombuffer(dfr.data_map, dtype=np.uint8)
+        decoded: dict[str, dict[str, np.ndarray]] = {}
+
+        def decode(name: str) -> dict[str, np.ndarray] | None:
+            if name in decoded:
+                return decoded[name]
+            tid = dfr.name_to_id.get(name)
+            if tid is None or not dfr.offsets[tid]:
+                return None
+            fmt = dfr.formats[tid]
+            offs = np.asarray(dfr.offsets[tid], dtype=np.int64)
+            body = fmt.len - 3
+            cut = offs + fmt.len > len(buf)
+            if cut.any():
+                state.reject("truncated", int(cut.sum()))
+                offs = offs[~cut]
+            dt = _np_dtype(fmt.msg_struct)
+            if dt.itemsize != body:
+                raise LogReadError(f"{path}: FMT of {name}: format '{fmt.format}' is "
+                                   f"{dt.itemsize} bytes but the message is {body}")
+            rows = np.ascontiguousarray(buf[offs[:, None] + 3 + np.arange(body)])
+            arr = rows.view(dt).ravel()
+            out = {}
+            for k, c in enumerate(fmt.columns):
+                v = arr[f"f{k}"]
+                if v.dtype.kind == "S":
+                    continue
+                mult = fmt.msg_mults[k]
+                out[c] = v.astype(float) * mult if mult is not None else v
+            decoded[name] = out
+            return out
+
+        series = []
+        for col in spec.columns.values():
+            d = decode(col.topic)
+            if d is None:
+                if col.optional:
+                    continue
+                raise missing_topic(path, spec, col, [n for n, i in dfr.name_to_id.items()
+                                                      if dfr.offsets[i]], what="message")
+            series.append(_series(path, spec, col, d))
+        epoch = None
+        gps = decode("GPS")
+        if gps is not None and {"GWk", "GMS", "TimeUS"} <= set(gps):
+            epoch = _gps_epoch_ns(gps["TimeUS"], gps["GWk"], gps["GMS"])
+    finally:
+        buf = None
+        with contextlib.suppress(Exception):
+            dfr.filehandle.close()
+    return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
+
+
+def _time_ns(path: Path, col: ColumnSpec, d: dict[str, np.ndarray]) -> np.ndarray:
+    if "TimeUS" in d:
+        return np.asarray(d["TimeUS"], dtype=np.int64) * 1000
+    if "TimeMS" in d:
+        return np.asarray(d["TimeMS"], dtype=np.int64) * 1_000_000
+    raise LogReadError(f"{path}: message {col.topic} has no TimeUS / TimeMS column")
+
+
+def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: dict[str, np.ndarray]) -> Series:
+    """One column of a decoded DataFlash message type (arrays per column)."""
+    t = _time_ns(path, col, d)
+    keep = np.ones(len(t), dtype=bool)
+    if col.instance is not None:
+        icol = next((c for c in ("I", "Instance", "C", "Id") if c in d), None)
+        if icol is None:
+            raise LogReadError(f"{path}: {spec.source}: columns.{col.name}.instance: message "
+                               f"{col.topic} has no instance column (I / Instance)")
+        keep = np.asarray(d[icol]) == col.instance
+    f = str(col.col)
+    if col.conversion in ("speed", "course"):
+        names = [f"{f}X", f"{f}Y"] if f"{f}X" in d else [f"{f}[0]", f"{f}[1]"]
+    elif col.conversion == "yaw":
+        names = [f"{f}{i}" for i in range(1, 5)]
+    else:
+        names = [f]
+    if any(n not in d for n in names):
+        raise missing_field(path, spec, col, "DataFlash message", sorted(d))
+    raw = np.column_stack([np.asarray(d[n], dtype=float)[keep] for n in names])
+    return Series(col, t[keep], raw if raw.shape[1] > 1 else raw[:, 0])
+
+
+def _read_df_text(path: Path, spec: FormatSpec) -> Trial:
+    from pymavlink import DFReader
+
+    state = ReadState()
+    with _quiet():
+        try:
+            dfr = DFReader.DFReader_text(str(path))
+        except Exception as exc:  # noqa: BLE001
+            raise LogReadError(f"{path}: not a readable DataFlash text log "
+                               f"({type(exc).__name__})") from None
+    names = sorted({c.topic for c in spec.columns.values()} | {"GPS"})
+    got: dict[str, dict[str, list]] = {n: {} for n in names}
+    with _quiet():
+        while True:
+            try:
+                m = dfr.recv_match(type=names)
+            except Exception:  # noqa: BLE001 - a line that does not parse
+                state.reject("bad_record")
+                continue
+            if m is None:
+                break
+            cols = got[m.get_type()]
+            for k in m.get_fieldnames():
+                cols.setdefault(k, []).append(getattr(m, k, math.nan))
+    decoded = {}
+    for n, cols in got.items():
+        if not cols:
+            continue
+        d = {}
+        for k, v in cols.items():
+            try:
+                d[k] = np.asarray(v, dtype=float)
+            except (TypeError, ValueError):
+                continue
+        decoded[n] = d
+    series = []
+    for col in spec.columns.values():
+        d = decoded.get(col.topic)
+        if d is None:
+            if col.optional:
+                continue
+            raise missing_topic(path, spec, col, list(dfr.name_to_id), what="message")
+        series.append(_series(path, spec, col, d))
+    epoch = None
+    gps = decoded.get("GPS")
+    if gps is not None and {"GWk", "GMS", "TimeUS"} <= set(gps):
+        epoch = _gps_epoch_ns(gps["TimeUS"], gps["GWk"], gps["GMS"])
+    return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
+
+
+def servo1_function(path: Path, reader: str) -> float | None:
+    """The log's SERVO1_FUNCTION parameter (26 ground steering, 73 left throttle...) from the
+    DataFlash ``PARM`` messages or the tlog's ``PARAM_VALUE`` (first 20000 messages), or None."""
+    require(reader)
+    with open(path, "rb") as fh:
+        head = fh.read(3)
+    if reader == "dataflash" and is_dataflash_bin(head):
+        dfr, _ = _df_index(Path(path))
+        try:
+            tid = dfr.name_to_id.get("PARM")
+            if tid is None:
+                return None
+            with _quiet():
+                dfr._rewind()
+                while True:
+                    m = dfr.recv_match(type="PARM")
+                    if m is None:
+                        return None
+                    if m.Name == "SERVO1_FUNCTION":
+                        return float(m.Value)
+        finally:
+            with contextlib.suppress(Exception):
+                dfr.filehandle.close()
+    from pymavlink import mavutil
+
+    with _quiet():
+        if reader == "dataflash":
+            mlog = mavutil.mavlink_connection(str(path))
+            want, key, val = "PARM", "Name", "Value"
+        else:
+            mlog = mavutil.mavlink_connection(str(path), notimestamps=False)
+            want, key, val = "PARAM_VALUE", "param_id", "param_value"
+        try:
+            for _ in range(20000):
+                try:
+                    m = mlog.recv_msg()
+                except Exception:  # noqa: BLE001
+                    continue
+                if m is None:
+                    return None
+                if m.get_type() == want and getattr(m, key, "") == "SERVO1_FUNCTION":
+                    return float(getattr(m, val))
+        finally:
+            with contextlib.suppress(Exception):
+                mlog.close()
+    return None
+
+
+# ----------------------------------------------------------------------------------------------
+# MAVLink tlog reader
+# ----------------------------------------------------------------------------------------------
+def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
+    """Read a MAVLink telemetry log (``.tlog``) into a multi-rate Trial (SI units, radians).
+
+    Raises :class:`LogReadError` (one line naming the file, message and field) when the file is
+    not a tlog, a message or field of the spec is missing, or no sample is usable.
+    """
+    require("tlog")
+    from pymavlink import mavutil
+
+    path = Path(path)
+    with open(path, "rb") as fh:
+        head = fh.read(16)
+    if not is_tlog(head):
+        raise LogReadError(f"{path}: not a MAVLink telemetry log (no time stamp + MAVLink packet "
+                           "at the start)")
+    state = ReadState()
+    by_type: dict[str, list[tuple[ColumnSpec, list]]] = {}
+    for col in spec.columns.values():
+        by_type.setdefault(col.topic, []).append((col, path_steps(str(col.col))))
+    stamps: dict[str, list[int]] = {k: [] for k in by_type}
+    values: dict[str, list] = {c.name: [] for c in spec.columns.values()}
+    seen: dict[str, int] = {}
+    checked: set[str] = set()
+    with _quiet():
+        mlog = mavutil.mavlink_connection(str(path), notimestamps=False, robust_parsing=True)
+        try:
+            while True:
+                try:
+                    m = mlog.recv_msg()
+                except Exception:  # noqa: BLE001 - pymavlink on a damaged packet
+                    state.reject("bad_data")
+                    continue
+                if m is None:
+                    break
+                typ = m.get_type()
+                seen[typ] = seen.get(typ, 0) + 1
+                if typ == "BAD_DATA":
+                    state.reject("bad_data")
+                    continue
+                getters = by_type.get(typ)
+                if getters is None:
+                    continue
+                if typ not in checked:
+                    _check_mav(path, spec, m, getters)
+                    checked.add(typ)
+                stamps[typ].append(int(round(m._timestamp * 1e6)) * 1000)
+                for col, st in getters:
+                    values[col.name].append(_mav_raw(m, st, col))
+            left = mlog.mav.buf_len() if hasattr(mlog.mav, "buf_len") else 0
+            if left:  # a packet cut by the end of the file
+                state.reject("truncated")
+        finally:
+            with contextlib.suppress(Exception):
+                mlog.close()
+    series = []
+    for typ, getters in by_type.items():
+        t = np.asarray(stamps[typ], dtype=np.int64)
+        for col, _ in getters:
+            if not len(t):
+                if col.optional:
+                    continue
+                raise missing_topic(path, spec, col, [k for k in seen if k != "BAD_DATA"],
+                                    what="message")
+            raw = np.asarray(values[col.name], dtype=float)
+            series.append(Series(col, t, raw))
+    return build_trial(path, spec, series, state, reader="tlog", clock_epoch_ns=0)
+
+
+def _mav_raw(m: Any, steps: list, col: ColumnSpec) -> float | tuple[float, ...]:
+    try:
+        v = get_path(m, steps)
+        if col.conversion == "yaw":
+            return tuple(float(x) for x in v)
+        return float(v)
+    except (AttributeError, IndexError, TypeError, ValueError):
+        return math.nan
+
+
+def _check_mav(path: Path, spec: FormatSpec, m: Any, getters: list) -> None:
+    for col, steps in getters:
+        try:
+            get_path(m, steps)
+        except (AttributeError, IndexError, TypeError):
+            raise missing_field(path, spec, col, f"MAVLink {m.get_type()}",
+                                list(m.get_fieldnames())) from None
+
+
+# ----------------------------------------------------------------------------------------------
+# writers
+# ----------------------------------------------------------------------------------------------
+#: Full rudder deflection of the ArduPilot presets (steering output +-4500 / PWM +-400 us) [deg].
+SERVO_FULL_DEG = 35.0
+#: DataFlash messages written by :func:`write_dataflash`: name -> (type id, format, columns).
+DF_MESSAGES = {
+    "PARM": (64, "QNff", "TimeUS,Name,Value,Default"),
+    "GPS": (65, "QBBIHBcLLeffffB", "TimeUS,I,Status,GMS,GWk,NSats,HDop,Lat,Lng,Alt,Spd,GCrs,VZ,"
+                                   "Yaw,U"),
+    "ATT": (66, "QccccCCCCB", "TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw,ErrRP,ErrYaw,AEKF"),
+    "IMU": (67, "QBffffff", "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ"),
+    "RCOU": (68, "QHHHHHHHHHHHHHH", "TimeUS,C1,C2,C3,C4,C5,C6,C7,C8,C9,C10,C11,C12,C13,C14"),
+    "STER": (69, "Qhhffff", "TimeUS,SteerIn,SteerOut,DesLatAcc,LatAcc,DesTurnRate,TurnRate"),
+    "ESC": (70, "QBeeffcfcf", "TimeUS,Instance,RPM,RawRPM,Volt,Curr,Temp,CTot,MotTemp,Err"),
+}
+_DF_CHAR = {"a": "64s", "b": "b", "B": "B", "h": "h", "H": "H", "i": "i", "I": "I", "f": "f",
+            "d": "d", "n": "4s", "N": "16s", "Z": "64s", "c": "h", "C": "H", "e": "i", "E": "I",
+            "L": "i", "M": "B", "q": "q", "Q": "Q"}
+
+
+def _df_dtype(fmt: str, columns: str) -> np.dtype:
+    return np.dtype([(c, _STRUCT_NP.get(_DF_CHAR[f], None) or f"S{_DF_CHAR[f][:-1]}")
+                     for f, c in zip(fmt, columns.split(","), strict=True)])
+
+
+def dataflash_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool = False,
+                    boot_offset_s: float = 100.0) -> bytes:
+    """The bytes of :func:`write_dataflash` (see there)."""
+    e0 = log_start_epoch(trial, t0_utc)
+    n = len(trial.t)
+    t_us = np.round((trial.t + boot_offset_s) * 1e6).astype(np.int64)
+    ch = {k: channel_or_none(trial, k) for k in
+          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "delta_cmd", "n", "n_port",
+           "n_stbd")}
+    if ch["sog"] is None:
+        ch["sog"] = channel_or_none(trial, "U")
+    nanv = np.full(n, np.nan)
+
+    def col(k: str) -> np.ndarray:
+        return ch[k] if ch[k] is not None else nanv
+
+    def fin(*keys: str) -> np.ndarray:
+        m = np.ones(n, dtype=bool)
+        for k in keys:
+            m &= np.isfinite(col(k))
+        return m
+
+    full = math.radians(SERVO_FULL_DEG)
+    gps_s = (e0 + trial.t) - (GPS_EPOCH - GPS_UTC_LEAP_S)
+    gwk = np.floor(gps_s / 604800).astype(np.int64)
+    gms = np.round((gps_s - gwk * 604800) * 1000).astype(np.int64)
+    msgs: dict[str, tuple[np.ndarray, dict]] = {
+        "GPS": (fin("lat", "lon"), {
+            "Status": 3, "GMS": gms, "GWk": gwk, "NSats": 12, "HDop": 80,
+            "Lat": np.round(np.nan_to_num(col("lat")) * 1e7),
+            "Lng": np.round(np.nan_to_num(col("lon")) * 1e7),
+            "Spd": col("sog"), "GCrs": np.degrees(col("cog")) % 360.0}),
+        "ATT": (fin("psi"), {"Yaw": np.round(np.degrees(np.nan_to_num(col("psi")) % (2 * np.pi))
+                                              * 100) % 36000}),
+        "IMU": (fin("r"), {"GyrZ": col("r"), "AccZ": -9.81}),
+    }
+    steer_out = np.round(np.clip(np.nan_to_num(col("delta")) / full, -1, 1) * 4500)
+    steer_in = np.round(np.clip(np.nan_to_num(col("delta_cmd")) / full, -1, 1) * 4500)
+    msgs["STER"] = (fin("delta"), {"SteerOut": steer_out, "SteerIn": steer_in})
+    rc = {f"C{i}": 1500 for i in range(1, 15)}
+    if skid_steer:
+        rc["C1"] = np.round(1500 + 400 * np.clip(np.nan_to_num(col("n_port")), -1, 1))
+        rc["C3"] = np.round(1500 + 400 * np.clip(np.nan_to_num(col("n_stbd")), -1, 1))
+        msgs["RCOU"] = (fin("n_port") | fin("n_stbd"), rc)
+    else:
+        rc["C1"] = np.round(1500 + 400 * np.clip(np.nan_to_num(col("delta")) / full, -1, 1))
+        msgs["RCOU"] = (fin("delta"), rc)
+    msgs["ESC"] = (fin("n"), {"Instance": 0, "RPM": np.round(np.nan_to_num(col("n")) * 6000)})
+    out = []
+    fmt_dt = np.dtype([("h1", "u1"), ("h2", "u1"), ("type", "u1"), ("Type", "u1"),
+                       ("Length", "u1"), ("Name", "S4"), ("Format", "S16"), ("Columns", "S64")])
+    fmts = [("FMT", 128, "BBnNZ", "Type,Length,Name,Format,Columns"),
+            *((k, tid, f, c) for k, (tid, f, c) in DF_MESSAGES.items())]
+    for name, tid, f, c in fmts:
+        ln = 3 + (_df_dtype(f, c).itemsize if name != "FMT" else 86)
+        out.append(records(fmt_dt, {"h1": 0xA3, "h2": 0x95, "type": 128, "Type": tid,
+                                    "Length": ln, "Name": name.encode(), "Format": f.encode(),
+                                    "Columns": c.encode()}, 1).tobytes())
+    parts = []
+    hdr = [("h1", "u1"), ("h2", "u1"), ("type", "u1")]
+    params = [("FRAME_CLASS", 2.0), ("SERVO1_FUNCTION", 73.0 if skid_steer else 26.0),
+              ("SERVO3_FUNCTION", 74.0 if skid_steer else 70.0)]
+    tid, f, c = DF_MESSAGES["PARM"]
+    pdt = np.dtype(hdr + list(_df_dtype(f, c).descr))
+    parts.append((np.zeros(len(params), dtype=np.int64), records(pdt, {
+        "h1": 0xA3, "h2": 0x95, "type": tid, "TimeUS": 0,
+        "Name": np.array([p[0].encode() for p in params]),
+        "Value": np.array([p[1] for p in params]), "Default": 0.0}, len(params))))
+    for name, (mask, vals) in msgs.items():
+        tid, f, c = DF_MESSAGES[name]
+        dt = np.dtype(hdr + list(_df_dtype(f, c).descr))
+        idx = np.flatnonzero(mask)
+        v = {"h1": 0xA3, "h2": 0x95, "type": tid, "TimeUS": t_us[idx]}
+        for k, a in vals.items():
+            v[k] = a[idx] if isinstance(a, np.ndarray) else a
+        parts.append((t_us[idx], records(dt, v, len(idx))))
+    return b"".join(out) + interleave(parts)
+
+
+def write_dataflash(trial: Trial, path: str | Path, *, t0_utc: str | None = None,
+                    skid_steer: bool = False) -> Path:
+    """Write a Trial as an ArduPilot DataFlash ``.bin`` log in the layout of the
+    ``ardupilot_rover`` (or, with ``skid_steer``, ``ardupilot_skid_steer``) preset (atomically).
+
+    Follows the ArduPilot DataFlash log format (FMT messages first, then ``A3 95 type payload``
+    messages, little-endian, multipliers of the format characters). Messages: ``PARM``
+    (FRAME_CLASS = 2 boat, SERVO1/3_FUNCTION: 26/70 ground steering + throttle, or 73/74 left /
+    right throttle), ``GPS`` (``Lat``/``Lng`` 1e-7 deg, ``Spd`` = ``sog`` or ``U``, ``GCrs`` [deg],
+    ``GWk``/``GMS`` from ``t0_utc + t``), ``ATT`` (``Yaw`` = ``psi`` [cdeg]), ``IMU``
+    (``GyrZ`` = ``r``),
+    ``STER`` (``SteerOut`` / ``SteerIn`` = ``delta`` / ``delta_cmd`` over 35 deg, +-4500),
+    ``RCOU`` (``C1`` = rudder PWM 1500 +- 400 us over +-35 deg; skid steer: ``C1``/``C3`` =
+    1500 + 400 ``n_port``/``n_stbd``), ``ESC`` (``RPM`` = 60 ``n`` [0.01 rpm]). ``TimeUS`` = t +
+    100 s. Quantisation: position 1e-7 deg, heading 0.01 deg, steering 35/4500 deg, PWM 1 us.
+    """
+    return write_atomic(path, dataflash_bytes(trial, t0_utc=t0_utc, skid_steer=skid_steer))
+
+
+def tlog_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool = False) -> bytes:
+    """The bytes of :func:`write_tlog` (see there)."""
+    require("tlog")
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    e0 = log_start_epoch(trial, t0_utc)
+    mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    ch = {k: channel_or_none(trial, k) for k in
+          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n", "n_port", "n_stbd")}
+    if ch["sog"] is None:
+        ch["sog"] = channel_or_none(trial, "U")
+    full = math.radians(SERVO_FULL_DEG)
+    t = trial.t
+    boot_ms = np.round((t + 100.0) * 1000).astype(np.int64)
+
+    def fin(k: str, i: int) -> bool:
+        return ch[k] is not None and math.isfinite(ch[k][i])
+
+    def pwm(x: float) -> int:
+        return int(round(1500 + 400 * max(-1.0, min(1.0, x))))
+
+    out = []
+
+    def put(us: int, msg: Any) -> None:
+        out.append(struct.pack(">Q", us) + msg.pack(mav))
+
+    us0 = int(round(e0 * 1e6))
+    for name, val in (("FRAME_CLASS", 2.0), ("SERVO1_FUNCTION", 73.0 if skid_steer else 26.0),
+                      ("SERVO3_FUNCTION", 74.0 if skid_steer else 70.0)):
+        put(us0, mavlink.MAVLink_param_value_message(name.encode(), val, 9, 3, 0))
+    for i in range(len(t)):
+        us = us0 + int(round(t[i] * 1e6))
+        bm = int(boot_ms[i])
+        if fin("lat", i) and fin("lon", i):
+            put(us, mavlink.MAVLink_global_position_int_message(
+                bm, int(round(ch["lat"][i] * 1e7)), int(round(ch["lon"][i] * 1e7)), 0, 0, 0, 0,
+                0, 65535))
+            sog = ch["sog"][i] if fin("sog", i) else 0.0
+            cog = ch["cog"][i] if fin("cog", i) else 0.0
+            put(us, mavlink.MAVLink_gps_raw_int_message(
+                bm * 1000, 3, int(round(ch["lat"][i] * 1e7)), int(round(ch["lon"][i] * 1e7)),
+                0, 80, 65535, int(round(sog * 100)),
+                int(round(math.degrees(cog % (2 * math.pi)) * 100)) % 36000, 12))
+        if fin("psi", i) or fin("r", i):
+            psi = ch["psi"][i] if fin("psi", i) else math.nan
+            put(us, mavlink.MAVLink_attitude_message(
+                bm, 0.0, 0.0, math.remainder(psi, 2 * math.pi) if fin("psi", i) else math.nan,
+                0.0, 0.0, float(ch["r"][i]) if fin("r", i) else math.nan))
+        servo = [1500] * 16
+        if skid_steer and (fin("n_port", i) or fin("n_stbd", i)):
+            servo[0] = pwm(ch["n_port"][i]) if fin("n_port", i) else 1500
+            servo[2] = pwm(ch["n_stbd"][i]) if fin("n_stbd", i) else 1500
+            put(us, mavlink.MAVLink_servo_output_raw_message(bm * 1000, 0, *servo))
+        elif not skid_steer and fin("delta", i):
+            servo[0] = pwm(ch["delta"][i] / full)
+            put(us, mavlink.MAVLink_servo_output_raw_message(bm * 1000, 0, *servo))
+        if fin("n", i):
+            rpm = int(round(ch["n"][i] * 60))
+            put(us, mavlink.MAVLink_esc_telemetry_1_to_4_message(
+                temperature=[0] * 4, voltage=[0] * 4, current=[0] * 4, totalcurrent=[0] * 4,
+                rpm=[rpm, 0, 0, 0], count=[0] * 4))
+    return b"".join(out)
+
+
+def write_tlog(trial: Trial, path: str | Path, *, t0_utc: str | None = None,
+               skid_steer: bool = False) -> Path:
+    """Write a Trial as a MAVLink 2 telemetry log (``.tlog``) through pymavlink (atomically).
+
+    Each record: 8-byte big-endian receive time [us since 1970] = ``t0_utc + t``, then the
+    packet. Messages (ArduPilot dialect): ``PARAM_VALUE`` (FRAME_CLASS, SERVO1/3_FUNCTION as
+    :func:`write_dataflash`), ``GLOBAL_POSITION_INT`` and ``GPS_RAW_INT`` (``lat``/``lon`` 1e-7 deg,
+    ``vel`` = ``sog`` [cm/s], ``cog`` [cdeg]), ``ATTITUDE`` (``yaw`` = ``psi`` [rad, -pi..pi],
+    ``yawspeed`` = ``r``; NaN where a sample is missing), ``SERVO_OUTPUT_RAW`` (``servo1_raw``
+    rudder PWM as :func:`write_dataflash`; skid steer ``servo1/3_raw``), ``ESC_TELEMETRY_1_TO_4``
+    (``rpm[0]`` = 60 ``n``, whole rpm).
+    """
+    return write_atomic(path, tlog_bytes(trial, t0_utc=t0_utc, skid_steer=skid_steer))

@@ -1,0 +1,383 @@
+"""ROS logs: ROS 1 ``.bag``, ROS 2 bags (sqlite3 ``.db3`` or MCAP storage, a folder with
+``metadata.yaml`` or the storage file alone) and plain ``.mcap`` files, read and written through
+``rosbags`` (pure Python, no ROS installation; optional extra ``usvid[ros]``).
+
+Reader: every spec column names a topic and a field of its message (see :mod:`usvid.io.spec`).
+Message definitions come from the bag when it stores them (ROS 1 connection headers, MCAP
+schemas, ROS 2 Iron+ sqlite3 bags), so custom messages are read too; otherwise from the standard
+types of ROS 1 Noetic / ROS 2 Humble. The time of a sample is the bag's log (receive) time [ns];
+when it is an epoch time (after 1980) ``meta["t0_utc"]`` is set. Frames follow ROS REP 103
+(earth ENU, body x forward, y left, z up): a yaw from ``sensor_msgs/Imu.orientation`` is counted
+counter-clockwise from east, and ``angular_velocity.z`` is positive to port, hence ``convert: yaw``
+with ``frame: enu`` and ``sign: -1`` for ``r`` in the ``ros2_usv`` preset.
+
+Rejected records (``Trial.rejected``): ``bad_message`` (a message that does not deserialise),
+``corrupt_chunk`` (the storage failed part-way: what was read before is kept and a warning finding
+says where reading stopped); fields that are NaN (ROS's "not available") are absent samples. A
+file that is not a bag, a missing topic, a missing field or an unknown message type is a
+:class:`usvid.errors.LogReadError` naming the file, topic and field.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from usvid.errors import LogReadError
+from usvid.io._messages import (
+    ReadState,
+    Series,
+    build_trial,
+    get_path,
+    missing_field,
+    missing_topic,
+    path_steps,
+    raw_of,
+    require,
+    width,
+)
+from usvid.io.spec import FormatSpec
+from usvid.io.writers import channel_or_none, log_start_epoch
+from usvid.trial import Finding, Trial
+
+#: Bag kinds recognised by :func:`bag_kind`.
+BAG_KINDS = ("ros1", "ros2_sqlite3", "ros2_mcap", "mcap")
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+ROS1_MAGIC = b"#ROSBAG V2.0\n"
+SQLITE_MAGIC = b"SQLite format 3\x00"
+
+
+def bag_kind(path: Path) -> str | None:
+    """``ros1``, ``ros2_sqlite3``, ``ros2_mcap`` (a ROS 2 bag folder or its storage file) or
+    ``mcap`` (a plain MCAP file) by content, ``None`` when ``path`` is none of these."""
+    if path.is_dir():
+        meta = path / "metadata.yaml"
+        if not meta.is_file():
+            return None
+        text = meta.read_text(encoding="utf-8", errors="replace")
+        return "ros2_mcap" if "storage_identifier: mcap" in text else "ros2_sqlite3"
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        return None
+    if head.startswith(ROS1_MAGIC):
+        return "ros1"
+    if head.startswith(MCAP_MAGIC):
+        return "ros2_mcap" if (path.parent / "metadata.yaml").is_file() else "mcap"
+    if head.startswith(SQLITE_MAGIC):
+        return "ros2_sqlite3"
+    return None
+
+
+def _open_path(path: Path, kind: str) -> Path:
+    """What rosbags opens: a ``.bag`` / ``.mcap`` / ``.db3`` file or a bag folder. rosbags picks
+    its storage by the suffix, so a file with another name is linked under the right one."""
+    want = {"ros1": ".bag", "mcap": ".mcap", "ros2_mcap": ".mcap", "ros2_sqlite3": ".db3"}[kind]
+    if path.is_dir() or path.suffix == want:
+        return path
+    tmp = Path(tempfile.mkdtemp(prefix="usvid-bag-"))
+    link = tmp / f"log{want}"
+    try:
+        os.symlink(path.resolve(), link)
+    except OSError:
+        shutil.copyfile(path, link)
+    return link
+
+
+def _fields(msg: Any) -> list[str]:
+    names = getattr(msg, "__dataclass_fields__", {})
+    return [n for n in names if not n.startswith("__") and not n.isupper()]
+
+
+def read_rosbag(path: str | Path, spec: FormatSpec) -> Trial:
+    """Read a ROS 1 / ROS 2 bag or an MCAP file into a multi-rate Trial (SI units, radians).
+
+    ``t`` [s] counts from the first sample; rows are the union of the message times of all
+    columns. Raises :class:`LogReadError` (one line naming the file, topic and field) when the file
+    is not a bag, a topic or field of the spec is missing, or no sample is usable.
+    """
+    require("rosbag")
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    path = Path(path)
+    kind = bag_kind(path)
+    if kind is None:
+        raise LogReadError(f"{path}: not a ROS bag or MCAP file (no ROS 1 / MCAP / sqlite3 "
+                           "header, no metadata.yaml)")
+    opened = _open_path(path, kind)
+    store = get_typestore(Stores.ROS1_NOETIC if kind == "ros1" else Stores.ROS2_HUMBLE)
+    state = ReadState(meta={"bag_kind": kind})
+    try:
+        reader = AnyReader([opened], default_typestore=store)
+        reader.open()
+    except Exception as exc:  # rosbags raises its own errors, struct/IO/sqlite errors on damage
+        raise LogReadError(f"{path}: cannot open the {kind} log ({_why(exc)})") from None
+    try:
+        return _read_open(path, spec, reader, state)
+    finally:
+        try:
+            reader.close()
+        except Exception:  # noqa: BLE001 - closing a damaged bag must not hide the result
+            pass
+        if opened != path and not opened.is_dir():
+            shutil.rmtree(opened.parent, ignore_errors=True)
+
+
+def _why(exc: BaseException) -> str:
+    msg = " ".join(str(exc).split())[:160]
+    return f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
+
+
+def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> Trial:
+    topics = {c.topic: [] for c in reader.connections}
+    for c in reader.connections:
+        topics[c.topic].append(c)
+    cols = []
+    for col in spec.columns.values():
+        if col.topic not in topics:
+            if col.optional:
+                continue
+            raise missing_topic(path, spec, col, list(topics))
+        cols.append(col)
+    wanted = {c.topic for c in cols}
+    ignored = {t: sum(c.msgcount for c in cs) for t, cs in topics.items() if t not in wanted}
+    if ignored:
+        state.meta["ignored_topics"] = ignored
+        state.findings.append(Finding(
+            "info", "ignored_topics",
+            f"{path.name}: ignored {sum(ignored.values())} message(s) on topics not used: "
+            + ", ".join(f"{k} ({v})" for k, v in sorted(ignored.items())),
+            count=sum(ignored.values())))
+    by_topic: dict[str, list] = {}
+    for col in cols:
+        by_topic.setdefault(col.topic, []).append((col, path_steps(str(col.col))))
+    conns = [c for t in wanted for c in topics[t]]
+    stamps: dict[str, list[int]] = {t: [] for t in wanted}
+    values: dict[str, list] = {c.name: [] for c in cols}
+    checked: set[str] = set()
+    deser = reader.deserialize
+    try:
+        for conn, ts, raw in reader.messages(connections=conns):
+            try:
+                msg = deser(raw, conn.msgtype)
+            except Exception:  # noqa: BLE001 - a message that does not deserialise
+                if conn.topic not in checked and not _known_type(reader, conn.msgtype):
+                    raise LogReadError(
+                        f"{path}: topic '{conn.topic}': unknown message type "
+                        f"'{conn.msgtype}' (no definition in the bag, not a standard type)"
+                    ) from None
+                state.reject("bad_message")
+                continue
+            getters = by_topic[conn.topic]
+            if conn.topic not in checked:
+                _check_fields(path, spec, msg, conn.msgtype, getters)
+                checked.add(conn.topic)
+            try:
+                row = [raw_of(get_path(msg, st), col.conversion) for col, st in getters]
+            except (AttributeError, IndexError, TypeError, ValueError):
+                state.reject("bad_message")
+                continue
+            stamps[conn.topic].append(ts)
+            for (col, _), v in zip(getters, row, strict=True):
+                values[col.name].append(v)
+    except LogReadError:
+        raise
+    except Exception as exc:  # storage damage part-way: keep what was read, say where
+        state.reject("corrupt_chunk")
+        state.findings.append(Finding(
+            "warning", "log_damaged",
+            f"{path.name}: reading stopped at a damaged part of the log ({_why(exc)}); "
+            f"{sum(len(v) for v in stamps.values())} message(s) before it were read", count=1))
+    series = []
+    for col in cols:
+        t = np.asarray(stamps[col.topic], dtype=np.int64)
+        raw = np.asarray(values[col.name], dtype=float).reshape(len(t), width(col))
+        series.append(Series(col, t, raw if width(col) > 1 else raw[:, 0]))
+    first = min((int(s.t_ns[0]) for s in series if len(s.t_ns)), default=0)
+    epoch = 0 if first > 315_532_800 * 10**9 else None  # log time is epoch time (after 1980)
+    return build_trial(path, spec, series, state, reader="rosbag", clock_epoch_ns=epoch)
+
+
+def _known_type(reader: Any, msgtype: str) -> bool:
+    return msgtype in reader.typestore.fielddefs
+
+
+def _check_fields(path: Path, spec: FormatSpec, msg: Any, msgtype: str, getters: list) -> None:
+    for col, steps in getters:
+        try:
+            v = get_path(msg, steps)
+        except (AttributeError, IndexError, TypeError, KeyError):
+            raise missing_field(path, spec, col, msgtype, _fields(msg)) from None
+        try:
+            raw_of(v, col.conversion)
+        except (AttributeError, TypeError, ValueError):
+            want = {"yaw": "a quaternion (x, y, z, w)", "speed": "a vector (x, y)",
+                    "course": "a vector (x, y)"}.get(col.conversion or "", "a number")
+            raise LogReadError(
+                f"{path}: {spec.source}: columns.{col.name}.field: '{col.col}' of {msgtype} on "
+                f"'{col.topic}' is not {want} (got {type(v).__name__})") from None
+
+
+# ----------------------------------------------------------------------------------------------
+# writer (the layout of the shipped ros2_usv preset)
+# ----------------------------------------------------------------------------------------------
+#: Topics written by :func:`write_rosbag` (those the ``ros2_usv`` preset reads).
+TOPICS = {
+    "fix": ("/gps/fix", "sensor_msgs/msg/NavSatFix"),
+    "vel": ("/gps/fix_velocity", "geometry_msgs/msg/TwistStamped"),
+    "imu": ("/imu/data", "sensor_msgs/msg/Imu"),
+    "odom": ("/odometry/filtered", "nav_msgs/msg/Odometry"),
+    "rudder": ("/rudder/angle", "std_msgs/msg/Float64"),
+    "rudder_cmd": ("/rudder/cmd", "std_msgs/msg/Float64"),
+    "rpm": ("/engine/rpm", "std_msgs/msg/Float32"),
+    "left": ("/thrusters/left/cmd", "std_msgs/msg/Float64"),
+    "right": ("/thrusters/right/cmd", "std_msgs/msg/Float64"),
+}
+
+
+def write_rosbag(trial: Trial, path: str | Path, *, storage: str = "mcap",
+                 t0_utc: str | None = None) -> Path:
+    """Write a Trial as a ROS bag in the ``ros2_usv`` preset's layout (atomically).
+
+    ``storage``: ``"mcap"`` or ``"sqlite3"`` (a ROS 2 bag folder ``path``) or ``"ros1"`` (a ROS 1
+    ``.bag`` file). Channels -> topics (REP 103 frames, SI): ``lat``/``lon`` [deg] ->
+    ``/gps/fix`` (NavSatFix), ``sog``/``cog`` (or ``U``) -> ``/gps/fix_velocity`` (TwistStamped,
+    ENU velocity [m/s]), ``psi``/``r`` -> ``/imu/data`` (Imu: ENU orientation, angular velocity
+    about z-up = ``-r``; a part without a sample is NaN with covariance[0] = -1),
+    ``u``/``v`` -> ``/odometry/filtered`` (body twist, y to port = ``-v``), ``delta`` /
+    ``delta_cmd`` [rad, positive to starboard] -> ``/rudder/angle`` / ``/rudder/cmd`` (Float64),
+    ``n`` [rps] -> ``/engine/rpm`` (Float32 [rpm]), ``n_port``/``n_stbd`` ->
+    ``/thrusters/left|right/cmd`` (Float64). One message per topic per row where a channel of it
+    is finite; log time = header stamp = ``t0_utc + t`` [ns].
+    """
+    require("rosbag")
+    from rosbags.typesys import Stores, get_typestore
+
+    if storage not in ("mcap", "sqlite3", "ros1"):
+        raise ValueError(f"storage must be 'mcap', 'sqlite3' or 'ros1', got {storage!r}")
+    path = Path(path)
+    ros1 = storage == "ros1"
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    e0_ns = int(round(log_start_epoch(trial, t0_utc) * 1e9))
+    t_ns = e0_ns + np.round(trial.t * 1e9).astype(np.int64)
+    msgs = _messages(trial, ts, t_ns, ros1)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    target = tmp / ("log.bag" if ros1 else "bag")
+    try:
+        if ros1:
+            from rosbags.rosbag1 import Writer
+
+            with Writer(target) as w:
+                conns = {k: w.add_connection(TOPICS[k][0], TOPICS[k][1], typestore=ts)
+                         for k in msgs}
+                for key, stamp, msg in _ordered(msgs):
+                    w.write(conns[key], stamp, ts.serialize_ros1(msg, TOPICS[key][1]))
+        else:
+            from rosbags.rosbag2 import StoragePlugin, Writer
+
+            plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+            with Writer(target, version=9, storage_plugin=plugin) as w:
+                conns = {k: w.add_connection(TOPICS[k][0], TOPICS[k][1], typestore=ts)
+                         for k in msgs}
+                for key, stamp, msg in _ordered(msgs):
+                    w.write(conns[key], stamp, ts.serialize_cdr(msg, TOPICS[key][1]))
+        if path.is_dir():
+            shutil.rmtree(path)
+        os.replace(target, path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return path
+
+
+def _ordered(msgs: dict[str, list]) -> list:
+    out = [(stamp, k, m) for k, lst in msgs.items() for stamp, m in lst]
+    out.sort(key=lambda x: x[0])
+    return [(k, stamp, m) for stamp, k, m in out]
+
+
+def _messages(trial: Trial, ts: Any, t_ns: np.ndarray, ros1: bool) -> dict[str, list]:
+    T = ts.types
+    Time = T["builtin_interfaces/msg/Time"]
+    Header = T["std_msgs/msg/Header"]
+    V3, Q = T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
+    Twist = T["geometry_msgs/msg/Twist"]
+    ch = {k: channel_or_none(trial, k) for k in
+          ("lat", "lon", "sog", "cog", "psi", "r", "u", "v", "delta", "delta_cmd", "n",
+           "n_port", "n_stbd")}
+    if ch["sog"] is None:
+        ch["sog"] = channel_or_none(trial, "U")
+    nan = math.nan
+    cov0 = np.zeros(9)
+    cov_unknown = np.r_[-1.0, np.zeros(8)]
+
+    def fin(k: str, i: int) -> bool:
+        a = ch[k]
+        return a is not None and math.isfinite(a[i])
+
+    def header(i: int, frame: str) -> Any:
+        sec, ns = divmod(int(t_ns[i]), 10**9)
+        stamp = Time(sec=sec, nanosec=ns)
+        return Header(seq=i, stamp=stamp, frame_id=frame) if ros1 else Header(
+            stamp=stamp, frame_id=frame)
+
+    def f64(key: str, val: float) -> Any:
+        return T[TOPICS[key][1]](data=float(val))
+
+    out: dict[str, list] = {k: [] for k in TOPICS}
+    for i in range(len(t_ns)):
+        st = int(t_ns[i])
+        if fin("lat", i) and fin("lon", i):
+            status = T["sensor_msgs/msg/NavSatStatus"](status=0, service=1)
+            out["fix"].append((st, T["sensor_msgs/msg/NavSatFix"](
+                header=header(i, "gps"), status=status, latitude=float(ch["lat"][i]),
+                longitude=float(ch["lon"][i]), altitude=0.0, position_covariance=cov0.copy(),
+                position_covariance_type=0)))
+        if fin("sog", i) and fin("cog", i):
+            s, c = float(ch["sog"][i]), float(ch["cog"][i])
+            out["vel"].append((st, T["geometry_msgs/msg/TwistStamped"](
+                header=header(i, "gps"),
+                twist=Twist(linear=V3(x=s * math.sin(c), y=s * math.cos(c), z=0.0),
+                            angular=V3(x=0.0, y=0.0, z=0.0)))))
+        if fin("psi", i) or fin("r", i):
+            if fin("psi", i):
+                yaw = 0.5 * math.pi - float(ch["psi"][i])  # REP 103: ENU, from east, CCW
+                q = Q(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+                qc = cov0.copy()
+            else:
+                q, qc = Q(x=nan, y=nan, z=nan, w=nan), cov_unknown.copy()
+            if fin("r", i):
+                w, wc = V3(x=0.0, y=0.0, z=-float(ch["r"][i])), cov0.copy()
+            else:
+                w, wc = V3(x=nan, y=nan, z=nan), cov_unknown.copy()
+            out["imu"].append((st, T["sensor_msgs/msg/Imu"](
+                header=header(i, "base_link"), orientation=q, orientation_covariance=qc,
+                angular_velocity=w, angular_velocity_covariance=wc,
+                linear_acceleration=V3(x=0.0, y=0.0, z=0.0),
+                linear_acceleration_covariance=cov_unknown.copy())))
+        if fin("u", i) or fin("v", i):
+            u = float(ch["u"][i]) if fin("u", i) else nan
+            v = -float(ch["v"][i]) if fin("v", i) else nan
+            P = T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](
+                x=0.0, y=0.0, z=0.0), orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0))
+            out["odom"].append((st, T["nav_msgs/msg/Odometry"](
+                header=header(i, "odom"), child_frame_id="base_link",
+                pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=P,
+                                                                covariance=np.zeros(36)),
+                twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=Twist(linear=V3(x=u, y=v, z=0.0), angular=V3(x=0.0, y=0.0, z=0.0)),
+                    covariance=np.zeros(36)))))
+        for key, chan, f in (("rudder", "delta", 1.0), ("rudder_cmd", "delta_cmd", 1.0),
+                             ("rpm", "n", 60.0), ("left", "n_port", 1.0),
+                             ("right", "n_stbd", 1.0)):
+            if fin(chan, i):
+                out[key].append((st, f64(key, f * float(ch[chan][i]))))
+    return {k: v for k, v in out.items() if v}

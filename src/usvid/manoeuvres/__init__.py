@@ -1,0 +1,53 @@
+"""usvid.manoeuvres: standard manoeuvres, one definition each.
+
+Layer: above :mod:`usvid.prep`, below :mod:`usvid.sim` (imports only ``usvid.trial``,
+``usvid.errors``, ``usvid.prep``, numpy and scipy).
+
+- :mod:`.logic`: what the helm or autopilot commands in a simulation (:class:`Turning`,
+  :class:`ZigZag`, :class:`CourseChange` with :class:`PID`, :class:`Disturbance`,
+  :class:`Commanded`).
+- :mod:`.detect`: the one definition each of the rudder execute and side
+  (:func:`find_execute`), plateau level and rudder amplitude (:func:`rudder_amplitude`), rudder
+  rate (:func:`rudder_rate`), switching angle (:func:`nominal_switch`), zig-zag reversals
+  (:func:`zigzag_crossings`) and steady turn (:func:`steady_turn`); manoeuvres found in a log
+  (:func:`find_manoeuvres` -> :class:`Segment`).
+- :mod:`.metrics`: zig-zag and turning-circle metrics of a time history (IMO MSC.137(76), ITTC
+  7.5-04-02-01): :func:`zigzag_metrics`, :func:`turning_metrics`.
+- :mod:`.measure`: the segments of a log measured with those metrics (:func:`measured_metrics`).
+- :mod:`.imo`: the IMO MSC.137(76) criteria.
+"""
+
+from usvid.manoeuvres.detect import (
+    Segment,
+    SteadyTurn,
+    find_execute,
+    find_manoeuvres,
+    nominal_switch,
+    plateau_level,
+    rudder_amplitude,
+    rudder_rate,
+    steady_turn,
+    zigzag_crossings,
+)
+from usvid.manoeuvres.imo import (
+    imo_turning_applies,
+    imo_turning_check,
+    imo_zigzag_check,
+    zigzag_kind,
+)
+from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
+from usvid.manoeuvres.measure import manoeuvre_metrics, measured_metrics
+from usvid.manoeuvres.metrics import (
+    TurningMetrics,
+    ZigZagMetrics,
+    turning_metrics,
+    zigzag_metrics,
+)
+
+__all__ = [
+    "PID", "Commanded", "CourseChange", "Disturbance", "Segment", "SteadyTurn", "Turning",
+    "TurningMetrics", "ZigZag", "ZigZagMetrics", "find_execute", "find_manoeuvres",
+    "imo_turning_applies", "imo_turning_check", "imo_zigzag_check", "manoeuvre_metrics",
+    "measured_metrics", "nominal_switch", "plateau_level", "rudder_amplitude", "rudder_rate",
+    "steady_turn", "turning_metrics", "zigzag_crossings", "zigzag_kind", "zigzag_metrics",
+]

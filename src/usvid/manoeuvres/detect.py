@@ -1,0 +1,676 @@
+"""Manoeuvre detection: the one definition in usvid of every manoeuvre quantity read from a
+record, and the standard manoeuvres (zig-zags, turning circles) found inside a log.
+
+Definitions (used by the metrics of measured and simulated manoeuvres, ``usvid metrics``,
+identification, validation and the report). Time [s], angles [rad], rates [rad/s]; a command
+other than a rudder angle (a thruster differential) in its own unit. IMO MSC.137(76) and ITTC
+7.5-04-02-01 measure a manoeuvre from the *execute*, the instant the rudder order is given: a
+log's manoeuvres are read from the rudder order when it is logged, else from the rudder angle
+(:func:`turning_command`); a simulation's execute is its logic's start.
+
+* **rudder execute and side** (:func:`find_execute`): the rudder before the first deflection,
+  ``delta_0``, is its median over the :data:`APPROACH_S` seconds before the execute; the side
+  is the sign of the deflection from ``delta_0`` (+1 starboard). The execute is where the rising
+  edge leaves ``delta_0``: the straight line through the first sample beyond 50 % of the plateau
+  level and the last sample before it within 10 %, extended back to ``delta_0`` (a rate-limited
+  ramp gives its start exactly, a sampled step the last sample before the step).
+* **plateau level and rudder amplitude** (:func:`plateau_level`, :func:`rudder_amplitude`): the
+  median of the deflection samples beyond half the largest deflection (noise-robust; the largest
+  sample of a noisy record is biased high). A zig-zag's amplitude is the mean of its starboard
+  and port plateau levels (half the distance between them: a rudder zero offset cancels).
+* **rudder rate** (:func:`rudder_rate`): the median |d delta/dt| on the ramps.
+* **switching angle** (:func:`nominal_switch`; measured by :func:`find_manoeuvres`): the median
+  deviation of the heading (smoothed over 2 s) from the heading at the execute where the rudder
+  (order) leaves its plateaux, rounded down to a standard angle.
+* **zig-zag reversals** (:func:`zigzag_crossings`): the alternate crossings of
+  ``+psi_switch, -psi_switch, ...`` by the heading deviation, interpolated between samples.
+* **steady turn** (:func:`steady_turn`): the last 360 deg of a turning circle, or the part after
+  the 180 deg instant; its mean yaw rate, speed and rudder.
+
+Finding manoeuvres (:func:`find_manoeuvres`). The rudder (or, without a rudder, the thruster
+differential port - starboard, seed 002: tau_r = (T_port - T_stbd) b/2) is cut into *pulses*:
+runs where the smoothed command keeps one sign beyond ``min_level``. Then
+
+* a **zig-zag** is a chain of at least two pulses of alternating sign and similar level, joined by
+  short transitions, whose reversals all happen at about the same heading deviation from the
+  heading at the first execute (that deviation is the switching angle ``psi_switch``; it is rounded
+  to whole degrees when above 0.75 deg, as zig-zag tests are specified);
+* a **turning circle** is a single pulse during which the heading changes by at least
+  ``min_turn_deg`` (180 deg by default, enough for the tactical diameter);
+* where no command explains it, a run of one-signed yaw rate turning at least 360 deg is a
+  turning circle found from the heading alone (closed-loop circles of a thruster-driven USV);
+  its "execute" is the start of the run (``execute_from="heading"``).
+
+The segments are measured by :mod:`usvid.manoeuvres.measure` with the definitions of
+:mod:`usvid.manoeuvres.metrics` (the simulator uses the same functions), so a measured and a
+simulated manoeuvre are compared on equal terms.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from usvid.errors import UsvidError
+from usvid.prep.filters import savgol_derivative, savgol_smooth, unwrap_angle
+from usvid.prep.prepare import prepare
+from usvid.trial import Trial
+
+#: The approach before a manoeuvre [s]: the rudder over it is the reference ``delta_0``.
+APPROACH_S = 5.0
+
+#: Thruster command pairs (port, starboard) used as a turning command when there is no rudder.
+THRUSTER_PAIRS: tuple[tuple[str, str], ...] = (
+    ("n_port", "n_stbd"),
+    ("pwm_port", "pwm_stbd"),
+    ("thrust_port", "thrust_stbd"),
+)
+
+
+@dataclass
+class Segment:
+    """One manoeuvre found in a log.
+
+    ``kind`` "zigzag" | "turning"; times [s]; ``t_execute`` and ``side`` (+1 when the first
+    command turns to starboard) by :func:`find_execute`; ``level`` the amplitude by
+    :func:`rudder_amplitude` (rudder [rad] or thruster-differential units);
+    ``psi_switch`` [rad] (zig-zag); ``heading_change`` [rad] over the segment; ``command`` the
+    channel(s) used; ``execute_from`` "command" or "heading".
+    """
+
+    kind: str
+    t_start: float
+    t_end: float
+    t_execute: float
+    side: int
+    command: str
+    level: float | None = None
+    psi_switch: float | None = None
+    n_pulses: int = 1
+    heading_change: float = 0.0
+    execute_from: str = "command"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def delta_amp_deg(self) -> float | None:
+        """Rudder amplitude [deg] (None for a thruster command)."""
+        if self.level is None or not self.command.startswith("delta"):
+            return None
+        return math.degrees(self.level)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "kind": self.kind,
+            "t_start": self.t_start,
+            "t_end": self.t_end,
+            "t_execute": self.t_execute,
+            "first_side": "starboard" if self.side > 0 else "port",
+            "command": self.command,
+            "execute_from": self.execute_from,
+            "heading_change_deg": math.degrees(self.heading_change),
+        }
+        if self.delta_amp_deg is not None:
+            out["delta_amp_deg"] = self.delta_amp_deg
+        elif self.level is not None:
+            out["command_level"] = self.level
+        if self.psi_switch is not None:
+            out["psi_switch_deg"] = math.degrees(self.psi_switch)
+        if self.kind == "zigzag":
+            out["n_pulses"] = self.n_pulses
+        out.update(self.extra)
+        return out
+
+
+@dataclass
+class _Pulse:
+    i0: int
+    i1: int  # exclusive
+    sign: int
+    level: float
+
+
+def turning_command(trial: Trial) -> tuple[str, np.ndarray, bool] | None:
+    """``(name, command, is_rudder)``: the channel a log's manoeuvres are read from.
+
+    The rudder order ``delta_cmd`` [rad] when the log has one (IMO MSC.137(76) and ITTC
+    7.5-04-02-01 time a manoeuvre from the order, the *execute*, and the helm's reversals are
+    the order's; a simulation's logic does the same), else the rudder angle ``delta`` [rad], else
+    the thruster differential port - starboard (command units)."""
+    for ch in ("delta_cmd", "delta"):
+        if trial.has(ch):
+            d = trial[ch]
+            if np.nanmax(np.abs(d)) > 0:
+                return ch, d, True
+    for port, stbd in THRUSTER_PAIRS:
+        if trial.has(port) and trial.has(stbd):
+            return f"{port}-{stbd}", trial[port] - trial[stbd], False
+    return None
+
+
+def _runs(mask: np.ndarray) -> np.ndarray:
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return np.column_stack([np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)])
+
+
+# --------------------------------------------------------------------------------------------
+# array helpers
+# --------------------------------------------------------------------------------------------
+def as_1d(name: str, a: Any, n: int | None = None) -> np.ndarray:
+    """``a`` as a 1-D float array of ``n`` samples (:class:`UsvidError` naming ``name``)."""
+    arr = np.asarray(a, dtype=float)
+    if arr.ndim != 1:
+        raise UsvidError(f"metrics: `{name}` must be a 1-D array (got shape {arr.shape})")
+    if n is not None and arr.shape[0] != n:
+        raise UsvidError(f"metrics: `{name}` has {arr.shape[0]} samples, `t` has {n}")
+    return arr
+
+
+def clean(t: np.ndarray, *arrays: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Drop samples where any array is not finite (a multi-rate trial has NaN gaps)."""
+    ok = np.isfinite(t)
+    for a in arrays:
+        ok &= np.isfinite(a)
+    return (t[ok],) + tuple(a[ok] for a in arrays)
+
+
+def crossing_time(t: np.ndarray, z: np.ndarray, level: float, start: int, upward: bool
+                  ) -> float:
+    """First time [s] at or after sample ``start`` where ``z`` crosses ``level`` upwards
+    (``upward``) or downwards: linear interpolation between the two samples that bracket the
+    crossing (a sample already beyond ``level`` at ``start`` gives its own time); NaN when none.
+    """
+    seg = z[start:]
+    hit = np.flatnonzero(seg >= level) if upward else np.flatnonzero(seg <= level)
+    if hit.size == 0:
+        return math.nan
+    j = start + int(hit[0])
+    if j == 0:
+        return float(t[0])
+    z0, z1 = z[j - 1], z[j]
+    already = (z0 >= level) if upward else (z0 <= level)
+    if already or z1 == z0:
+        return float(t[j])
+    f = (level - z0) / (z1 - z0)
+    return float(t[j - 1] + f * (t[j] - t[j - 1]))
+
+
+# --------------------------------------------------------------------------------------------
+# the one definition of each manoeuvre quantity
+# --------------------------------------------------------------------------------------------
+def plateau_level(deflection: Any) -> float:
+    """Plateau level of a deflection (a rudder [rad] or command pulse, positive towards its
+    side): the median of its samples beyond half the largest one, so the ramps and the upward
+    bias of the largest noisy sample are left out. 0 when nothing is positive, NaN when no
+    sample is finite."""
+    d = np.asarray(deflection, dtype=float)
+    d = d[np.isfinite(d)]
+    if d.size == 0:
+        return math.nan
+    peak = float(d.max())
+    if peak <= 0:
+        return 0.0
+    return float(np.median(d[d >= 0.5 * peak]))
+
+
+def _approach(t: np.ndarray, delta: np.ndarray, t_ref: float, i_ref: int, lo: int = 0) -> float:
+    """``delta_0``: median rudder over the :data:`APPROACH_S` before ``t_ref`` [s] (samples
+    ``lo`` <= i < ``i_ref``); the rudder at ``t_ref`` when no sample precedes it."""
+    a = max(int(np.searchsorted(t, t_ref - APPROACH_S)), lo)
+    before = delta[a:i_ref]
+    before = before[np.isfinite(before)]
+    if before.size:
+        return float(np.median(before))
+    return float(np.interp(t_ref, t, delta))
+
+
+def find_execute(t: Any, delta: Any, *, start: int = 0,
+                 pulse: tuple[int, int] | None = None) -> tuple[float, int]:
+    """The rudder execute: time [s] and side (+1 starboard, -1 port) of the first rudder order.
+
+    The first deflection is ``pulse`` (sample range ``[i0, i1)`` of ``delta``, as found by
+    :func:`find_manoeuvres`) or, by default, the run of samples from the first whose deviation
+    from ``delta[start]`` reaches 25 % of the largest deviation (a zig-zag's largest deviation
+    is up to twice its amplitude, so 25 % finds its first order), as long as it keeps that sign
+    and size. With ``delta_0`` the median rudder over the :data:`APPROACH_S` (5 s) before the
+    execute (found iteratively, starting from the 5 s before the deflection), the side is the
+    sign of the deflection from ``delta_0`` and its level ``A`` the :func:`plateau_level` of
+    ``side (delta - delta_0)`` over it. The execute is where the rising edge leaves
+    ``delta_0``: the straight line through the first sample of the deflection beyond ``0.5 A``
+    and the last sample before it within ``0.1 A`` of ``delta_0``, extended back to ``delta_0``
+    (a rate-limited ramp gives its start, a sampled step its last sample before the step), not
+    before sample ``start``. A record whose sample ``start`` is already beyond half
+    the largest ``|delta|`` starts at the execute. ``delta`` in [rad] (or any command unit);
+    non-finite samples are left out.
+    """
+    t = as_1d("t", t)
+    delta = as_1d("delta", delta, len(t))
+    ok = np.isfinite(t) & np.isfinite(delta)
+    idx = np.flatnonzero(ok)
+    t, delta = t[ok], delta[ok]
+    s = int(np.searchsorted(idx, start))
+    if len(t) - s < 2:
+        raise UsvidError("metrics: too few samples to find the rudder execute")
+    if pulse is None:
+        big_abs = float(np.max(np.abs(delta[s:])))
+        if abs(delta[s]) >= 0.5 * big_abs > 0:
+            # the record starts with the rudder already over (e.g. a simulation from the execute)
+            return float(t[s]), (1 if delta[s] > 0 else -1)
+        dev = delta[s:] - delta[s]
+        amp = float(np.max(np.abs(dev)))
+        if amp <= 0:
+            raise UsvidError("metrics: the rudder never moves; no manoeuvre to measure")
+        i0 = s + int(np.flatnonzero(np.abs(dev) >= 0.25 * amp)[0])
+        sgn = 1.0 if dev[i0 - s] > 0 else -1.0
+        off = np.flatnonzero(sgn * dev[i0 - s:] < 0.25 * amp)
+        i1 = i0 + (int(off[0]) if off.size else len(t) - i0)
+    else:
+        i0, i1 = (int(np.searchsorted(idx, i)) for i in pulse)
+        if i0 <= s:
+            return float(t[s]), (1 if np.median(delta[s:max(i1, s + 1)]) > 0 else -1)
+    # delta_0 over the approach before the deflection, then (once the edge is known) over the
+    # approach before the execute, so that no sample of the edge biases it
+    t_e, side, t_ref, i_ref = float(t[s]), 1, float(t[i0]), i0
+    for _ in range(3):
+        d0 = _approach(t, delta, t_ref, i_ref, s)
+        side, t_prev = (1 if float(np.median(delta[i0:i1])) - d0 > 0 else -1), t_e
+        t_e = _edge_start(t, side * (delta - d0), s, i0, i1)
+        t_ref, i_ref = t_e, int(np.searchsorted(t, t_e, side="right"))
+        if t_e == t_prev:
+            break
+    return t_e, side
+
+
+def _edge_start(t: np.ndarray, mag: np.ndarray, s: int, i0: int, i1: int) -> float:
+    """Start [s] of the rising edge of the deflection ``mag[i0:i1]`` (towards its side, from
+    ``delta_0``), not before sample ``s``: see :func:`find_execute`."""
+    level = plateau_level(mag[i0:i1])
+    rising = np.flatnonzero(mag[i0:i1] >= 0.5 * level)
+    if not rising.size:
+        return float(t[i0])
+    i50 = i0 + int(rising[0])
+    quiet = np.flatnonzero(mag[s:i50] <= 0.1 * level)
+    if not quiet.size:
+        return float(t[s])
+    i10 = s + int(quiet[-1])
+    rise = (mag[i50] - mag[i10]) / (t[i50] - t[i10])
+    t0 = float(t[i10]) - max(float(mag[i10]), 0.0) / rise if rise > 0 else float(t[i10])
+    return max(t0, float(t[s]))
+
+
+def rudder_amplitude(t: Any, delta: Any, t_execute: float, t_end: float | None = None) -> float:
+    """Rudder amplitude [rad] (or command units) of the manoeuvre from ``t_execute`` to
+    ``t_end`` [s] (default: the end of the record).
+
+    Deflections are measured from ``delta_0``, the median rudder over the :data:`APPROACH_S`
+    (5 s) before the execute (the rudder at the execute when no sample precedes it). A zig-zag
+    (deflections to both sides, the smaller side at least 25 % of the larger) has the mean of
+    its starboard and port :func:`plateau_level` (half the distance between the median
+    starboard and the median port plateau: a rudder zero offset cancels); a one-sided
+    manoeuvre (turning circle) the plateau level of its side. NaN without finite samples.
+    """
+    t = as_1d("t", t)
+    t, delta = clean(t, as_1d("delta", delta, len(t)))
+    if len(t) == 0:
+        return math.nan
+    i_e = int(np.searchsorted(t, t_execute))
+    d0 = _approach(t, delta, float(t_execute), i_e)
+    sel = t >= t_execute
+    if t_end is not None:
+        sel &= t <= t_end
+    dev = delta[sel] - d0
+    if dev.size == 0:
+        return math.nan
+    stbd, port = plateau_level(dev), plateau_level(-dev)
+    hi, lo = float(dev.max()), float(-dev.min())
+    if stbd > 0 and port > 0 and min(hi, lo) > 0.25 * max(hi, lo):
+        return 0.5 * (stbd + port)
+    return stbd if hi >= lo else port
+
+
+def rudder_rate(t: Any, delta: Any) -> float:
+    """Rudder rate [rad/s] on the ramps: |d delta/dt| of a 0.5 s quadratic Savitzky-Golay fit
+    (:func:`usvid.prep.savgol_derivative`), median over the samples where it exceeds half its
+    maximum; ``inf`` when the rudder does not move (an ideal servo)."""
+    t = as_1d("t", t)
+    delta = as_1d("delta", delta, len(t))
+    tf = t[np.isfinite(t)]
+    if tf.size < 2:
+        return math.inf
+    dd = np.abs(savgol_derivative(delta, float(np.median(np.diff(tf))), 0.5, order=2))
+    peak = float(np.nanmax(dd)) if np.isfinite(dd).any() else 0.0
+    if not peak > 0:
+        return math.inf
+    return float(np.median(dd[dd > 0.5 * peak]))
+
+
+def zigzag_crossings(t: Any, z: Any, psi_switch: float, start: int = 0
+                     ) -> tuple[list[float], list[int]]:
+    """The reversal instants of a zig-zag (IMO MSC.137(76), ITTC 7.5-04-02-01).
+
+    ``z`` [rad] is the heading deviation from the heading at the execute, signed so that the
+    first turn is positive (``side (psi - psi0)``). Reversal k (k = 0, 1, ...) is where ``z``
+    reaches ``+psi_switch`` (k even) or ``-psi_switch`` (k odd) [rad], searched alternately from
+    sample ``start`` on. Returns the times [s], interpolated linearly between the two samples
+    around each crossing, and the index of the first sample at or after each.
+    """
+    t = as_1d("t", t)
+    z = as_1d("z", z, len(t))
+    times: list[float] = []
+    index: list[int] = []
+    k = 0
+    while start < len(t):
+        up = k % 2 == 0
+        tc = crossing_time(t, z, psi_switch if up else -psi_switch, start, up)
+        if math.isnan(tc):
+            break
+        j = int(np.searchsorted(t, tc))
+        times.append(tc)
+        index.append(j)
+        start = max(j, start + 1)
+        k += 1
+    return times, index
+
+
+@dataclass
+class SteadyTurn:
+    """The steady part of a turning circle (:func:`steady_turn`): the window ``t_start`` ..
+    ``t_end`` [s], the heading change ``arc`` [rad] inside it, the turn's ``side`` (+1
+    starboard) and the means over the window of the yaw rate ``yaw_rate`` [rad/s, signed], the
+    speed ``speed`` [m/s] and the rudder ``delta`` [rad] (NaN when not given)."""
+
+    t_start: float
+    t_end: float
+    arc: float
+    side: int
+    yaw_rate: float
+    speed: float
+    delta: float
+
+
+def steady_turn(t: Any, psi: Any, t_execute: float | None = None, *, r: Any = None,
+                U: Any = None, x: Any = None, y: Any = None, delta: Any = None) -> SteadyTurn:
+    """The steady part of a turning circle and its mean yaw rate, speed and rudder.
+
+    From the execute ``t_execute`` [s] (default the first sample), heading ``psi`` [rad]: the
+    side is the sign of the largest heading change after the execute. The steady window is the
+    last 360 deg of heading change when the record turns at least 540 deg (180 deg for the
+    tactical diameter, then a whole circle, which also averages out a current); else the part
+    after the 180 deg instant; else (a turn of less than 180 deg) the part after half the final
+    heading change. Over that window: ``yaw_rate`` the mean ``r`` [rad/s] (else the slope of a
+    line fitted to ``psi(t)``), ``speed`` the mean ``U`` [m/s] (else the path length of ``x``,
+    ``y`` [m] over the window's duration), ``delta`` the mean rudder [rad]. All arrays on ``t``;
+    each channel's non-finite samples are left out.
+    """
+    t = as_1d("t", t)
+    n = len(t)
+    tt, pp = clean(t, as_1d("psi", psi, n))
+    if len(tt) < 2:
+        raise UsvidError("metrics: a steady turn needs at least 2 samples with a heading")
+    pp = np.unwrap(pp)
+    t_e = float(tt[0]) if t_execute is None else float(t_execute)
+    after = tt >= t_e
+    if not after.any():
+        raise UsvidError(f"metrics: no heading sample after the execute at {t_e:g} s")
+    dev = pp - float(np.interp(t_e, tt, pp))
+    kmax = int(np.argmax(np.abs(np.where(after, dev, 0.0))))
+    side = 1 if dev[kmax] >= 0 else -1
+    z = side * dev
+    z_end = float(z[-1])
+    if z_end - 2 * math.pi >= math.pi:
+        w = z >= z_end - 2 * math.pi
+    else:
+        t180 = crossing_time(tt, z, math.pi, int(np.searchsorted(tt, t_e)), True)
+        w = tt >= t180 if not math.isnan(t180) else z >= 0.5 * z_end
+    w &= after
+    if not w.any():
+        w = after
+    ta, tb = float(tt[w][0]), float(tt[w][-1])
+
+    def mean(name: str, a: Any) -> float:
+        if a is None:
+            return math.nan
+        a = as_1d(name, a, n)
+        sel = np.isfinite(a) & (t >= ta) & (t <= tb)
+        return float(np.mean(a[sel])) if sel.any() else math.nan
+
+    if r is not None:
+        yaw = mean("r", r)
+    else:
+        yaw = float(np.polyfit(tt[w], pp[w], 1)[0]) if w.sum() >= 2 else math.nan
+    if U is not None:
+        speed = mean("U", U)
+    elif x is not None and y is not None:
+        tx, xx, yy = clean(t, as_1d("x", x, n), as_1d("y", y, n))
+        sel = (tx >= ta) & (tx <= tb)
+        speed = (float(np.sum(np.hypot(np.diff(xx[sel]), np.diff(yy[sel]))))
+                 / float(tx[sel][-1] - tx[sel][0])) if sel.sum() >= 2 else math.nan
+    else:
+        speed = math.nan
+    return SteadyTurn(t_start=ta, t_end=tb, arc=float(z[w].max() - z[w].min()), side=side,
+                      yaw_rate=yaw, speed=speed, delta=mean("delta", delta))
+
+
+def _pulses(c: np.ndarray, cs: np.ndarray, dt: float, min_level: float, min_pulse_s: float,
+            merge_gap_s: float) -> list[_Pulse]:
+    pulses: list[_Pulse] = []
+    for sgn in (1, -1):
+        for a, b in _runs(np.isfinite(cs) & (sgn * cs >= min_level)):
+            pulses.append(_Pulse(int(a), int(b), sgn, 0.0))
+    pulses.sort(key=lambda p: p.i0)
+    merged: list[_Pulse] = []
+    for p in pulses:
+        if merged and merged[-1].sign == p.sign and (p.i0 - merged[-1].i1) * dt <= merge_gap_s:
+            merged[-1].i1 = p.i1
+        else:
+            merged.append(p)
+    out = []
+    for p in merged:
+        if (p.i1 - p.i0) * dt < min_pulse_s:
+            continue
+        p.level = plateau_level(p.sign * c[p.i0:p.i1])
+        out.append(p)
+    return out
+
+
+def _reversal_index(c: np.ndarray, p: _Pulse) -> int:
+    """Where the command leaves the plateau of pulse ``p`` (within 10 % of its level): the first
+    sample after its last plateau sample, at or after the reversal order, so the heading
+    deviation there is an upper bound of the switching angle (see :func:`nominal_switch`)."""
+    on = np.flatnonzero(np.abs(p.sign * c[p.i0:p.i1] - p.level) <= 0.1 * p.level)
+    return min(p.i0 + int(on[-1]) + 1, p.i1 - 1) if on.size else p.i1 - 1
+
+
+#: Switching angles [deg] zig-zag tests are specified with (IMO MSC.137(76): 10 and 20 deg;
+#: ITTC 7.5-04-02-01 and SIMMAN: also 1, 5, 15 deg; larger ones occur in research).
+STANDARD_SWITCH_DEG: tuple[float, ...] = (1.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0)
+
+
+def nominal_switch(measured: float, delta_amp: float | None = None) -> float:
+    """Nominal switching angle [rad] from the heading deviation [rad] at the rudder reversals.
+
+    The rudder can only start to reverse after the heading has passed the switching angle (the
+    helm or autopilot reacts with some delay, the heading keeps turning meanwhile), so the
+    deviation measured where the rudder leaves its plateau is an upper bound: HSVA's 10/10
+    zig-zags reverse at 10.7-10.9 deg, their 20/5 at 6.3 deg. Read from a logged rudder order
+    (an autopilot reversing at the crossing) it can fall slightly below: heading noise, and the
+    logged heading lagging the logged order (the virtual Lanxin 10/10 zig-zags reverse at 9.8
+    deg). The nominal value is the largest standard angle (:data:`STANDARD_SWITCH_DEG`, plus the
+    rudder amplitude for n/n tests) not above the measured deviation + 10 % (at least 0.1 deg);
+    below 1 deg the measured value to 0.1 deg. Angles [rad].
+    """
+    deg = math.degrees(measured)
+    deg += max(0.1, 0.1 * deg)
+    cands = list(STANDARD_SWITCH_DEG)
+    if delta_amp is not None:
+        cands.append(float(round(math.degrees(delta_amp))))
+    below = [c for c in cands if c <= deg]
+    if not below:
+        return math.radians(round(math.degrees(measured), 1))
+    return math.radians(max(below))
+
+
+def _steady_before(psi: np.ndarray, i_exec: int, i_end: int, dt: float) -> bool:
+    """True when the heading was steady over the 3 s before the execute (a standard manoeuvre
+    starts from a straight approach): the mean yaw rate there (net heading change / 3 s) is at
+    most 10 % of the manoeuvre's peak yaw rate (2-s Savitzky-Golay slope), or below 0.3 deg/s."""
+    a = max(0, i_exec - int(round(3.0 / dt)))
+    if i_exec - a < 2:
+        return True
+    r_before = abs(float(psi[i_exec] - psi[a])) / ((i_exec - a) * dt)
+    r = savgol_derivative(psi[i_exec:i_end + 1], dt, 2.0)
+    r_peak = float(np.nanmax(np.abs(r))) if np.isfinite(r).any() else 0.0
+    return r_before <= max(0.1 * r_peak, math.radians(0.3))
+
+
+def find_manoeuvres(
+    trial: Trial,
+    *,
+    min_level: float | None = None,
+    min_pulse_s: float = 2.0,
+    max_transition_s: float = 10.0,
+    min_turn_deg: float = 180.0,
+    psi_switch: float | None = None,
+    smooth_s: float | None = None,
+) -> list[Segment]:
+    """Zig-zags and turning circles inside ``trial`` (see the module docstring for the rules).
+
+    Parameters
+    ----------
+    trial : Trial
+        Needs ``psi`` [rad] and a command (``delta`` [rad], ``delta_cmd``, or a thruster pair);
+        a non-uniform trial is prepared first (:func:`usvid.prep.prepare`).
+    min_level : float, optional
+        Smallest command counted as a deflection: rudder [rad] default 1 deg; thruster
+        differential default 20 % of the 95th percentile of its magnitude.
+    min_pulse_s, max_transition_s : float
+        Shortest pulse [s]; longest time [s] between two pulses of one zig-zag.
+    min_turn_deg : float
+        Heading change [deg] that makes a single pulse a turning circle.
+    psi_switch : float, optional
+        Switching angle [rad] of zig-zags when known (default: measured, see module docstring).
+    smooth_s : float, optional
+        Smoothing window of the command [s] (default 0.5 s rudder, 5 s thrusters).
+
+    Returns
+    -------
+    list of Segment, in time order.
+    """
+    if not trial.has("psi"):
+        raise UsvidError(f"trial {trial.name or '?'}: no heading 'psi', cannot find manoeuvres")
+    if not trial.is_uniform or trial.data[["t", "psi"]].isna().any().any():
+        trial = prepare(trial, derivatives=False)
+    t = trial.t
+    dt = float(np.median(np.diff(t)))
+    psi = unwrap_angle(trial["psi"])
+    psi_s = savgol_smooth(psi, dt, 2.0)  # zero-phase cubic over 2 s (as the metrics)
+    segs: list[Segment] = []
+    used = np.zeros(len(t), dtype=bool)
+    cmd = turning_command(trial)
+    if cmd is not None:
+        name, c, rudder = cmd
+        cs = savgol_smooth(c, dt, smooth_s or (0.5 if rudder else 5.0))
+        if min_level is None:
+            min_level = (math.radians(1.0) if rudder
+                         else 0.2 * float(np.nanpercentile(np.abs(cs), 95)))
+        cc = c if rudder else cs  # the command the execute and the level are read from
+        pulses = _pulses(cc, cs, dt, min_level, min_pulse_s, merge_gap_s=1.0)
+        # chains of alternating pulses of similar level
+        chains: list[list[_Pulse]] = []
+        for p in pulses:
+            if chains:
+                q = chains[-1][-1]
+                if (q.sign != p.sign and (p.i0 - q.i1) * dt <= max_transition_s
+                        and 0.7 <= p.level / q.level <= 1 / 0.7):
+                    chains[-1].append(p)
+                    continue
+            chains.append([p])
+        floor = 0
+        for chain in chains:
+            seg = _zigzag(chain, t, cc, psi, psi_s, floor, name, rudder, psi_switch)
+            if seg is None:
+                for p in chain:
+                    s = _turning_from_pulse(p, t, cc, psi, floor, name, min_turn_deg)
+                    if s is not None:
+                        segs.append(s)
+                        used[(t >= s.t_start) & (t <= s.t_end)] = True
+                    floor = p.i1
+            else:
+                segs.append(seg)
+                used[(t >= seg.t_start) & (t <= seg.t_end)] = True
+            floor = chain[-1].i1
+    segs += _turning_from_heading(t, psi, dt, used)
+    segs.sort(key=lambda s: s.t_start)
+    return segs
+
+
+def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch
+            ) -> Segment | None:
+    if len(chain) < 2:
+        return None
+    t_e, side = find_execute(t, c, start=floor, pulse=(chain[0].i0, chain[0].i1))
+    ie = int(np.searchsorted(t, t_e))
+    # the switching angle from the smoothed heading (psi_s): a noisy sample at the execute or at
+    # a reversal would shift it by the heading noise
+    psi0 = float(np.interp(t_e, t, psi_s))
+    rev = [_reversal_index(c, p) for p in chain[:-1]]
+    dev = np.array([p.sign * (psi_s[i] - psi0) for p, i in zip(chain[:-1], rev, strict=True)])
+    if not np.all(np.isfinite(dev)) or np.any(dev <= 0):
+        return None
+    est = float(np.median(dev))
+    # every reversal at the same heading deviation (within 50 % or 1 deg): a real zig-zag
+    if np.any(np.abs(dev - est) > max(0.5 * est, math.radians(1.0))):
+        return None
+    i_end = chain[-1].i1 - 1
+    level = rudder_amplitude(t, c, t_e, float(t[i_end]))
+    sw = psi_switch if psi_switch is not None else nominal_switch(est, level if rudder else None)
+    # the smoothed heading: the 3-s heading change of two raw samples carries the compass noise
+    # (0.5 deg: 0.24 deg/s, near the 0.3 deg/s limit)
+    if not _steady_before(psi_s, ie, i_end, float(t[1] - t[0])):
+        return None
+    return Segment(
+        kind="zigzag",
+        t_start=t_e,
+        t_end=float(t[i_end]),
+        t_execute=t_e,
+        side=side,
+        command=name,
+        level=level,
+        psi_switch=sw,
+        n_pulses=len(chain),
+        heading_change=float(np.nanmax(psi[ie:i_end + 1]) - np.nanmin(psi[ie:i_end + 1])),
+        extra={"psi_switch_measured_deg": math.degrees(est),
+               "psi_switch_from": "given" if psi_switch is not None else "nominal"},
+    )
+
+
+def _turning_from_pulse(p, t, c, psi, floor, name, min_turn_deg) -> Segment | None:
+    t_e, side = find_execute(t, c, start=floor, pulse=(p.i0, p.i1))
+    ie = int(np.searchsorted(t, t_e))
+    i_end = p.i1 - 1
+    change = side * (psi[i_end] - float(np.interp(t_e, t, psi)))
+    if not np.isfinite(change) or change < math.radians(min_turn_deg):
+        return None
+    if not _steady_before(psi, ie, i_end, float(t[1] - t[0])):
+        return None
+    return Segment(kind="turning", t_start=t_e, t_end=float(t[i_end]), t_execute=t_e,
+                   side=side, command=name, level=rudder_amplitude(t, c, t_e, float(t[i_end])),
+                   heading_change=float(change))
+
+
+def _turning_from_heading(t, psi, dt, used, min_rate_deg_s: float = 0.2,
+                          min_change_deg: float = 360.0, window_s: float = 20.0) -> list[Segment]:
+    # the mean yaw rate over window_s (straight-line fit): a path-following controller's yaw
+    # oscillations (periods of a few seconds) do not break the run
+    r = savgol_derivative(psi, dt, window_s, order=1)
+    out = []
+    for sgn in (1, -1):
+        for a, b in _runs(np.isfinite(r) & (sgn * r >= math.radians(min_rate_deg_s)) & ~used):
+            change = sgn * (psi[b - 1] - psi[a])
+            if change >= math.radians(min_change_deg):
+                out.append(Segment(kind="turning", t_start=float(t[a]), t_end=float(t[b - 1]),
+                                   t_execute=float(t[a]), side=sgn, command="heading",
+                                   heading_change=float(change), execute_from="heading"))
+    return out

@@ -1,0 +1,200 @@
+"""Twin-thruster catamaran, 3-DOF (the catamaran paper; standard published Fossen/MMG form).
+
+That paper's equations are mostly lost in the extracted text; usvid uses the diagonal Fossen form
+(the reduction of Mu et al. 2018, eq. 17) with a differential-thrust yaw moment::
+
+    m11 u' = m22 v r - d11 u + tau_u
+    m22 v' = -m11 u r - d22 v
+    m33 r' = (m11 - m22) u v - d33 r + tau_r
+    tau_u = T_port + T_stbd,   tau_r = (T_port - T_stbd) b / 2
+
+b [m] is the distance between the two thrusters (ARCHITECTURE.md sign convention: more port
+thrust turns the vessel to starboard, r > 0). Each thruster's thrust comes from its command c
+(control code 0..120, PWM [us] or shaft speed): ``thrust`` is a
+:class:`usvid.models.thrust.TwinThrust` (code -> voltage -> thrust, or PWM -> thrust) or a
+number k [N per command unit] (T = k c). Standard manoeuvres steer through a rudder-equivalent
+angle delta [rad]: ``c_port = cmd + steer_gain delta``, ``c_stbd = cmd - steer_gain delta``
+(positive delta -> more port thrust -> r > 0); measured commands ``n_port``/``n_stbd`` replace
+them when replayed.
+
+Particulars for identification (format spec ``vessel.extra`` or options): ``thruster_spacing``
+b [m] (required); ``thrust_per_command`` k [N per command unit] (default 1: thrust, masses and
+dampings then in command units, which is all the commands can determine); ``nominal_command``
+(default: the median mean command of the training data); ``steer_gain`` [command per rad]
+(default: half the largest differential command of the data per 35 deg).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numba
+import numpy as np
+
+from usvid.errors import IdentificationError
+from usvid.models.kind import Dynamics, ModelKind, Regression, param, rows, submodel
+from usvid.models.kinds import _fossen
+from usvid.models.thrust import TwinThrust, thrust_nb, thrust_row
+
+
+@dataclass
+class Catamaran(Dynamics):
+    """Twin-thruster catamaran (SI): masses, dampings, thruster spacing b, thrust law,
+    nominal command and steering gain."""
+
+    m11: Any = param("kg", "surge mass", gt=0.0)
+    m22: Any = param("kg", "sway mass", gt=0.0)
+    m33: Any = param("kg m^2", "yaw inertia", gt=0.0)
+    d11: Any = param("kg/s", "surge damping")
+    d22: Any = param("kg/s", "sway damping")
+    d33: Any = param("kg m^2/s", "yaw damping")
+    b: Any = param("m", "distance between the two thrusters", fit=False, gt=0.0)
+    thrust: Any = submodel("thrust", "thrust of one thruster: k [N per command unit] or "
+                           "twin_thrust", default=1.0)
+    cmd: Any = param("command", "nominal command of each thruster", fit=False, default=0.0)
+    steer_gain: Any = param("command/rad", "differential command per radian of "
+                            "rudder-equivalent steering", fit=False, default=0.0)
+    kind: ClassVar[str] = "catamaran"
+
+    def thruster_thrust(self, c: Any) -> np.ndarray:
+        """Thrust [N] of one thruster at command c (TwinThrust, or k c)."""
+        if hasattr(self.thrust, "thrust"):
+            return np.asarray(self.thrust.thrust(c), dtype=float)
+        return np.asarray(self.thrust, dtype=float) * np.asarray(c, dtype=float)
+
+    def tau(self, c_port: Any, c_stbd: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(tau_u [N], tau_r [N m]) = (T_p + T_s, (T_p - T_s) b/2)."""
+        Tp, Ts = self.thruster_thrust(c_port), self.thruster_thrust(c_stbd)
+        return Tp + Ts, (Tp - Ts) * np.asarray(self.b) / 2.0
+
+    def commands(self, delta: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(c_port, c_stbd) for a rudder-equivalent steering angle delta [rad]."""
+        d = np.asarray(delta, dtype=float)
+        g = np.asarray(self.steer_gain)
+        return np.asarray(self.cmd) + g * d, np.asarray(self.cmd) - g * d
+
+
+# P rows: 0-5 m11 m22 m33 d11 d22 d33, 6 b/2, 7 cmd, 8 steer_gain, 9-11 1/m11 1/m22 1/m33,
+# 12.. thrust law
+_T0 = 12
+
+
+@numba.njit(cache=True, inline="always")
+def _thrust_law(p):
+    """The packed thrust law (``thrust_row``) of a lane's parameter tuple."""
+    return (p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21],
+            p[22], p[23], p[24], p[25], p[26], p[27], p[28], p[29], p[30], p[31])
+
+
+@numba.njit(cache=True, inline="always")
+def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
+    """Module docstring equations; returns (u, v, r, u', v', r')."""
+    u = s0
+    v = s1
+    r = s2
+    cp = p[7] + p[8] * delta if np.isnan(n_port) else n_port
+    cs = p[7] - p[8] * delta if np.isnan(n_stbd) else n_stbd
+    law = _thrust_law(p)
+    Tp = thrust_nb(law, u, cp)
+    Ts = thrust_nb(law, u, cs)
+    m11 = p[0]
+    m22 = p[1]
+    return (u, v, r, (m22 * v * r - p[3] * u + Tp + Ts) * p[9],
+            (-m11 * u * r - p[4] * v) * p[10],
+            ((m11 - m22) * u * v - p[5] * r + (Tp - Ts) * p[6]) * p[11], 0.0)
+
+
+def _law(thrust: Any) -> Any:
+    return thrust if isinstance(thrust, TwinThrust) else ("per_command", thrust)
+
+
+def pack(d: Catamaran, speed: Any) -> np.ndarray:
+    m11, m22, m33 = (np.asarray(getattr(d, k), float) for k in ("m11", "m22", "m33"))
+    return rows([d.m11, d.m22, d.m33, d.d11, d.d22, d.d33, 0.5 * np.asarray(d.b, float), d.cmd,
+                 d.steer_gain, 1.0 / m11, 1.0 / m22, 1.0 / m33, *thrust_row(_law(d.thrust))])
+
+
+def initial(d: Catamaran, values: Mapping[str, Any]) -> np.ndarray:
+    return rows([values.get("u", 0.0), values.get("v", 0.0), values.get("r", 0.0)])
+
+
+def straight_speed(d: Catamaran) -> Any:
+    """Straight-line speed [m/s] at the nominal command: 2 T(cmd) / d11 (thrust independent of
+    the speed)."""
+    return 2.0 * np.asarray(d.thruster_thrust(d.cmd), float) / np.asarray(d.d11, float)
+
+
+def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
+                options: Mapping[str, Any]) -> dict[str, Any]:
+    """b, the thrust law, the nominal command and the steering gain (module docstring)."""
+    num = _fossen.extra_number
+    b = num(vessel, options, "thruster_spacing", "b")
+    if b is None:
+        raise IdentificationError(
+            "model 'catamaran' needs the distance b [m] between the two thrusters: give "
+            "vessel.extra.thruster_spacing in the format spec (or the option b)")
+    k = num(vessel, options, "thrust_per_command")
+    cp = [s["n_port"] for s in data if "n_port" in s and "n_stbd" in s]
+    cs = [s["n_stbd"] for s in data if "n_port" in s and "n_stbd" in s]
+    if not cp:
+        raise IdentificationError("model 'catamaran' needs the thruster commands n_port and "
+                                  "n_stbd in the logs")
+    cp_all, cs_all = np.concatenate(cp), np.concatenate(cs)
+    cmd = num(vessel, options, "nominal_command")
+    if cmd is None:
+        cmd = float(np.nanmedian(0.5 * (cp_all + cs_all)))
+    g = num(vessel, options, "steer_gain")
+    if g is None:
+        g = float(np.nanmax(np.abs(cp_all - cs_all))) / 2.0 / math.radians(35.0)
+    return {"b": b, "thrust": 1.0 if k is None else k, "cmd": cmd, "steer_gain": g}
+
+
+def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
+    """tau_u = T_p + T_s, tau_r = (T_p - T_s) b/2 from the thrust law at the commands."""
+    if "tau_u" in s and "tau_r" in s:
+        return
+    model = Catamaran(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, b=fixed["b"], thrust=fixed["thrust"])
+    if "T_port" in s and "T_stbd" in s:
+        tp, ts = s["T_port"], s["T_stbd"]
+    else:
+        if "n_port" not in s or "n_stbd" not in s:
+            raise IdentificationError("model 'catamaran' needs channels n_port and n_stbd")
+        tp, ts = model.thruster_thrust(s["n_port"]), model.thruster_thrust(s["n_stbd"])
+    s["tau_u"] = tp + ts
+    s["tau_r"] = (tp - ts) * 0.5 * float(fixed["b"])
+
+
+def channels(d: Catamaran, rec: dict[str, np.ndarray]) -> None:
+    """Recorded thruster commands from the steering angle where they were not commanded."""
+    if "delta" not in rec:
+        return
+    cp, cs = d.commands(rec["delta"])
+    for name, c in (("n_port", cp), ("n_stbd", cs)):
+        if name in rec:
+            rec[name] = np.where(np.isnan(rec[name]), c, rec[name])
+
+
+KIND = ModelKind(
+    name="catamaran",
+    title="Twin-thruster catamaran",
+    equation="M nu' + C(nu) nu + D nu = tau; tau = (T_p + T_s, 0, (T_p - T_s) b/2)",
+    reference="Mu et al. 2018 eq. 17 with twin thrusters (catamaran paper)",
+    dynamics=Catamaran,
+    states=("u", "v", "r"),
+    body=(0, 1, 2),
+    inputs=("delta", "n_port", "n_stbd"),
+    rhs=rhs,
+    pack=pack,
+    initial=initial,
+    speed=straight_speed,
+    outputs=("u", "v", "r", "psi"),
+    regression=Regression(_fossen.blocks, _fossen.to_params, _fossen.coefficients,
+                          needs=("u", "v")),
+    fit_space=_fossen.FIT_SPACE,
+    particulars=particulars,
+    series=series,
+    channels=channels,
+)

@@ -1,0 +1,67 @@
+"""The registry of model kinds: every module of :mod:`usvid.models.kinds` with a ``KIND``.
+
+``get("norrbin")`` returns the :class:`usvid.models.kind.ModelKind`; ``names()`` the kinds in a
+stable order (the CLI's ``--model`` choices); ``readme_table()`` the README's kind table.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import inspect
+import pkgutil
+from functools import cache
+from typing import Any
+
+from usvid.errors import UsvidError
+from usvid.models import kinds as _kinds_pkg
+from usvid.models.kind import Dynamics, ModelKind
+
+#: Kinds listed first, in this order (others follow alphabetically).
+_ORDER = ("nomoto1", "nomoto2", "norrbin", "threedof", "catamaran", "mmg")
+
+
+@cache
+def kinds() -> dict[str, ModelKind]:
+    """All registered kinds by name (imported once)."""
+    found: dict[str, ModelKind] = {}
+    for info in pkgutil.iter_modules(_kinds_pkg.__path__):
+        if info.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"{_kinds_pkg.__name__}.{info.name}")
+        kind = getattr(module, "KIND", None)
+        if not isinstance(kind, ModelKind):
+            continue
+        digest = hashlib.sha256(inspect.getsource(module).encode()).hexdigest()[:12]
+        object.__setattr__(kind, "source_hash", digest)
+        found[kind.name] = kind
+    order = [k for k in _ORDER if k in found] + sorted(set(found) - set(_ORDER))
+    return {k: found[k] for k in order}
+
+
+def names() -> tuple[str, ...]:
+    """Kind names in display order."""
+    return tuple(kinds())
+
+
+def get(name: str) -> ModelKind:
+    """The kind called ``name``; :class:`UsvidError` listing the kinds otherwise."""
+    ks = kinds()
+    if name not in ks:
+        raise UsvidError(f"unknown model kind {name!r} (one of {', '.join(ks)})")
+    return ks[name]
+
+
+def kind_of(dynamics: Any) -> ModelKind:
+    """The kind of a parameter-set object (:class:`usvid.models.kind.Dynamics`)."""
+    if not isinstance(dynamics, Dynamics):
+        raise UsvidError(f"not a model parameter set: {type(dynamics).__name__} (one of "
+                         f"{', '.join(k.dynamics.__name__ for k in kinds().values())})")
+    return get(dynamics.kind)
+
+
+def readme_table() -> str:
+    """The Markdown table of kinds for the README (generated; a test keeps the README equal)."""
+    lines = ["| kind | equations | parameters (SI) |", "|---|---|---|"]
+    lines += [k.table_row() for k in kinds().values()]
+    return "\n".join(lines)
