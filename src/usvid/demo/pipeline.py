@@ -58,8 +58,10 @@ PAPER_ITAE = {"PID": 37.98, "PD": 38.6}
 COURSE_TARGET_DEG = 100.0
 #: Disturbance std [deg] of the course-keeping simulation (a rudder-equivalent disturbance).
 COURSE_DIST_DEG = 1.0
-#: Duration of the course-change simulation [s] (the ITAE horizon; seed 000 does not state its).
-COURSE_T_END_S = 60.0
+#: Duration of the course-change simulation [s]: the ITAE horizon, the same 100 s as the
+#: defaults of ``usvid simulate course-keeping`` and ``usvid autopilot`` (Mu et al. 2018 do
+#: not state theirs).
+COURSE_T_END_S = 100.0
 
 
 class Skipped(Exception):
