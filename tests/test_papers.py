@@ -11,8 +11,11 @@ import pytest
 
 from usvid.control import nomoto_equivalent
 from usvid.io.modelfile import load_model
-from usvid.models.response_params import (norrbin_alpha, second_order_nonlinear_rhs,
-                                          threedof_response)
+from usvid.models.response_params import (
+    norrbin_alpha,
+    second_order_nonlinear_rhs,
+    threedof_response,
+)
 from usvid.sim.runs import run_course, run_turning, run_zigzag
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
