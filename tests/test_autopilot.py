@@ -137,11 +137,12 @@ def _cli(args, capsys):
 @pytest.mark.parametrize("method", ["pole-placement", "itae"])
 def test_acceptance_beats_the_paper_gains_on_lanxin(method, capsys):
     # (robustness checked on the fast pole-placement run only: the search dominates the time)
-    n = "100" if method == "pole-placement" else "0"
+    n = "1000" if method == "pole-placement" else "0"
     out = _cli(["autopilot", str(EXAMPLES / "lanxin.json"), "--method", method,
                 "--samples", n], capsys)
     ref = out["reference"]
     assert (ref["kp"], ref["ki"], ref["kd"]) == (0.7, 0.00095, 1.0)
+    assert out["controller"] == "pd" and out["ki"] == 0.0
     assert out["horizon_s"] == 100.0 and out["seed"] == 1
     # the paper gains' ITAE is the one `usvid simulate course-keeping` reports for them
     assert ref["step"]["itae"] == pytest.approx(130.11, abs=0.01)
@@ -152,11 +153,30 @@ def test_acceptance_beats_the_paper_gains_on_lanxin(method, capsys):
     assert out["margins"]["gain_margin_db"] >= 5.99
     assert out["margins"]["phase_margin_deg"] >= 45.0
     r = out["robustness"]
+    # the README's table (rounded as printed there)
+    assert ref["step"]["itae_mean"] == pytest.approx(128.7, abs=0.05)
+    assert ref["step"]["saturation_s"] == pytest.approx(1.98, abs=1e-9)
     if method == "pole-placement":
-        assert r["samples"] == 100 and r["horizon_s"] == 100.0 and r["diverged"] == 0
+        assert r["samples"] == 1000 and r["horizon_s"] == 100.0 and r["diverged"] == 0
         assert r["itae_worst"] > r["itae_median"] > 0
+        expect = dict(kp=0.547, kd=0.835, itae=118.75, itae_mean=123.7, sat=1.34, gm=6.0,
+                      pm=59.3)
+        assert r["itae_median"] == pytest.approx(118, abs=0.5)
+        assert r["itae_worst"] == pytest.approx(164, abs=0.5)
+        assert r["gain_margin_min_db"] == pytest.approx(3.7, abs=0.05)
+        assert r["phase_margin_min_deg"] == pytest.approx(43, abs=0.5)
+        assert out["pole_placement"]["bandwidth_rad_s"] == pytest.approx(0.339, abs=5e-4)
     else:
+        expect = dict(kp=0.508, kd=0.898, itae=118.2, itae_mean=122.6, sat=1.02, gm=6.0,
+                      pm=64.5)
         assert r is None and out["itae_search"]["max_saturation_s"] == ref["step"]["saturation_s"]
+    assert out["kp"] == pytest.approx(expect["kp"], abs=5e-4)
+    assert out["kd"] == pytest.approx(expect["kd"], abs=5e-4)
+    assert out["step"]["itae"] == pytest.approx(expect["itae"], abs=0.05)
+    assert out["step"]["itae_mean"] == pytest.approx(expect["itae_mean"], abs=0.05)
+    assert out["step"]["saturation_s"] == pytest.approx(expect["sat"], abs=0.011)  # 0.02 s steps
+    assert out["margins"]["gain_margin_db"] == pytest.approx(expect["gm"], abs=0.05)
+    assert out["margins"]["phase_margin_deg"] == pytest.approx(expect["pm"], abs=0.05)
     # the designed gains reproduce through `usvid simulate course-keeping` (same seed/horizon)
     sim = _cli(["simulate", "course-keeping", str(EXAMPLES / "lanxin.json"), "--controller",
                 out["controller"], "--kp", repr(out["kp"]), "--ki", repr(out["ki"]), "--kd",
@@ -186,3 +206,10 @@ def test_bad_options(capsys):
     assert main(["autopilot", lx, "--method", "lqr"]) == 2
     err = capsys.readouterr().err
     assert "--horizon" in err and "--bandwidth" in err
+
+
+def test_paper_gains_margins(lanxin):
+    # README table: the hand-tuned gains leave 4.2 dB and 44.7 deg on the linearised loop
+    mg = loop_margins(nomoto_equivalent(lanxin), lanxin.servo, 0.7, 0.00095, 1.0)
+    assert mg.gain_margin_db[0] == pytest.approx(4.2, abs=0.05)
+    assert mg.phase_margin_deg[0] == pytest.approx(44.7, abs=0.05)
