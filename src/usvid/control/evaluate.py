@@ -78,13 +78,18 @@ class StepMetrics:
         return out
 
 
+def _numeric(v: Any) -> bool:
+    """A number or an array of numbers (not None, not a sub-model such as a thrust law)."""
+    return isinstance(v, (int, float, np.ndarray, np.number)) and not isinstance(v, bool)
+
+
 def _tile_model(model: Any, B: int, R: int) -> Any:
     """The model with every (B,) parameter array repeated R times (lane b * R + j)."""
     if R == 1:
         return model
     changes = {}
     for name, v in model.dynamics.values().items():
-        if v is None or hasattr(v, "kind"):
+        if not _numeric(v):
             continue
         a = np.asarray(v, dtype=float)
         if a.ndim == 1 and a.size == B:
@@ -117,7 +122,7 @@ def evaluate_gains(model: Any, kp: Any, ki: Any, kd: Any, *, target_deg: float =
         raise UsvidError(f"realisations must be >= 1 (got {realisations!r})")
     gains = [np.atleast_1d(np.asarray(g, dtype=float)) for g in (kp, ki, kd)]
     sizes = [g.size for g in gains] + [np.size(v) for v in model.dynamics.values().values()
-                                       if v is not None and not hasattr(v, "kind")]
+                                       if _numeric(v)]
     B = max(sizes)
     gains = [np.repeat(np.broadcast_to(g, (B,)), R) for g in gains]
     streams = np.tile(np.arange(R, dtype=float), B)

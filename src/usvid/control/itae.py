@@ -50,7 +50,8 @@ def itae_design(model: Any, eq: NomotoEquivalent, start: Gains, *, controller: s
     0 .. 4x the pole-placement gains ``start`` (kp [rad/rad], ki [1/s], kd [s]; kd at least
     4 m omega with m = T/K of the Nomoto equivalent ``eq``, ki at least kp / 50 s), over the
     horizon ``horizon`` [s] with disturbance std ``noise_deg`` [deg] (streams 0 .. R-1 of
-    ``seed``). ``rng_seed`` seeds the optimiser."""
+    ``seed``). ``rng_seed`` seeds the optimiser; ``start`` is in the first generation, so the
+    result's objective is never above the start's."""
     pid = controller == "pid"
     m_ = float(np.asarray(eq.m).ravel()[0])
     kp_hi = 4.0 * max(start.kp, 1e-3)
@@ -81,9 +82,14 @@ def itae_design(model: Any, eq: NomotoEquivalent, start: Gains, *, controller: s
         big = 1e6
         return np.where(np.isfinite(itae), itae, big) + 1e3 * viol
 
+    x0 = [min(max(start.kp, bounds[0][0]), bounds[0][1]),
+          min(max(start.kd, bounds[1][0]), bounds[1][1])]
+    if pid:
+        x0.append(min(max(start.ki, bounds[2][0]), bounds[2][1]))
+    # the start is a member of the first generation: the result is never worse than it
     res = differential_evolution(cost, bounds, vectorized=True, updating="deferred",
                                  maxiter=maxiter, popsize=popsize, seed=rng_seed, tol=1e-4,
-                                 polish=False, init="sobol")
+                                 polish=False, init="sobol", x0=np.array(x0))
     kp, ki, kd = (float(v[0]) for v in split(np.asarray(res.x)[:, None]))
     return ItaeResult(gains=Gains(kp=kp, ki=ki, kd=kd), itae=float(res.fun), lanes=lanes,
                       generations=int(res.nit), message=str(res.message))
