@@ -257,7 +257,7 @@ class ModelEstimator(FittedAttributes):
                  oe_channels: tuple[str, ...] | None = None,
                  particulars: dict[str, Any] | None = None, x_l: float | None = None,
                  thrust: Any = None, arx_step: float | None = None,
-                 oe_step: float | None = None) -> None:
+                 oe_step: float | None = None, states: str = "auto") -> None:
         if kind not in kind_names():
             raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
         k = get_kind(kind)
@@ -298,6 +298,9 @@ class ModelEstimator(FittedAttributes):
         if x_l is not None:
             self.particulars["x_l"] = x_l
         self.thrust = thrust
+        if states not in ("auto", "smooth", "ekf"):
+            raise UsvidError(f"`states` must be 'auto', 'smooth' or 'ekf' (got {states!r})")
+        self.states = states
 
     def _estimator_label(self) -> str:
         return f"ModelEstimator({self.kind!r})"
@@ -321,8 +324,8 @@ class ModelEstimator(FittedAttributes):
         return fixed
 
     def _series(self, trials: Sequence[Trial], fixed: dict[str, Any]) -> list[Series]:
-        return [trial_series(tr, self.kind_, smooth_s=self.smooth_s, fixed=fixed)
-                for tr in trials]
+        return [trial_series(tr, self.kind_, smooth_s=self.smooth_s, fixed=fixed,
+                             states=self.states) for tr in trials]
 
     def _decimation(self, s: Series) -> int:
         target = DEFAULT_STEP if self.step is None else float(self.step)

@@ -405,6 +405,7 @@ KIND = ModelKind(
     regression=Regression(_mmg_fit.blocks, _mmg_fit.to_params, needs=("u",)),
     particulars=particulars,
     uses_trig=True,
+    state_estimation=True,
 )
 
 __all__ = ["EXTRA_KEYS", "GENERIC", "KIND", "MMG", "ParticularsWarning", "equilibrium_rps",
