@@ -22,6 +22,7 @@ from pathlib import Path
 
 import usvid.io
 import usvid.prep
+from usvid.errors import UsvidError
 from usvid.identify import ModelEstimator
 from usvid.sim import run_turning
 
@@ -46,8 +47,13 @@ def main() -> int:
         L = est.model_.vessel.length
         turns = []
         for d in (35.0, -35.0):
-            _, m = run_turning(est.model_, d)
-            turns.append(f"{'stbd' if d > 0 else 'port'} advance/L {m.advance_m / L:.3f} "
+            side = "stbd" if d > 0 else "port"
+            try:
+                _, m = run_turning(est.model_, d)
+            except UsvidError as exc:  # a model that extrapolates badly to 35 deg
+                turns.append(f"{side} {exc}")
+                continue
+            turns.append(f"{side} advance/L {m.advance_m / L:.3f} "
                          f"tactical/L {m.tactical_diameter_m / L:.3f}")
         print(f"mmg {method}: {len(trials)} runs ({sum(len(t) for t in trials)} rows), "
               f"{wall:.1f} s wall, {cpu:.1f} s CPU, peak traced memory {peak:.0f} MiB; "
