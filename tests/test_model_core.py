@@ -74,7 +74,9 @@ def _truth(kind: str) -> tuple[VesselModel, dict[str, float]]:
         n0 = equilibrium_rps(p, 1.18)
         extra = {"x_g": p.x_G, "yaw_inertia": p.I_zG, "propeller_diameter": p.D_p,
                  "rudder_area": p.A_R, "rudder_span": p.H_R, "water_density": p.rho,
-                 "volume": p.m / p.rho}
+                 "volume": p.m / p.rho, "gamma_R_plus": p.gamma_R_plus,
+                 "gamma_R_minus": p.gamma_R_minus, "C_2_plus": p.C_2_plus,
+                 "C_2_minus": p.C_2_minus}
         return VesselModel(from_physics(p, n=n0), servo, Vessel(length=p.L, speed=1.18, beam=p.B,
                                                           draft=p.d, mass=p.m)), extra
     # a 2 m catamaran: 35 deg of rudder-equivalent steering turns it at about 15 deg/s, a 20/20

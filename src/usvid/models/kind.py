@@ -239,6 +239,11 @@ class FitSpace:
     to_fit: Callable[[Mapping[str, float]], dict[str, float]]
     from_fit: Callable[[Mapping[str, float]], dict[str, float]]
     held: tuple[str, ...] = ()
+    #: Lower bounds of fit-space values (e.g. an inverse mass > 0): the equation-error fit of a
+    #: constrained form stays above them (a negative mass is never returned), starting from
+    #: ``fallback[name]`` where the unconstrained estimate breaks the bound.
+    lower: Mapping[str, float] = field(default_factory=dict)
+    fallback: Mapping[str, float] = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------------------------------
