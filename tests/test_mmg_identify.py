@@ -153,3 +153,29 @@ def test_twin_thruster_spec_works_with_catamaran_and_no_negative_mass(twin_dir, 
     p = json.loads(out.read_text())["parameters"]
     assert min(p["m11"], p["m22"], p["m33"]) > 0
     assert p["thrust"]["kind"] == "twin_thrust" and p["thrust"]["command"] == "pwm"
+
+
+def test_simulate_rps_option(tmp_path, capsys):
+    """`usvid simulate turning M.json --rps N` runs the MMG model at N rps (faster shaft, faster
+    steady turn); a kind without a shaft speed is a one-line error naming the option."""
+    import json
+
+    from usvid.cli import main
+    from usvid.io.modelfile import save_model
+
+    model = VesselModel(from_physics(P, n=10.0), IdealServo(max_rate=math.radians(15.8)),
+                        Vessel(length=7.0, speed=1.0))
+    f = save_model(model, tmp_path / "m.json")
+    speeds = []
+    for rps in ("9", "12"):
+        assert main(["simulate", "turning", str(f), "--rps", rps, "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["shaft_speed_rps"] == float(rps)
+        speeds.append(out["steady_speed_m_s"])
+    assert speeds[1] > speeds[0]
+    nomoto = tmp_path / "n.json"
+    nomoto.write_text(json.dumps({"usvid_model": 1, "kind": "nomoto1",
+                                  "parameters": {"K": 0.1, "T": 10.0},
+                                  "vessel": {"length": 7.0, "speed": 1.0}}))
+    assert main(["simulate", "turning", str(nomoto), "--rps", "9"]) == 2
+    assert "--rps" in capsys.readouterr().err
