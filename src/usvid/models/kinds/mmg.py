@@ -358,7 +358,9 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
         out["kt_scale_from_thrust"] = scale
     if generic:
         missing.append("interaction coefficients " + ", ".join(generic)
-                       + " from Yasukawa & Yoshimura 2015's KVLCC2 values")
+                       + " from Yasukawa & Yoshimura 2015's KVLCC2 values"
+                       + (f" (K_T scaled by {scale:.3f} to the logged thrust)"
+                          if scale is not None else ""))
     if missing:
         warnings.warn("mmg particulars not given (format spec vessel block): "
                       + "; ".join(missing), ParticularsWarning, stacklevel=3)
