@@ -64,6 +64,21 @@ def _truth(kind: str) -> tuple[VesselModel, dict[str, float]]:
                  "propeller_disk_ratio": 0.516, "thrust_deduction": 0.05,
                  "wake_fraction": 0.04}
         return VesselModel(dyn, servo, Vessel(length=7.02, speed=5.14)), extra
+    if kind == "mmg":
+        # the published KVLCC2 MMG model (Yasukawa & Yoshimura 2015) at the HSVA model scale,
+        # R_0 = 0.016 (the HSVA runs' resistance) and the shaft speed holding 1.18 m/s
+        from usvid.models.kinds.mmg import equilibrium_rps, from_physics
+        from usvid.models.mmg import kvlcc2
+
+        p = kvlcc2("hsva").replace(R_0=0.016)
+        n0 = equilibrium_rps(p, 1.18)
+        extra = {"x_g": p.x_G, "yaw_inertia": p.I_zG, "propeller_diameter": p.D_p,
+                 "rudder_area": p.A_R, "rudder_span": p.H_R, "water_density": p.rho,
+                 "volume": p.m / p.rho, "gamma_R_plus": p.gamma_R_plus,
+                 "gamma_R_minus": p.gamma_R_minus, "C_2_plus": p.C_2_plus,
+                 "C_2_minus": p.C_2_minus}
+        return VesselModel(from_physics(p, n=n0), servo, Vessel(length=p.L, speed=1.18, beam=p.B,
+                                                          draft=p.d, mass=p.m)), extra
     # a 2 m catamaran: 35 deg of rudder-equivalent steering turns it at about 15 deg/s, a 20/20
     # zig-zag overshoots by about 15 deg
     dyn = Catamaran(m11=60.0, m22=70.0, m33=20.0, d11=20.0, d22=300.0, d33=45.0, b=0.8,
@@ -103,7 +118,9 @@ def identified(request, tmp_path_factory):
     kind = request.param
     tmp = tmp_path_factory.mktemp(kind)
     truth, extra = _truth(kind)
-    vessel = Vessel(length=truth.vessel.length, speed=truth.vessel.speed, extra=extra)
+    vessel = Vessel(length=truth.vessel.length, speed=truth.vessel.speed,
+                    beam=truth.vessel.beam, draft=truth.vessel.draft, mass=truth.vessel.mass,
+                    extra=extra)
     logs = []
     for j, (res, i) in enumerate(_runs(truth, kind)):
         tr = virtual_trial_uniform(res, SENSORS, seed=10 + j, i=i, rate_hz=10.0)
@@ -131,10 +148,19 @@ def test_identified_file_predicts_the_truth_manoeuvres(identified, capsys):
     t_zz = _cli(capsys, "simulate", "zigzag", str(truth_file), "--delta-deg", "20")
     m_zz = _cli(capsys, "simulate", "zigzag", str(model_file), "--delta-deg", "20")
     # the issue's acceptance: tactical diameter and steady speed within 2 %, first overshoot
-    # within 0.3 deg of the truth model's (identification from noisy virtual trials)
-    for key in ("tactical_diameter_m", "steady_speed_m_s"):
-        assert m_turn[key] == pytest.approx(t_turn[key], rel=0.02), (kind, key)
-    assert abs(m_zz["overshoot_deg"][0] - t_zz["overshoot_deg"][0]) < 0.3, kind
+    # within 0.3 deg of the truth model's (identification from noisy virtual trials). MMG
+    # (issue 9, from zig-zags only): advance and tactical diameter within 3 %, the 20/20 first
+    # overshoot within 0.5 deg; the steady speed of a 35 deg turn extrapolates the surge terms
+    # (X_vv, X_vr, X_rr) far beyond the drift of a 20 deg zig-zag: within 6 %
+    tol = ({"advance_m": 0.03, "tactical_diameter_m": 0.03, "steady_speed_m_s": 0.06}
+           if kind == "mmg" else {"tactical_diameter_m": 0.02, "steady_speed_m_s": 0.02})
+    for key, rel in tol.items():
+        print(f"{kind} {key}: identified {m_turn[key]:.4g}, truth {t_turn[key]:.4g}")
+        assert m_turn[key] == pytest.approx(t_turn[key], rel=rel), (kind, key)
+    print(f"{kind} 20/20 first overshoot: identified {m_zz['overshoot_deg'][0]:.3f} deg, truth "
+          f"{t_zz['overshoot_deg'][0]:.3f} deg")
+    assert abs(m_zz["overshoot_deg"][0] - t_zz["overshoot_deg"][0]) < (
+        0.5 if kind == "mmg" else 0.3), kind
 
 
 def test_model_file_replays_the_fit_residuals(identified):

@@ -43,6 +43,9 @@ ModelArg = Annotated[Path, typer.Argument(help="Model file (JSON, usvid_model: 1
 DtOpt = Annotated[float, typer.Option("--dt", help="Integration step [s].")]
 SpeedOpt = Annotated[float | None, typer.Option(
     "--speed", help="Approach speed [m/s] (default: the model's vessel.speed).")]
+RpsOpt = Annotated[float | None, typer.Option(
+    "--rps", help="Shaft speed [rps] during the manoeuvre, for kinds with a propeller (mmg, "
+    "threedof; default: the model's nominal n).")]
 
 
 def _load(path: Path) -> Any:
@@ -65,15 +68,35 @@ def _check_dt(dt: float) -> None:
         raise SimulationError(f"--dt must be in (0, 1] s (got {dt!r})")
 
 
-def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | None = None
-           ) -> tuple[Any, float]:
-    """Check ``--dt`` (and a given ``--t-end``), load the model file; returns (model, u0 [m/s])."""
+def _with_rps(model: Any, rps: float | None, path: Path) -> Any:
+    """The model with its nominal shaft speed ``n`` set to ``--rps`` [rps]."""
+    if rps is None:
+        return model
+    if not (math.isfinite(rps) and rps > 0):
+        raise UsvidError(f"--rps must be > 0 (got {rps!r})")
+    if "n" not in {p.name for p in model.dynamics.param_specs()}:
+        raise UsvidError(f"--rps: {path.name} is a {model.kind} model, which has no shaft speed "
+                         "input (kinds with one: mmg, threedof)")
+    model.dynamics = model.dynamics.replace(n=float(rps))
+    return model
+
+
+def _rps_of(model: Any) -> float | None:
+    """The nominal shaft speed [rps] of a model with one (None otherwise)."""
+    n = getattr(model.dynamics, "n", None)
+    return None if n is None or hasattr(n, "__len__") else float(n)
+
+
+def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | None = None,
+           rps: float | None = None) -> tuple[Any, float]:
+    """Check ``--dt`` (and a given ``--t-end``), load the model file and set its shaft speed
+    to ``--rps``; returns (model, u0 [m/s])."""
     from usvid.sim.runs import MAX_T_END
 
     _check_dt(dt)
     if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= MAX_T_END):
         raise SimulationError(f"--t-end must be in (0, {MAX_T_END:g}] s (got {t_end!r})")
-    model = _load(model_path)
+    model = _with_rps(_load(model_path), rps, model_path)
     return model, _speed(model, speed, model_path)
 
 
@@ -140,6 +163,7 @@ def zigzag_cmd(
         "--t-end", help="Simulated time [s] (default: long enough for 4 reversals).")] = None,
     dt: DtOpt = 0.02,
     speed: SpeedOpt = None,
+    rps: RpsOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Zig-zag test: overshoot angles, period, initial turning time, time to check yaw."""
@@ -151,7 +175,7 @@ def zigzag_cmd(
         raise SimulationError(f"--delta-deg must be in (0, 90] (got {delta_deg!r})")
     if not 0 < psi_deg <= 180:
         raise SimulationError(f"--psi-deg must be in (0, 180] (got {psi_deg!r})")
-    model, u0 = _setup(model_path, dt, speed, t_end=t_end)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps)
     _, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
                       t_end=t_end, dt=dt, u0=u0)
     out: dict[str, Any] = m.to_dict()
@@ -160,6 +184,7 @@ def zigzag_cmd(
     check = imo_zigzag_check(m, L, u0, kind) if kind and L else None
     out.update(manoeuvre="zigzag", model=str(model_path), model_kind=model.kind,
                delta_deg=delta_deg, psi_deg=psi_deg, speed_m_s=u0,
+               shaft_speed_rps=_rps_of(model),
                imo=check.to_dict() if check else None)
     rows = [("overshoot angles (first 4)", m.overshoot_deg[:4], "deg"),
             ("period", m.period_s, "s"),
@@ -178,6 +203,7 @@ def turning_cmd(
         "--t-end", help="Simulated time [s] (default: until 540 deg of heading change).")] = None,
     dt: DtOpt = 0.02,
     speed: SpeedOpt = None,
+    rps: RpsOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Turning circle: advance, transfer, tactical and steady diameters, steady yaw rate/speed."""
@@ -186,14 +212,15 @@ def turning_cmd(
 
     if not 0 < abs(delta_deg) <= 90:
         raise SimulationError(f"--delta-deg must be non-zero and within +-90 (got {delta_deg!r})")
-    model, u0 = _setup(model_path, dt, speed, t_end=t_end)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps)
     _, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
     out: dict[str, Any] = m.to_dict()
     L = model.vessel.length
     applies = imo_turning_applies(math.radians(delta_deg), float(model.servo.max_angle))
     check = imo_turning_check(m, L) if L and applies else None
     out.update(manoeuvre="turning", model=str(model_path), model_kind=model.kind,
-               delta_deg=delta_deg, speed_m_s=u0, imo=check.to_dict() if check else None)
+               delta_deg=delta_deg, speed_m_s=u0, shaft_speed_rps=_rps_of(model),
+               imo=check.to_dict() if check else None)
     rows = [("advance", m.advance_m, "m"), ("transfer", m.transfer_m, "m"),
             ("tactical diameter", m.tactical_diameter_m, "m"),
             ("steady diameter", m.steady_diameter_m, "m"),

@@ -21,6 +21,7 @@ the covariance is inflated by the residual autocorrelation factor ``1 + 2 sum rh
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -36,7 +37,7 @@ from usvid.identify.ls import (
     numerical_jacobian,
 )
 from usvid.identify.rls import RecursiveLeastSquares
-from usvid.identify.series import Series
+from usvid.identify.series import IdentificationWarning, Series
 from usvid.manoeuvres import find_execute, steady_turn
 from usvid.models.kind import Block, ModelKind
 
@@ -139,8 +140,15 @@ def _constrained(kind: ModelKind, blocks: list[Block], res0: list[np.ndarray],
     assert reg is not None and reg.coefficients is not None
     sig = [max(float(np.sqrt(np.mean(r * r))), 1e-300) for r in res0]
     space = kind.fit_space
+    lo = np.full(len(names) if space is None else len(space.names), -np.inf)
+    clipped: list[str] = []
     if space is not None:
         x0 = np.array([space.to_fit(start)[n] for n in space.names])
+        lo = np.array([space.lower.get(n, -np.inf) for n in space.names])
+        for i, n in enumerate(space.names):
+            if not x0[i] > lo[i]:  # the unconstrained estimate breaks a physical bound
+                x0[i] = space.fallback.get(n, 1.0 if lo[i] < 1.0 else 2.0 * lo[i])
+                clipped.append(n)
 
         def params_of(x: np.ndarray) -> dict[str, float]:
             return space.from_fit(dict(zip(space.names, x, strict=True)))
@@ -155,7 +163,20 @@ def _constrained(kind: ModelKind, blocks: list[Block], res0: list[np.ndarray],
         return np.concatenate([(b.y - b.Phi @ np.array([th[n] for n in b.names])) / s
                                for b, s in zip(blocks, sig, strict=True)])
 
-    sol = least_squares(resid, x0, x_scale="jac", method="lm", xtol=1e-12, ftol=1e-12)
+    sol = None
+    if not clipped:
+        sol = least_squares(resid, x0, x_scale="jac", method="lm", xtol=1e-12, ftol=1e-12)
+    if sol is None or not np.all(sol.x > lo):  # bounded (trust region reflective)
+        inside = np.where(np.isfinite(lo), np.maximum(x0, 2.0 * np.abs(lo) + 1e-12), x0)
+        sol = least_squares(resid, inside, x_scale="jac",
+                            method="trf", bounds=(lo, np.inf), xtol=1e-12, ftol=1e-12)
+        at = [n for n, x, b in zip(space.names if space is not None else names, sol.x, lo,
+                                   strict=True) if np.isfinite(b) and x <= 1.01 * b]
+        warnings.warn(
+            f"{kind.name}: least squares gives a non-physical {', '.join(clipped) or 'value'} "
+            "(a negative mass or inertia); fitted with the masses constrained positive"
+            + (f", {', '.join(at)} at its bound: that equation is not determined by these data"
+               if at else ""), IdentificationWarning, stacklevel=4)
     J = sol.jac
     r = sol.fun
     s2 = float(r @ r) / max(len(r) - len(x0), 1)

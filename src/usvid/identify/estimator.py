@@ -99,12 +99,26 @@ def _is_turning(tr: Trial) -> bool:
     return "turning" in kinds and "zigzag" not in kinds
 
 
+def pwm_commands(tr: Trial) -> Trial:
+    """Thruster commands ``n_port``/``n_stbd`` from logged PWM pulse widths ``pwm_port``/
+    ``pwm_stbd`` [us] where the log has no other commands: the kinds' thrust map then reads the
+    pulse width (``twin_thrust`` with ``command: pwm``, the catamaran's particulars)."""
+    if tr.has("pwm_port") and tr.has("pwm_stbd") and not (tr.has("n_port")
+                                                          or tr.has("n_stbd")):
+        data = tr.data.copy()
+        data["n_port"] = data["pwm_port"]
+        data["n_stbd"] = data["pwm_stbd"]
+        tr = tr.with_data(data, meta={**tr.meta, "commands_from": "pwm"})
+    return tr
+
+
 def one_grid(trials: Sequence[Trial]) -> list[Trial]:
     """Trials on uniform grids of one step: multi-rate or jittered logs are prepared
     (:func:`usvid.prep.prepare`), logs of different rates resampled to the coarsest one
     (never upsampled), with a warning saying so."""
     out = []
     for tr in trials:
+        tr = pwm_commands(tr)
         if not tr.is_uniform or tr.data.isna().any().any():
             uniform, before = tr.is_uniform, tr.data.isna().sum()
             if not uniform:  # a multi-rate or jittered log (NMEA, virtual sensors)
@@ -257,7 +271,7 @@ class ModelEstimator(FittedAttributes):
                  oe_channels: tuple[str, ...] | None = None,
                  particulars: dict[str, Any] | None = None, x_l: float | None = None,
                  thrust: Any = None, arx_step: float | None = None,
-                 oe_step: float | None = None) -> None:
+                 oe_step: float | None = None, states: str = "auto") -> None:
         if kind not in kind_names():
             raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
         k = get_kind(kind)
@@ -298,6 +312,9 @@ class ModelEstimator(FittedAttributes):
         if x_l is not None:
             self.particulars["x_l"] = x_l
         self.thrust = thrust
+        if states not in ("auto", "smooth", "ekf"):
+            raise UsvidError(f"`states` must be 'auto', 'smooth' or 'ekf' (got {states!r})")
+        self.states = states
 
     def _estimator_label(self) -> str:
         return f"ModelEstimator({self.kind!r})"
@@ -321,8 +338,8 @@ class ModelEstimator(FittedAttributes):
         return fixed
 
     def _series(self, trials: Sequence[Trial], fixed: dict[str, Any]) -> list[Series]:
-        return [trial_series(tr, self.kind_, smooth_s=self.smooth_s, fixed=fixed)
-                for tr in trials]
+        return [trial_series(tr, self.kind_, smooth_s=self.smooth_s, fixed=fixed,
+                             states=self.states) for tr in trials]
 
     def _decimation(self, s: Series) -> int:
         target = DEFAULT_STEP if self.step is None else float(self.step)
@@ -427,6 +444,7 @@ class ModelEstimator(FittedAttributes):
         except UsvidError as exc:
             hint = (" (a negative T means a course-unstable vessel: use --model norrbin)"
                     if self.kind == "nomoto1" and self.params_.get("T", 1) <= 0 else "")
+            hint += self._out_of_bounds(names, se, q)
             raise IdentificationError(f"identified {self.kind} parameters are not a valid "
                                       f"model: {exc}{hint}") from exc
         vessel = _vessel(trials)
@@ -505,6 +523,26 @@ class ModelEstimator(FittedAttributes):
             return IdealServo(), {}
         return IdealServo(max_rate=rate), {"kind": "ideal", "max_rate_deg_s": math.degrees(rate),
                                            "rate_from": source}
+
+    def _out_of_bounds(self, names: Sequence[str], se: np.ndarray, q: float) -> str:
+        """Why identified parameters break their bounds (a negative mass, inertia or
+        damping): each with its 95 % interval, which says whether the data determine it."""
+        specs = {p.name: p for p in self.kind_.dynamics.param_specs()}
+        bad = []
+        for n, e in zip(names, se, strict=True):
+            v = self.params_[n]
+            try:
+                specs[n].check("parameters", v)
+            except (UsvidError, KeyError):
+                wide = not math.isfinite(e) or q * e > abs(v)
+                bad.append(f"{n} = {v:.4g} +- {q * e:.3g} (95 %): "
+                           + ("the data do not determine it (its interval spans zero)" if wide
+                              else "the data contradict the model's form (e.g. a sway or yaw "
+                              "equation without excitation, or the wrong kind)"))
+        if not bad:
+            return ""
+        return ("; " + "; ".join(bad) + "; it is not returned: give more excitation (turns to "
+                "both sides, speed changes) or fix the particulars")
 
     def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> None:
         """Warn when a parameter's 95 % half-width ``q se`` exceeds half its magnitude

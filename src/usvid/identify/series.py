@@ -25,6 +25,7 @@ import numpy as np
 from usvid.errors import IdentificationError
 from usvid.models.kind import ModelKind
 from usvid.prep.filters import savgol_derivative, unwrap_angle, window_samples
+from usvid.prep.state_estimation import estimate_states
 
 #: Fewest samples of a trial for identification.
 MIN_SAMPLES = 20
@@ -80,12 +81,23 @@ def _channel(trial: Any, ch: str, name: str, t: np.ndarray, tg: np.ndarray) -> n
     return x
 
 
+def _has_positions(trial: Any) -> bool:
+    return trial.has("psi") and ((trial.has("x") and trial.has("y"))
+                                 or (trial.has("lat") and trial.has("lon")))
+
+
 def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
-                 fixed: Mapping[str, Any] | None = None) -> Series:
+                 fixed: Mapping[str, Any] | None = None, states: str = "auto") -> Series:
     """The arrays of ``kind`` from a :class:`usvid.Trial` on a uniform grid (module docstring).
 
     ``fixed``: the kind's particulars (thrust law, lever arm, ...) for its own regressors.
+    ``states``: ``"smooth"`` Savitzky-Golay states and derivatives; ``"ekf"`` u, v, r and their
+    derivatives from the EKF + RTS smoother (:func:`usvid.prep.estimate_states`, Alexandersson
+    et al. 2022) on the positions, heading and what else is logged; ``"auto"`` (default) the
+    smoother for kinds that declare ``state_estimation`` when the trial has positions.
     """
+    if states not in ("auto", "smooth", "ekf"):
+        raise IdentificationError(f"`states` must be 'auto', 'smooth' or 'ekf' (got {states!r})")
     name = trial.name or (trial.sources[0] if trial.sources else "?")
     if len(trial) < MIN_SAMPLES:
         raise IdentificationError(f"trial {name}: too short for identification ({len(trial)} "
@@ -124,8 +136,12 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
     needs = set(kind.regression.needs if kind.regression else ()) | set(kind.outputs)
     if kind.constant_speed or "delta" in needs:
         needs.add("delta")
+    use_ekf = states == "ekf" or (states == "auto" and kind.state_estimation
+                                  and _has_positions(trial))
     for ch in ("delta", "n", "n_port", "n_stbd", "u", "v", "thrust", "tau_u", "tau_r",
                "T_port", "T_stbd"):
+        if use_ekf and ch in ("u", "v") and not trial.has(ch):
+            continue  # from the state estimate
         if ch in needs or (ch in kind.inputs and trial.has(ch)) or (
                 ch in ("thrust", "tau_u", "tau_r", "T_port", "T_stbd") and trial.has(ch)):
             d[ch] = need(ch)
@@ -145,10 +161,28 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
     d["r_s"] = sg(d["r"])
     d["rdot_s"] = sg(d["r"], 1)
     d["psi_s"] = sg(d["psi"])
+    if use_ekf:
+        _ekf_states(trial, name, tg, d)
     for ch in ("u", "v"):
-        if ch in d:
+        if ch in d and ch + "_s" not in d:
             d[ch + "_s"] = sg(d[ch])
             d[ch + "dot_s"] = sg(d[ch], 1)
     if kind.series is not None:
         kind.series(d, fixed or {})
     return Series(name=name, h=h, data=d)
+
+
+def _ekf_states(trial: Any, name: str, tg: np.ndarray, d: dict[str, np.ndarray]) -> None:
+    """u, v, r and their derivatives (``*_s``, ``*dot_s``) from the EKF + RTS smoother; a
+    velocity the log lacks (u, v) becomes its estimate (the output output error compares)."""
+    if not _has_positions(trial):
+        raise IdentificationError(f"trial {name}: state estimation needs positions (x, y or "
+                                  "lat, lon) and heading psi")
+    est = estimate_states(trial)
+    t = np.asarray(est.t, float)
+    for ch in ("u", "v", "r"):
+        d[ch + "_s"] = np.interp(tg, t, est[ch])
+        d[ch + "dot_s"] = np.interp(tg, t, est[ch + "dot"])
+    for ch in ("u", "v"):
+        if ch not in d or not np.all(np.isfinite(d[ch])):
+            d[ch] = d[ch + "_s"].copy()

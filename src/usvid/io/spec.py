@@ -112,7 +112,11 @@ SPEC_KEYS = (
 COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional")
 MESSAGE_COLUMN_KEYS = ("topic", "message", "field", "unit", "sign", "offset", "scale", "optional",
                        "convert", "frame", "instance", "pwm")
-VESSEL_KEYS = (*VESSEL_FIELDS, "extra")
+#: Optional particulars the ``vessel`` block also accepts directly (SI; kept in
+#: ``Vessel.extra``): centre of gravity forward of midship [m], yaw moment of inertia about it
+#: [kg m^2], propeller diameter [m], rudder area [m^2] (the MMG model's particulars).
+VESSEL_PARTICULARS = ("x_g", "yaw_inertia", "propeller_diameter", "rudder_area")
+VESSEL_KEYS = (*VESSEL_FIELDS, *VESSEL_PARTICULARS, "extra")
 _SPECS_DIR = Path(__file__).resolve().parents[1] / "specs"
 
 
@@ -322,11 +326,15 @@ def _vessel(v: Any, source: str) -> Vessel:
     if not isinstance(v, dict):
         raise _err(source, "vessel", f"expected a mapping, got {v!r}")
     _check_keys(v, VESSEL_KEYS, source, "vessel")
-    kw = {k: _number(v[k], source, f"vessel.{k}", positive=True) for k in v if k != "extra"}
+    kw = {k: _number(v[k], source, f"vessel.{k}", positive=True) for k in v
+          if k != "extra" and k not in VESSEL_PARTICULARS}
     extra = v.get("extra", {}) or {}
     if not isinstance(extra, dict):
         raise _err(source, "vessel.extra", f"expected a mapping name -> number, got {extra!r}")
     ex = {str(k): _number(x, source, f"vessel.extra.{k}") for k, x in extra.items()}
+    for k in VESSEL_PARTICULARS:
+        if k in v:
+            ex[k] = _number(v[k], source, f"vessel.{k}", positive=k != "x_g")
     return Vessel(**kw, extra=ex)
 
 

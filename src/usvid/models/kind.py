@@ -239,6 +239,11 @@ class FitSpace:
     to_fit: Callable[[Mapping[str, float]], dict[str, float]]
     from_fit: Callable[[Mapping[str, float]], dict[str, float]]
     held: tuple[str, ...] = ()
+    #: Lower bounds of fit-space values (e.g. an inverse mass > 0): the equation-error fit of a
+    #: constrained form stays above them (a negative mass is never returned), starting from
+    #: ``fallback[name]`` where the unconstrained estimate breaks the bound.
+    lower: Mapping[str, float] = field(default_factory=dict)
+    fallback: Mapping[str, float] = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -293,6 +298,10 @@ class ModelKind:
         Adds kind-specific regressors to a trial's series (e.g. forces from the thrust law).
     channels : callable ``(dynamics, rec) -> None``, optional
         Fills recorded input channels the kind derives (e.g. thruster commands from delta).
+    state_estimation : bool
+        Identification takes u, v, r and their derivatives from the EKF + RTS smoother of
+        :func:`usvid.prep.estimate_states` where the trials have positions (force-model kinds:
+        the regression needs the sway velocity and accelerations, not just smoothed logs).
     transfer : callable ``(dynamics) -> (num, den)``, optional
         The yaw-rate transfer function r/delta (highest power first; linearised about r = 0)
         of a linear or linearisable response kind (:mod:`usvid.models.export`).
@@ -319,6 +328,7 @@ class ModelKind:
     channels: Callable[[Dynamics, dict[str, np.ndarray]], None] | None = None
     transfer: Callable[[Dynamics], tuple[list[float], list[float]]] | None = None
     uses_trig: bool = False
+    state_estimation: bool = False
     source_hash: str = ""
 
     def __post_init__(self) -> None:

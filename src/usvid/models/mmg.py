@@ -66,7 +66,8 @@ Numerically safe forms used by the kernels (identical to the paper for u > 0, n 
 * gamma_R and C_2 are chosen by a select on the sign (compiled to a conditional move).
 
 Actuator variants (issue 9 item 1), each a scalar numba kernel with the same
-``(P, b, u, v, r, ...)`` convention:
+``(p, u, v, r, ...)`` convention (``p`` one lane's packed parameters, a tuple or
+1-D array indexed by the ``IDX_*`` constants: the kind contract of :mod:`usvid.models.kind`):
 
 * ``rudder`` (:func:`mmg_accelerations`): the standard rudder behind a propeller above.
 * ``pod`` (:func:`mmg_pod_accelerations`): a vector/pod thruster at ``x_P`` turned by delta
@@ -503,7 +504,7 @@ def priors(L: float, B: float, d: float, C_b: float, m: float, *, rho: float = 1
 
 
 # ---------------------------------------------------------------------------------------------
-# Flat packing for the numba core: P[IDX_*, lane]
+# Flat packing for the numba core: one lane's parameters p[IDX_*]
 # ---------------------------------------------------------------------------------------------
 
 IDX_VARIANT = 0          # 0 rudder, 1 pod, 2 twin
@@ -651,72 +652,72 @@ _EIGHT_PI = 8.0 / math.pi
 
 
 @numba.njit(cache=True, inline="always")
-def _hull_nb(P: np.ndarray, b: int, u: float, v: float,
+def _hull_nb(p: Any, u: float, v: float,
              r: float) -> tuple[float, float, float, float, float, float, float]:
     """(X_H, Y_H, N_H [N, N m], U [m/s], beta [rad], v', r') of the Y&Y 2015 hull force model."""
-    L = P[IDX_L, b]
+    L = p[IDX_L]
     U2 = u * u + v * v
     U = math.sqrt(U2)
-    Ug = max(U, P[IDX_U_MIN, b])
+    Ug = max(U, p[IDX_U_MIN])
     vp = min(1.0, max(-1.0, v / Ug))
     rp = r * L / Ug
     vp2 = vp * vp
     rp2 = rp * rp
-    qf = P[IDX_QF, b] * U2
-    XH = qf * (-P[IDX_R_0, b] + P[IDX_X_VV, b] * vp2 + P[IDX_X_VR, b] * vp * rp
-               + P[IDX_X_RR, b] * rp2 + P[IDX_X_VVVV, b] * vp2 * vp2)
-    YH = qf * (P[IDX_Y_V, b] * vp + P[IDX_Y_R, b] * rp + P[IDX_Y_VVV, b] * vp2 * vp
-               + P[IDX_Y_VVR, b] * vp2 * rp + P[IDX_Y_VRR, b] * vp * rp2
-               + P[IDX_Y_RRR, b] * rp2 * rp)
-    NH = P[IDX_QN, b] * U2 * (P[IDX_N_V, b] * vp + P[IDX_N_R, b] * rp
-                              + P[IDX_N_VVV, b] * vp2 * vp + P[IDX_N_VVR, b] * vp2 * rp
-                              + P[IDX_N_VRR, b] * vp * rp2 + P[IDX_N_RRR, b] * rp2 * rp)
+    qf = p[IDX_QF] * U2
+    XH = qf * (-p[IDX_R_0] + p[IDX_X_VV] * vp2 + p[IDX_X_VR] * vp * rp
+               + p[IDX_X_RR] * rp2 + p[IDX_X_VVVV] * vp2 * vp2)
+    YH = qf * (p[IDX_Y_V] * vp + p[IDX_Y_R] * rp + p[IDX_Y_VVV] * vp2 * vp
+               + p[IDX_Y_VVR] * vp2 * rp + p[IDX_Y_VRR] * vp * rp2
+               + p[IDX_Y_RRR] * rp2 * rp)
+    NH = p[IDX_QN] * U2 * (p[IDX_N_V] * vp + p[IDX_N_R] * rp
+                              + p[IDX_N_VVV] * vp2 * vp + p[IDX_N_VVR] * vp2 * rp
+                              + p[IDX_N_VRR] * vp * rp2 + p[IDX_N_RRR] * rp2 * rp)
     beta = math.asin(-vp)
     return XH, YH, NH, U, beta, vp, rp
 
 
 @numba.njit(cache=True, inline="always")
-def _wake_nb(P: np.ndarray, b: int, beta: float, rp: float) -> float:
+def _wake_nb(p: Any, beta: float, rp: float) -> float:
     """Effective wake fraction w_P [-], beta_P = beta - x_P r' (Y&Y 2015 wake model).
 
     wake_model 0: ``w_P = 1 - (1 - w_P0)(1 + (1 - exp(-C_1 |beta_P|))(C_2 - 1))`` (Y&Y 2015,
     C_2 by the sign of beta_P); 1: ``w_P = w_P0 exp(-C_w beta_P^2)`` (shipmmg's form). Blended by
     the 0/1 flag (no branch)."""
-    bP = beta - P[IDX_X_P, b] * rp
+    bP = beta - p[IDX_X_P] * rp
     pos = 1.0 if bP > 0.0 else 0.0
-    C2 = P[IDX_C_2_MINUS, b] + (P[IDX_C_2_PLUS, b] - P[IDX_C_2_MINUS, b]) * pos
-    wy = 1.0 - (1.0 - P[IDX_W_P0, b]) * (
-        1.0 + (1.0 - math.exp(-P[IDX_C_1, b] * abs(bP))) * (C2 - 1.0))
-    wg = P[IDX_W_P0, b] * math.exp(-P[IDX_C_W, b] * bP * bP)
-    s = P[IDX_WAKE_MODEL, b]
+    C2 = p[IDX_C_2_MINUS] + (p[IDX_C_2_PLUS] - p[IDX_C_2_MINUS]) * pos
+    wy = 1.0 - (1.0 - p[IDX_W_P0]) * (
+        1.0 + (1.0 - math.exp(-p[IDX_C_1] * abs(bP))) * (C2 - 1.0))
+    wg = p[IDX_W_P0] * math.exp(-p[IDX_C_W] * bP * bP)
+    s = p[IDX_WAKE_MODEL]
     return (1.0 - s) * wy + s * wg
 
 
 @numba.njit(cache=True, inline="always")
-def _kt_thrust_nb(P: np.ndarray, b: int, n: float, uP: float) -> float:
+def _kt_thrust_nb(p: Any, n: float, uP: float) -> float:
     """Open-water thrust ``T = rho n^2 D^4 K_T(J)`` [N] (Y&Y 2015 propeller model), division-free:
     ``rho D^4 k_0 n|n| + rho D^3 k_1 n u_P + rho D^2 k_2 sgn(n) u_P^2``, u_P = (1 - w_P) u."""
     sn = (1.0 if n > 0.0 else 0.0) - (1.0 if n < 0.0 else 0.0)
-    return (P[IDX_RHO_D4, b] * P[IDX_K_0, b] * n * abs(n) + P[IDX_RHO_D3, b] * P[IDX_K_1, b]
-            * n * uP + P[IDX_RHO_D2, b] * P[IDX_K_2, b] * sn * uP * uP)
+    return (p[IDX_RHO_D4] * p[IDX_K_0] * n * abs(n) + p[IDX_RHO_D3] * p[IDX_K_1]
+            * n * uP + p[IDX_RHO_D2] * p[IDX_K_2] * sn * uP * uP)
 
 
 @numba.njit(cache=True, inline="always")
-def _thrust_nb(P: np.ndarray, b: int, n: float, u: float, uP: float) -> tuple[float, float]:
+def _thrust_nb(p: Any, n: float, u: float, uP: float) -> tuple[float, float]:
     """(gross thrust T [N], effective surge force T_e [N]) of one propeller/thruster.
 
     K_T law: T from :func:`_kt_thrust_nb`, T_e = (1 - t_P) T (Y&Y 2015); pod law (Mu et
     al. 2016): T = T_e = c u n + d |n| n. Blended by the 0/1 law flag (no branch)."""
-    law = P[IDX_THRUST_LAW, b]
-    Tk = _kt_thrust_nb(P, b, n, uP)
-    Tpod = P[IDX_POD_C, b] * u * n + P[IDX_POD_D, b] * abs(n) * n
+    law = p[IDX_THRUST_LAW]
+    Tk = _kt_thrust_nb(p, n, uP)
+    Tpod = p[IDX_POD_C] * u * n + p[IDX_POD_D] * abs(n) * n
     T = (1.0 - law) * Tk + law * Tpod
-    Te = (1.0 - law) * (1.0 - P[IDX_T_P, b]) * Tk + law * Tpod
+    Te = (1.0 - law) * (1.0 - p[IDX_T_P]) * Tk + law * Tpod
     return T, Te
 
 
 @numba.njit(cache=True, inline="always")
-def _rudder_nb(P: np.ndarray, b: int, U: float, beta: float, rp: float, uP: float, n: float,
+def _rudder_nb(p: Any, U: float, beta: float, rp: float, uP: float, n: float,
                cd: float, sd: float) -> tuple[float, float, float, float, float, float]:
     """(X_R, Y_R, N_R [N, N m], u_R, v_R [m/s], F_N [N]) of the Y&Y 2015 rudder model.
 
@@ -725,77 +726,78 @@ def _rudder_nb(P: np.ndarray, b: int, U: float, beta: float, rp: float, uP: floa
     ``F_N = 0.5 rho A_R f_alpha U_R (u_R sin delta - v_R cos delta)`` (= the paper's
     0.5 rho A_R U_R^2 f_alpha sin alpha_R with alpha_R = delta - atan(v_R/u_R)).
     """
-    D = P[IDX_D_P, b]
+    D = p[IDX_D_P]
     an = abs(n)
-    ktn2d2 = (P[IDX_K_0, b] * n * n * D * D + P[IDX_K_1, b] * an * D * uP
-              + P[IDX_K_2, b] * uP * uP)
+    ktn2d2 = (p[IDX_K_0] * n * n * D * D + p[IDX_K_1] * an * D * uP
+              + p[IDX_K_2] * uP * uP)
     s = math.sqrt(max(0.0, uP * uP + _EIGHT_PI * ktn2d2))
-    kap = P[IDX_KAPPA, b]
+    kap = p[IDX_KAPPA]
     w = (1.0 - kap) * uP + kap * s
-    eta = P[IDX_ETA, b]
-    uR = P[IDX_EPSILON, b] * math.sqrt(eta * w * w + (1.0 - eta) * uP * uP)
-    bR = beta - P[IDX_L_R, b] * rp
+    eta = p[IDX_ETA]
+    uR = p[IDX_EPSILON] * math.sqrt(eta * w * w + (1.0 - eta) * uP * uP)
+    bR = beta - p[IDX_L_R] * rp
     pos = 1.0 if bR > 0.0 else 0.0
-    gam = P[IDX_GAMMA_MINUS, b] + (P[IDX_GAMMA_PLUS, b] - P[IDX_GAMMA_MINUS, b]) * pos
+    gam = p[IDX_GAMMA_MINUS] + (p[IDX_GAMMA_PLUS] - p[IDX_GAMMA_MINUS]) * pos
     vR = U * gam * bR
     UR = math.sqrt(uR * uR + vR * vR)
-    FN = P[IDX_Q_R, b] * UR * (uR * sd - vR * cd)
-    XR = -(1.0 - P[IDX_T_R, b]) * FN * sd
-    YR = -(1.0 + P[IDX_A_H, b]) * FN * cd
-    NR = -P[IDX_XRH_M, b] * FN * cd
+    FN = p[IDX_Q_R] * UR * (uR * sd - vR * cd)
+    XR = -(1.0 - p[IDX_T_R]) * FN * sd
+    YR = -(1.0 + p[IDX_A_H]) * FN * cd
+    NR = -p[IDX_XRH_M] * FN * cd
     return XR, YR, NR, uR, vR, FN
 
 
 @numba.njit(cache=True, inline="always")
-def _solve_nb(P: np.ndarray, b: int, u: float, v: float, r: float, X: float, Y: float,
+def _solve_nb(p: Any, u: float, v: float, r: float, X: float, Y: float,
               N: float) -> tuple[float, float, float]:
     """(du, dv, dr) [m/s^2, m/s^2, rad/s^2] from Y&Y 2015 eq. 4 for the total forces X, Y [N]
     and moment N [N m] about midship."""
-    fx = X + P[IDX_M_MY, b] * v * r + P[IDX_XGM, b] * r * r
-    fy = Y - P[IDX_M_MX, b] * u * r
-    fn = N - P[IDX_XGM, b] * u * r
-    du = P[IDX_INV11, b] * fx
-    dv = P[IDX_INV22, b] * fy + P[IDX_INV23, b] * fn
-    dr = P[IDX_INV23, b] * fy + P[IDX_INV33, b] * fn
+    fx = X + p[IDX_M_MY] * v * r + p[IDX_XGM] * r * r
+    fy = Y - p[IDX_M_MX] * u * r
+    fn = N - p[IDX_XGM] * u * r
+    du = p[IDX_INV11] * fx
+    dv = p[IDX_INV22] * fy + p[IDX_INV23] * fn
+    dr = p[IDX_INV23] * fy + p[IDX_INV33] * fn
     return du, dv, dr
 
 
 @numba.njit(cache=True, inline="always")
-def mmg_hull_accelerations(P: np.ndarray, b: int, u: float, v: float, r: float, X: float,
+def mmg_hull_accelerations(p: Any, u: float, v: float, r: float, X: float,
                            Y: float, N: float) -> tuple[float, float, float]:
     """(du, dv, dr) of the hull (Y&Y 2015 eq. 4 and the hull force model) under given external
     actuator forces X, Y [N] and moment N [N m] about midship: for thrust maps computed outside
     this module."""
-    XH, YH, NH, U, beta, vp, rp = _hull_nb(P, b, u, v, r)
-    return _solve_nb(P, b, u, v, r, XH + X, YH + Y, NH + N)
+    XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u, v, r)
+    return _solve_nb(p, u, v, r, XH + X, YH + Y, NH + N)
 
 
 @numba.njit(cache=True, inline="always")
-def mmg_accelerations_cs(P: np.ndarray, b: int, u: float, v: float, r: float, cd: float,
+def mmg_accelerations_cs(p: Any, u: float, v: float, r: float, cd: float,
                          sd: float, n: float) -> tuple[float, float, float]:
     """:func:`mmg_accelerations` with ``cd, sd = cos(delta), sin(delta)`` given."""
-    XH, YH, NH, U, beta, vp, rp = _hull_nb(P, b, u, v, r)
-    uP = (1.0 - _wake_nb(P, b, beta, rp)) * u
-    XP = (1.0 - P[IDX_T_P, b]) * _kt_thrust_nb(P, b, n, uP)
-    XR, YR, NR, uR, vR, FN = _rudder_nb(P, b, U, beta, rp, uP, n, cd, sd)
-    return _solve_nb(P, b, u, v, r, XH + XR + XP, YH + YR, NH + NR)
+    XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u, v, r)
+    uP = (1.0 - _wake_nb(p, beta, rp)) * u
+    XP = (1.0 - p[IDX_T_P]) * _kt_thrust_nb(p, n, uP)
+    XR, YR, NR, uR, vR, FN = _rudder_nb(p, U, beta, rp, uP, n, cd, sd)
+    return _solve_nb(p, u, v, r, XH + XR + XP, YH + YR, NH + NR)
 
 
 @numba.njit(cache=True, inline="always")
-def mmg_accelerations(P: np.ndarray, b: int, u: float, v: float, r: float, delta: float,
+def mmg_accelerations(p: Any, u: float, v: float, r: float, delta: float,
                       n: float) -> tuple[float, float, float]:
     """Rudder-behind-propeller MMG model (Y&Y 2015): ``(du, dv, dr)`` [m/s^2, m/s^2, rad/s^2].
 
-    P: ``(N_PACKED, n_lanes)`` float64 (:func:`pack`), b: lane. u [m/s] surge, v [m/s] sway at
-    midship, r [rad/s], delta [rad] (positive turns to starboard: r > 0), n [rps] shaft speed.
+    p: one lane's packed parameters (:func:`pack`, a tuple or 1-D array). u [m/s] surge,
+    v [m/s] sway at midship, r [rad/s], delta [rad] (positive turns to starboard: r > 0),
+    n [rps] shaft speed.
     Forces: the Y&Y 2015 hull, propeller and rudder models (module docstring); eq. 4 with the
     x_G coupling. Safe at u = 0, n = 0, J < 0 (module docstring).
     """
-    return mmg_accelerations_cs(P, b, u, v, r, math.cos(delta), math.sin(delta), n)
+    return mmg_accelerations_cs(p, u, v, r, math.cos(delta), math.sin(delta), n)
 
 
 @numba.njit(cache=True, inline="always")
-def mmg_pod_accelerations(P: np.ndarray, b: int, u: float, v: float, r: float, delta: float,
+def mmg_pod_accelerations(p: Any, u: float, v: float, r: float, delta: float,
                           n: float) -> tuple[float, float, float]:
     """Pod / vector thruster variant: ``(du, dv, dr)`` [m/s^2, m/s^2, rad/s^2].
 
@@ -803,16 +805,16 @@ def mmg_pod_accelerations(P: np.ndarray, b: int, u: float, v: float, r: float, d
     starboard) with effective thrust T_e [N] (K_T law with w_P and t_P, or the pod law):
     ``X_P = T_e cos delta``, ``Y_P = -T_e sin delta``, ``N_P = x_P L Y_P``. n [rps].
     """
-    XH, YH, NH, U, beta, vp, rp = _hull_nb(P, b, u, v, r)
-    uP = (1.0 - _wake_nb(P, b, beta, rp)) * u
-    T, Te = _thrust_nb(P, b, n, u, uP)
+    XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u, v, r)
+    uP = (1.0 - _wake_nb(p, beta, rp)) * u
+    T, Te = _thrust_nb(p, n, u, uP)
     YP = -Te * math.sin(delta)
-    return _solve_nb(P, b, u, v, r, XH + Te * math.cos(delta), YH + YP,
-                     NH + P[IDX_XP_M, b] * YP)
+    return _solve_nb(p, u, v, r, XH + Te * math.cos(delta), YH + YP,
+                     NH + p[IDX_XP_M] * YP)
 
 
 @numba.njit(cache=True, inline="always")
-def mmg_twin_accelerations(P: np.ndarray, b: int, u: float, v: float, r: float, n_port: float,
+def mmg_twin_accelerations(p: Any, u: float, v: float, r: float, n_port: float,
                            n_stbd: float) -> tuple[float, float, float]:
     """Twin thrusters with differential thrust: ``(du, dv, dr)`` [m/s^2, m/s^2, rad/s^2].
 
@@ -821,24 +823,24 @@ def mmg_twin_accelerations(P: np.ndarray, b: int, u: float, v: float, r: float, 
     ``X_P = T_e,port + T_e,stbd``, ``N_P = (T_port - T_stbd) y_P L`` (more port thrust turns
     to starboard, r > 0; seed 002 eq. 26-27, ARCHITECTURE.md).
     """
-    XH, YH, NH, U, beta, vp, rp = _hull_nb(P, b, u, v, r)
-    uP = (1.0 - _wake_nb(P, b, beta, rp)) * u
-    Tp, Tep = _thrust_nb(P, b, n_port, u, uP)
-    Ts, Tes = _thrust_nb(P, b, n_stbd, u, uP)
-    return _solve_nb(P, b, u, v, r, XH + Tep + Tes, YH, NH + (Tp - Ts) * P[IDX_YP_M, b])
+    XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u, v, r)
+    uP = (1.0 - _wake_nb(p, beta, rp)) * u
+    Tp, Tep = _thrust_nb(p, n_port, u, uP)
+    Ts, Tes = _thrust_nb(p, n_stbd, u, uP)
+    return _solve_nb(p, u, v, r, XH + Tep + Tes, YH, NH + (Tp - Ts) * p[IDX_YP_M])
 
 
 @numba.njit(cache=True, inline="always")
-def mmg_accelerations_any(P: np.ndarray, b: int, u: float, v: float, r: float, a0: float,
+def mmg_accelerations_any(p: Any, u: float, v: float, r: float, a0: float,
                           a1: float) -> tuple[float, float, float]:
-    """Dispatch on ``P[IDX_VARIANT, b]``: rudder and pod take ``(a0, a1) = (delta, n)``, twin
+    """Dispatch on ``p[IDX_VARIANT]``: rudder and pod take ``(a0, a1) = (delta, n)``, twin
     ``(a0, a1) = (n_port, n_stbd)``. One predictable branch per lane."""
-    var = P[IDX_VARIANT, b]
+    var = p[IDX_VARIANT]
     if var == 0.0:
-        return mmg_accelerations(P, b, u, v, r, a0, a1)
+        return mmg_accelerations(p, u, v, r, a0, a1)
     if var == 1.0:
-        return mmg_pod_accelerations(P, b, u, v, r, a0, a1)
-    return mmg_twin_accelerations(P, b, u, v, r, a0, a1)
+        return mmg_pod_accelerations(p, u, v, r, a0, a1)
+    return mmg_twin_accelerations(p, u, v, r, a0, a1)
 
 
 #: Columns of the diagnostic component array (:func:`forces` keys, in this order).
@@ -849,34 +851,33 @@ _NC = len(COMPONENTS)
 
 
 @numba.njit(cache=True)
-def _components_nb(P: np.ndarray, u: np.ndarray, v: np.ndarray, r: np.ndarray,
+def _components_nb(p: np.ndarray, u: np.ndarray, v: np.ndarray, r: np.ndarray,
                    delta: np.ndarray, n: np.ndarray, n2: np.ndarray) -> np.ndarray:
     out = np.zeros((u.shape[0], _NC))
-    b = 0
-    var = P[IDX_VARIANT, b]
+    var = p[IDX_VARIANT]
     for i in range(u.shape[0]):
-        XH, YH, NH, U, beta, vp, rp = _hull_nb(P, b, u[i], v[i], r[i])
-        wP = _wake_nb(P, b, beta, rp)
+        XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u[i], v[i], r[i])
+        wP = _wake_nb(p, beta, rp)
         uP = (1.0 - wP) * u[i]
-        T, Te = _thrust_nb(P, b, n[i], u[i], uP)
+        T, Te = _thrust_nb(p, n[i], u[i], uP)
         cd = math.cos(delta[i])
         sd = math.sin(delta[i])
         XR = YR = NR = uR = vR = FN = alpha = 0.0
         T2 = 0.0
         if var == 0.0:
-            XR, YR, NR, uR, vR, FN = _rudder_nb(P, b, U, beta, rp, uP, n[i], cd, sd)
+            XR, YR, NR, uR, vR, FN = _rudder_nb(p, U, beta, rp, uP, n[i], cd, sd)
             alpha = delta[i] - math.atan2(vR, uR)
             XP, YP, NP = Te, 0.0, 0.0
         elif var == 1.0:
             XP, YP = Te * cd, -Te * sd
-            NP = P[IDX_XP_M, b] * YP
+            NP = p[IDX_XP_M] * YP
         else:
-            T2, Te2 = _thrust_nb(P, b, n2[i], u[i], uP)
-            XP, YP, NP = Te + Te2, 0.0, (T - T2) * P[IDX_YP_M, b]
+            T2, Te2 = _thrust_nb(p, n2[i], u[i], uP)
+            XP, YP, NP = Te + Te2, 0.0, (T - T2) * p[IDX_YP_M]
         an = abs(n[i])
-        J = uP / (an * P[IDX_D_P, b]) if an * P[IDX_D_P, b] > 0.0 else 0.0
-        KT = P[IDX_K_0, b] + P[IDX_K_1, b] * J + P[IDX_K_2, b] * J * J
-        du, dv, dr = _solve_nb(P, b, u[i], v[i], r[i], XH + XR + XP, YH + YR + YP,
+        J = uP / (an * p[IDX_D_P]) if an * p[IDX_D_P] > 0.0 else 0.0
+        KT = p[IDX_K_0] + p[IDX_K_1] * J + p[IDX_K_2] * J * J
+        du, dv, dr = _solve_nb(p, u[i], v[i], r[i], XH + XR + XP, YH + YR + YP,
                                NH + NR + NP)
         vals = (XH, YH, NH, XR, YR, NR, XP, YP, NP, U, beta, vp, rp, wP, J, KT, T, T2, uR, vR,
                 math.sqrt(uR * uR + vR * vR), alpha, FN, du, dv, dr)
@@ -915,7 +916,7 @@ def forces(params: MMGParameters, u: Any, v: Any, r: Any, delta: Any = 0.0, n: A
     effective thrust (1 - t_P) T (K_T law) resolved along x.
     """
     shape, (uu, vv, rr, dd, nn, n2) = _inputs(params, u, v, r, delta, n, n_port, n_stbd)
-    out = _components_nb(pack(params)[:, None].copy(), uu, vv, rr, dd, nn, n2)
+    out = _components_nb(pack(params), uu, vv, rr, dd, nn, n2)
     return {k: out[:, i].reshape(shape) for i, k in enumerate(COMPONENTS)}
 
 

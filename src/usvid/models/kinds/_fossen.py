@@ -88,7 +88,11 @@ def _from_fit(q: Mapping[str, float]) -> dict[str, float]:
 
 
 #: Output error in the (better conditioned) inverse-mass coefficients of eq. 37.
-FIT_SPACE = FitSpace(("a_vr", "a_u", "a_tau", "b_v", "c_r", "c_tau"), _to_fit, _from_fit)
+FIT_SPACE = FitSpace(("a_vr", "a_u", "a_tau", "b_v", "c_r", "c_tau"), _to_fit, _from_fit,
+                     lower={"a_vr": 1e-3, "a_tau": 1e-12, "c_tau": 1e-12},
+                     fallback={"a_vr": 1.0})
+"""Positive masses: m22/m11 = a_vr > 0, 1/m11 = a_tau > 0, 1/m33 = c_tau > 0; where least
+squares gives a negative sway mass the constrained fit starts from m22 = m11."""
 
 
 def positive_masses(d: Any) -> None:

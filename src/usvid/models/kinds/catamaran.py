@@ -175,6 +175,8 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
             f"vessel.extra.thruster_arm ({arm:g} m, from the centreline) and "
             f"thruster_spacing ({b:g} m) disagree: the arm is half the spacing; give one")
     k = num(vessel, options, "thrust_per_command")
+    pwm = any("pwm_port" in s and "n_port" in s and np.array_equal(
+        s["pwm_port"], s["n_port"], equal_nan=True) for s in data)
     cp = [s["n_port"] for s in data if "n_port" in s and "n_stbd" in s]
     cs = [s["n_stbd"] for s in data if "n_port" in s and "n_stbd" in s]
     if not cp:
@@ -187,8 +189,28 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     g = num(vessel, options, "steer_gain")
     if g is None:
         g = float(np.nanmax(np.abs(cp_all - cs_all))) / 2.0 / math.radians(35.0)
+    thrust: Any = 1.0 if k is None else k
+    if pwm or num(vessel, options, "pwm_neutral") is not None:
+        thrust = pwm_thrust_map(vessel, options)
     out = {"b": b} if arm is None else {"arm": arm}
-    return {**out, "thrust": 1.0 if k is None else k, "cmd": cmd, "steer_gain": g}
+    return {**out, "thrust": thrust, "cmd": cmd, "steer_gain": g}
+
+
+def pwm_thrust_map(vessel: Any, options: Mapping[str, Any]) -> TwinThrust:
+    """The declared thrust map of PWM-commanded thrusters (format spec ``vessel.extra``):
+    ``T = thrust_full s^thrust_exponent`` with the level ``s = (pwm - pwm_neutral)/pwm_span``
+    (:class:`usvid.models.thrust.TwinThrust`, ``command="pwm"``); defaults pwm_neutral 1500 us,
+    pwm_span 500 us, thrust_full 1 (thrust, masses and dampings then in units of the full
+    thrust, all that commands alone can determine), thrust_exponent 1."""
+    num = _fossen.extra_number
+    full = num(vessel, options, "thrust_full") or 1.0
+    expo = int(num(vessel, options, "thrust_exponent") or 1)
+    if expo not in (1, 2):
+        raise IdentificationError(f"vessel.extra.thrust_exponent must be 1 or 2 (got {expo})")
+    coeffs = (0.0, full) if expo == 1 else (0.0, 0.0, full)
+    return TwinThrust(coeffs=coeffs, command="pwm",
+                      pwm_neutral=num(vessel, options, "pwm_neutral") or 1500.0,
+                      pwm_span=num(vessel, options, "pwm_span") or 500.0)
 
 
 def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:

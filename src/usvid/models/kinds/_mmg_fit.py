@@ -1,0 +1,156 @@
+"""Regression form of the MMG kind: hull coefficients from estimated states, regularised.
+
+Y&Y 2015 eq. 4 is linear in the 17 hull coefficients once the particulars, masses and the
+propeller/rudder models are held (:func:`usvid.models.mmg.hull_regression`): per equation
+``y = Phi theta`` on the smoothed (or state-estimated) u, v, r and their derivatives.
+
+Free-running manoeuvres do not separate all of them (:data:`usvid.models.mmg.CONFOUNDED`: the
+cubic terms move together along a zig-zag, Y_r is only determined as Y_r - m' - m_x', the
+Y_r / Y_ur cancellation). The regression is therefore **regularised towards physical priors**
+(Tikhonov / ridge, Hoerl & Kennard 1970): every coefficient gets one pseudo-observation
+``sqrt(w_k) theta_k = sqrt(w_k) prior_k`` with ``w_k = ALPHA sum_i Phi_ik^2`` -- the prior is
+worth the fraction ALPHA of the data's own information on that regressor, so a well-excited
+coefficient moves freely while a direction the data cannot see stays at its prior.
+Priors: Kijima et al. 1990 for Y_v, Y_r, N_v, N_r (:func:`usvid.models.mmg.priors`), R_0 the
+ITTC 1957 friction line with form factor 1.3 (``R_0 = 1.3 C_F S / (L d)``, wetted surface by
+Denny-Mumford ``S = 1.7 L d + V / d``); the nonlinear terms 0.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from usvid.errors import UsvidError
+from usvid.models import mmg as _m
+from usvid.models.kind import Block
+
+#: Prior weight as a fraction of each regressor's sum of squares (module docstring).
+ALPHA = 1e-3
+#: Variance inflation factor above which a coefficient is reported as poorly separable.
+VIF_WARN = 30.0
+#: Kinematic viscosity of water [m^2/s] for the R_0 prior (15 deg C fresh water).
+NU_WATER = 1.14e-6
+
+
+class CollinearityWarning(UserWarning):
+    """The data cannot separate some MMG hull coefficients (they stay near their priors)."""
+
+
+def physics_of(fixed: Mapping[str, Any]) -> _m.MMGParameters:
+    """MMGParameters of the held parameters (hull coefficients 0)."""
+    kw = {f.name: fixed[f.name] for f in _m.FIELDS if f.name in fixed}
+    return _m.MMGParameters(**kw)
+
+
+def prior_hull(p: _m.MMGParameters, U: float) -> dict[str, float]:
+    """Prior hull coefficients (module docstring) at speed U [m/s]."""
+    vol = p.m / p.rho
+    Cb = min(max(vol / (p.L * p.B * p.d), 0.3), 0.95)
+    pri = _m.priors(p.L, p.B, p.d, Cb, p.m, rho=p.rho)
+    Re = max(U, 0.1) * p.L / NU_WATER
+    CF = 0.075 / (math.log10(Re) - 2.0) ** 2          # ITTC 1957
+    S = 1.7 * p.L * p.d + vol / p.d                    # Denny-Mumford
+    out = {k: 0.0 for k in _m.HULL_COEFFICIENTS}
+    out.update({k: pri[k] for k in ("Y_v", "Y_r", "N_v", "N_r")})
+    out["R_0"] = 1.3 * CF * S / (p.L * p.d)
+    return out
+
+
+def _series_arrays(s: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def pick(*names: str) -> np.ndarray | None:
+        for n in names:
+            if n in s:
+                return np.asarray(s[n], float)
+        return None
+
+    out = {"u": pick("u_s", "u"), "v": pick("v_s", "v"), "r": pick("r_s", "r"),
+           "udot": pick("udot_s"), "vdot": pick("vdot_s"), "rdot": pick("rdot_s"),
+           "delta": pick("delta_s", "delta"), "n": pick("n"), "n_port": pick("n_port"),
+           "n_stbd": pick("n_stbd")}
+    return out
+
+
+def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any], form: str,
+           h: float) -> list[Block]:
+    """The X, Y, N regressions over all trials with the prior rows appended (module docstring).
+
+    Needs per trial u, v, r [m/s, rad/s] and udot, vdot, rdot (smoothed ``*_s`` or estimated),
+    delta [rad] and n [rps] (twin: n_port, n_stbd); a sample with U below 0.3 of the median
+    speed carries no hull information and is dropped.
+    """
+    p = physics_of(fixed)
+    parts: list[list[Any]] = [[], [], []]
+    rows: list[int] = []
+    for s in series:
+        a = _series_arrays(s)
+        for k in ("u", "v", "r", "udot", "vdot", "rdot"):
+            if a[k] is None:
+                raise UsvidError(f"model 'mmg' regression needs '{k}' (state estimation of "
+                                    "u, v, r and their derivatives)")
+        N = a["u"].size
+        delta = a["delta"] if a["delta"] is not None else np.zeros(N)
+        n = a["n"] if a["n"] is not None else np.full(N, fixed.get("n") or 0.0)
+        if p.variant == "twin":
+            npo, nst = a["n_port"], a["n_stbd"]
+            if npo is None or nst is None:
+                raise UsvidError("model 'mmg' (twin variant) needs channels n_port, n_stbd")
+            bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
+                                    n_port=npo, n_stbd=nst)
+        else:
+            bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
+                                    delta, n)
+        U = np.hypot(a["u"], a["v"])
+        keep = (U > 0.3 * np.median(U)) & np.all(
+            [np.isfinite(b.y) & np.all(np.isfinite(b.Phi), axis=1) for b in bl], axis=0)
+        for i, b in enumerate(bl):
+            parts[i].append((b.Phi[keep], b.y[keep]))
+        rows.append(int(keep.sum()))
+    names = (_m.X_REGRESSORS, _m.Y_REGRESSORS, _m.N_REGRESSORS)
+    U0 = float(np.median(np.concatenate([np.hypot(_series_arrays(s)["u"],
+                                                  _series_arrays(s)["v"]) for s in series])))
+    prior = prior_hull(p, U0)
+    out = []
+    for eq, nm, pr in zip("XYN", names, parts, strict=True):
+        Phi = np.concatenate([q[0] for q in pr])
+        y = np.concatenate([q[1] for q in pr])
+        _diagnose(eq, Phi, nm)
+        w = np.sqrt(ALPHA * np.maximum(np.sum(Phi * Phi, axis=0), 1e-300))
+        Phi_r = np.diag(w)
+        y_r = w * np.array([prior[k] for k in nm])
+        out.append(Block(eq, np.vstack([Phi, Phi_r]), np.concatenate([y, y_r]), nm,
+                         rows + [len(nm)]))
+    return out
+
+
+def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
+    """Warn naming the coefficients whose regressor is nearly a combination of the others
+    (variance inflation factor > VIF_WARN), with the known confounding (Y&Y 2015 form)."""
+    X = Phi - Phi.mean(axis=0) if eq != "X" else Phi
+    sd = np.sqrt(np.sum(X * X, axis=0))
+    ok = sd > 0
+    if ok.sum() < 2:
+        return
+    Z = X[:, ok] / sd[ok]
+    try:
+        vif = np.diag(np.linalg.inv(Z.T @ Z))
+    except np.linalg.LinAlgError:
+        vif = np.full(ok.sum(), np.inf)
+    bad = [f"{n} (VIF {v:.0f})" for n, v in zip(np.asarray(names)[ok], vif, strict=True)
+           if v > VIF_WARN]
+    if bad:
+        notes = "; ".join(f"{k}: {t}" for k, t in _m.CONFOUNDED.items()
+                          if any(k2 in k for k2 in [b.split()[0] for b in bad]) or k == "cubic")
+        warnings.warn(f"mmg {eq} equation: the data cannot separate {', '.join(bad)}; they are "
+                      f"held near their priors (ridge towards Kijima 1990 / 0). {notes}",
+                      CollinearityWarning, stacklevel=4)
+
+
+def to_params(theta: Mapping[str, float], fixed: Mapping[str, Any], form: str,
+              h: float) -> dict[str, float]:
+    """The hull coefficients are the regression coefficients."""
+    return {k: float(theta[k]) for k in _m.HULL_COEFFICIENTS}

@@ -1,0 +1,421 @@
+"""MMG standard model, 3 DOF with speed varying (Yasukawa & Yoshimura 2015), as a model kind.
+
+The physics (hull, propeller, rudder, pod and twin-thruster force models, the equations of
+motion Y&Y 2015 eq. 4 about midship, the published KVLCC2 coefficients and the priors from the
+particulars) is :mod:`usvid.models.mmg`; this module makes it the kind ``mmg``: the parameter
+set (every field of :data:`usvid.models.mmg.FIELDS` with its unit, bounds and meaning, plus the
+nominal shaft speed ``n`` [rps] and, for twin thrusters, ``steer_gain`` [rps/rad]), the numba
+right-hand side the integration core runs, ``pack``, the straight-line speed, the particulars
+from a format spec's ``vessel`` block and the regression form of identification
+(:mod:`usvid.models.kinds._mmg_fit`).
+
+States u, v [m/s] (v at midship), r [rad/s]; inputs delta [rad] (positive turns to starboard),
+n [rps] (NaN: the nominal ``n``), and for ``variant='twin'`` the thruster speeds n_port, n_stbd
+[rps] (NaN: ``n +- steer_gain delta``, more port thrust for a positive delta, which turns to
+starboard). Identification estimates the 17 hull coefficients (R_0, X_vv, ..., N_rrr); the
+particulars, added masses and the propeller/rudder interaction coefficients are held.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numba
+import numpy as np
+
+from usvid.errors import UsvidError
+from usvid.models import mmg as _m
+from usvid.models.kind import (
+    Dynamics,
+    ModelKind,
+    Regression,
+    param,
+)
+from usvid.models.kinds import _mmg_fit
+
+#: Packed row of the nominal shaft speed [rps] (after the physics rows of :func:`mmg.pack`).
+IDX_N_NOM = _m.N_PACKED
+#: Packed row of the twin thrusters' differential speed per radian of steering [rps/rad].
+IDX_STEER = _m.N_PACKED + 1
+N_ROWS = _m.N_PACKED + 2
+
+_POSITIVE = ("L", "B", "d", "m", "I_zG", "rho")
+
+
+def _field(f: _m.FieldInfo) -> tuple[str, Any, Any]:
+    default = getattr(_m.MMGParameters, f.name, dataclasses.MISSING) \
+        if f.name not in ("L", "B", "d", "m", "I_zG") else dataclasses.MISSING
+    kw: dict[str, Any] = {"fit": f.name in _m.HULL_COEFFICIENTS}
+    if default is not dataclasses.MISSING:
+        kw["default"] = default
+    if f.lo is not None:
+        kw["gt" if f.name in _POSITIVE else "ge"] = f.lo
+    if f.hi is not None:
+        kw["le"] = f.hi
+    unit = "-" if f.unit == "L" else f.unit
+    meaning = f.meaning + (" (fraction of L)" if f.unit == "L" else "")
+    return f.name, Any, param(unit, meaning, **kw)
+
+
+def _choice(f: _m.FieldInfo) -> tuple[str, Any, Any]:
+    return f.name, "str", dataclasses.field(default=getattr(_m.MMGParameters, f.name))
+
+
+def _validate(self: Any) -> None:
+    for lane in self.lanes():
+        lane.physics()
+
+
+def _lanes(self: Any) -> list[Any]:
+    """Scalar parameter sets of a batch (one per lane; ``[self]`` for a scalar set)."""
+    vals = {k: v for k, v in self.values().items() if v is not None}
+    shapes = [np.shape(v) for v in vals.values()]
+    B = int(np.broadcast_shapes(*shapes)[0]) if any(shapes) else 0
+    if B == 0:
+        return [self]
+    out = []
+    for b in range(B):
+        kw = {k: float(np.broadcast_to(np.asarray(v, float), (B,))[b]) for k, v in vals.items()}
+        out.append(dataclasses.replace(self, **kw))
+    return out
+
+
+def _physics(self: Any) -> _m.MMGParameters:
+    """The :class:`usvid.models.mmg.MMGParameters` of a scalar parameter set (validated:
+    choices, bounds, a positive-definite mass matrix)."""
+    kw = {f.name: getattr(self, f.name) for f in _m.FIELDS}
+    for f in _m.FIELDS:
+        if f.choices is None:
+            kw[f.name] = float(kw[f.name])
+    return _m.MMGParameters(**kw)
+
+
+#: The parameter set of kind ``mmg`` (keyword-only; L, B, d, m, I_zG required).
+MMG = dataclasses.make_dataclass(
+    "MMG",
+    [_choice(f) if f.choices is not None else _field(f) for f in _m.FIELDS]
+    + [("n", Any, param("rps", "nominal shaft speed (standard manoeuvres; null: the speed "
+                        "holding the approach speed)", fit=False, default=None, ge=0.0)),
+       ("steer_gain", Any, param("rps/rad", "twin thrusters: differential shaft speed per "
+                                 "radian of rudder-equivalent steering", fit=False,
+                                 default=0.0))],
+    bases=(Dynamics,),
+    namespace={"kind": "mmg", "validate": _validate, "lanes": _lanes, "physics": _physics,
+               "__doc__": "MMG model parameters (Yasukawa & Yoshimura 2015): particulars SI, "
+                          "coefficients non-dimensional as in the paper "
+                          "(:mod:`usvid.models.mmg`)."},
+    kw_only=True,
+)
+MMG.__module__ = __name__
+
+
+def from_physics(p: _m.MMGParameters, **extra: Any) -> Any:
+    """The kind's parameter set of an :class:`usvid.models.mmg.MMGParameters` (``extra``:
+    ``n`` [rps], ``steer_gain`` [rps/rad])."""
+    return MMG(**p.to_dict(), **extra)
+
+
+@numba.njit(cache=True, inline="always")
+def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - kind contract
+    """Y&Y 2015 eq. 4 with the variant's actuator forces; returns (u, v, r, u', v', r', 0)."""
+    u = s0
+    v = s1
+    r = s2
+    nn = p[IDX_N_NOM] if np.isnan(n) else n
+    var = p[_m.IDX_VARIANT]
+    if var == 0.0:
+        du, dv, dr = _m.mmg_accelerations_cs(p, u, v, r, cd, sd, nn)
+    elif var == 1.0:
+        du, dv, dr = _m.mmg_pod_accelerations(p, u, v, r, delta, nn)
+    else:
+        npo = nn + p[IDX_STEER] * delta if np.isnan(n_port) else n_port
+        nst = nn - p[IDX_STEER] * delta if np.isnan(n_stbd) else n_stbd
+        du, dv, dr = _m.mmg_twin_accelerations(p, u, v, r, npo, nst)
+    return (u, v, r, du, dv, dr, 0.0)
+
+
+def surge_acceleration(p: _m.MMGParameters, u: Any, n: Any) -> np.ndarray:
+    """du/dt [m/s^2] in straight running (v = r = delta = 0) at u [m/s], n [rps]."""
+    if p.variant == "twin":
+        return _m.accelerations(p, u, 0.0, 0.0, n_port=n, n_stbd=n)[0]
+    return _m.accelerations(p, u, 0.0, 0.0, 0.0, n)[0]
+
+
+def equilibrium_rps(p: _m.MMGParameters, U: float) -> float:
+    """Shaft speed n [rps] at which the straight-running surge force is zero at U [m/s]
+    (bisection on ``du/dt(U, n) = 0``; the thrust grows with n)."""
+    lo, hi = 0.0, 1.0
+    while surge_acceleration(p, U, hi) < 0.0:
+        hi *= 2.0
+        if hi > 1e5:
+            raise UsvidError(f"mmg: no shaft speed holds {U:g} m/s (thrust never exceeds the "
+                             "resistance)")
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if surge_acceleration(p, U, mid) < 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def straight_speed_of(p: _m.MMGParameters, n: float) -> float:
+    """Straight-running speed u [m/s] at n [rps] (bisection on ``du/dt(u, n) = 0``)."""
+    if not n > 0.0:
+        return 0.0
+    lo, hi = 0.0, 1.0
+    while surge_acceleration(p, hi, n) > 0.0:
+        hi *= 2.0
+        if hi > 1e3:
+            raise UsvidError("mmg: no straight-running speed (resistance never balances the "
+                             "thrust); check R_0 and the thrust law")
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if surge_acceleration(p, mid, n) > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def pack(d: Any, speed: Any) -> np.ndarray:
+    """Rows: :func:`usvid.models.mmg.pack` of each lane, then the nominal n [rps] (when not
+    given: the shaft speed holding ``speed`` [m/s]) and the steering gain [rps/rad]."""
+    lanes = d.lanes()
+    sp = np.broadcast_to(np.asarray(1.0 if speed is None else speed, float),
+                         (len(lanes),)) if np.ndim(speed) else None
+    out = np.empty((N_ROWS, len(lanes)))
+    for b, lane in enumerate(lanes):
+        ph = lane.physics()
+        out[:_m.N_PACKED, b] = _m.pack(ph)
+        U = float(sp[b]) if sp is not None else float(1.0 if speed is None else speed)
+        out[IDX_N_NOM, b] = lane.n if lane.n is not None else equilibrium_rps(ph, U)
+        out[IDX_STEER, b] = lane.steer_gain
+    return out
+
+
+def initial(d: Any, values: Mapping[str, Any]) -> np.ndarray:
+    B = max(len(d.lanes()), max((np.size(v) for v in values.values()), default=1))
+    return np.vstack([np.broadcast_to(np.asarray(values.get(k, 0.0), float), (B,))
+                      for k in ("u", "v", "r")])
+
+
+def straight_speed(d: Any) -> Any:
+    """Straight-running speed [m/s] at the nominal shaft speed (None when ``n`` is not set)."""
+    lanes = d.lanes()
+    if any(lane.n is None for lane in lanes):
+        return None
+    out = np.array([straight_speed_of(lane.physics(), float(lane.n)) for lane in lanes])
+    return float(out[0]) if len(lanes) == 1 and np.ndim(d.n) == 0 else out
+
+
+# ---------------------------------------------------------------------------------------------
+# particulars from the format spec's vessel block
+# ---------------------------------------------------------------------------------------------
+#: vessel.extra keys (SI) -> MMG fields; positions are metres forward of midship.
+EXTRA_KEYS: dict[str, str] = {
+    "x_g": "x_G [m] centre of gravity forward of midship",
+    "yaw_inertia": "I_zG [kg m^2] yaw moment of inertia about G",
+    "propeller_diameter": "D_p [m]",
+    "rudder_area": "A_R [m^2]",
+    "rudder_span": "H_R [m]",
+    "propeller_x": "x_P L [m] propeller position forward of midship",
+    "rudder_x": "x_R L [m] rudder position forward of midship",
+    "thrust_deduction": "t_P [-]",
+    "wake_fraction": "w_P0 [-]",
+    "water_density": "rho [kg/m^3]",
+    "mmg_variant": "0 rudder, 1 pod, 2 twin",
+    "thruster_spacing": "twin: distance between the thrusters [m] (y_P = spacing / (2 L))",
+}
+
+#: Interaction and open-water coefficients without a regression on the particulars: Y&Y
+#: 2015's KVLCC2 values (their worked example), used when the vessel block does not give them;
+#: the propeller-side asymmetric pairs (gamma_R_plus/minus, C_2_plus/minus) by their mean,
+#: since the asymmetry belongs to one propeller's rotation (with the published pair the
+#: KVLCC2 10/10 zig-zag overshoots 2.5 deg less to starboard than to port, where the HSVA
+#: model's measured first overshoots agree within 0.02 deg).
+GENERIC = ("k_0", "k_1", "k_2", "t_P", "w_P0", "x_P", "C_1", "C_2_plus", "C_2_minus", "t_R",
+           "a_H", "x_H", "x_R", "epsilon", "kappa", "l_R", "gamma_R_plus", "gamma_R_minus")
+
+
+class ParticularsWarning(UserWarning):
+    """A particular of the MMG model was not given and comes from a regression or a default."""
+
+
+def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
+                options: Mapping[str, Any]) -> dict[str, Any]:
+    """The held (non-fitted) MMG parameters from the trials' vessel particulars.
+
+    ``vessel``: length, beam, draft [m], mass [kg] (or ``extra.volume`` [m^3] times the water
+    density), block_coefficient; ``vessel.extra`` (or ``--vessel NAME=VALUE``): the keys of
+    :data:`EXTRA_KEYS`, and any MMG field by its own name (e.g. ``a_H``). What is missing comes
+    from published regressions (added masses Zhou et al. 1983; I_zG by k_zz = 0.25 L; rudder
+    area by the DNV rule ``A_R = L d (1 + 25 (B/L)^2)/100``; span 0.75 d; propeller diameter
+    0.65 d) or, for the interaction coefficients (:data:`GENERIC`), from Y&Y 2015's KVLCC2
+    values (the asymmetric pairs by their mean), each with a :class:`ParticularsWarning` naming
+    it. With a measured ``thrust``
+    channel [N] the open-water K_T(J) law is scaled to it (least squares of one factor on the
+    samples with n > 0).
+    """
+    extra = dict(getattr(vessel, "extra", None) or {})
+    extra.update({k: v for k, v in options.items() if v is not None and not hasattr(v, "kind")})
+
+    def get(name: str) -> float | None:
+        v = extra.get(name)
+        return None if v is None else float(v)
+
+    missing: list[str] = []
+    L = getattr(vessel, "length", None)
+    B = getattr(vessel, "beam", None)
+    d = getattr(vessel, "draft", None)
+    for nm, v in (("length", L), ("beam", B), ("draft", d)):
+        if v is None:
+            raise UsvidError(f"model 'mmg' needs vessel.{nm} [m] in the format spec's vessel "
+                             "block")
+    rho = get("water_density") or 1025.0
+    m = getattr(vessel, "mass", None)
+    vol = get("volume")
+    if m is None and getattr(vessel, "displacement", None) is not None:
+        m = float(vessel.displacement)
+    if m is None and vol is not None:
+        m = rho * vol
+    Cb = getattr(vessel, "block_coefficient", None)
+    if m is None and Cb is not None:
+        m = rho * Cb * L * B * d
+    if m is None:
+        raise UsvidError("model 'mmg' needs vessel.mass [kg] (or vessel.extra.volume [m^3], or "
+                         "vessel.block_coefficient) in the format spec's vessel block")
+    if Cb is None:
+        Cb = m / (rho * L * B * d)
+        missing.append(f"block_coefficient = {Cb:.3f} from the mass")
+    pri = _m.priors(L, B, d, Cb, m, rho=rho)
+    out: dict[str, Any] = {"L": L, "B": B, "d": d, "m": m, "rho": rho,
+                           "m_x": pri["m_x"], "m_y": pri["m_y"], "J_z": pri["J_z"]}
+    xg = get("x_g")
+    if xg is None:
+        xg = 0.0
+        missing.append("x_g = 0 (centre of gravity at midship)")
+    out["x_G"] = xg
+    Iz = get("yaw_inertia")
+    if Iz is None:
+        Iz = pri["I_zG"]
+        missing.append(f"yaw_inertia = {Iz:.4g} kg m^2 (k_zz = 0.25 L)")
+    out["I_zG"] = Iz
+    variant = {0: "rudder", 1: "pod", 2: "twin"}[int(get("mmg_variant") or 0)]
+    out["variant"] = variant
+    for k in GENERIC:
+        out[k] = _m.KVLCC2_COEFFICIENTS[k]
+    for a, b in (("gamma_R_plus", "gamma_R_minus"), ("C_2_plus", "C_2_minus")):
+        out[a] = out[b] = 0.5 * (out[a] + out[b])  # symmetric (docstring)
+    out["f_alpha"] = None
+    Dp = get("propeller_diameter")
+    if Dp is None:
+        Dp = 0.65 * d
+        missing.append(f"propeller_diameter = {Dp:.4g} m (0.65 d)")
+    out["D_p"] = Dp
+    if variant == "rudder":
+        AR = get("rudder_area")
+        if AR is None:
+            AR = L * d * (1.0 + 25.0 * (B / L) ** 2) / 100.0
+            missing.append(f"rudder_area = {AR:.4g} m^2 (DNV rule L d (1 + 25 (B/L)^2)/100)")
+        HR = get("rudder_span")
+        if HR is None:
+            HR = 0.75 * d
+            missing.append(f"rudder_span = {HR:.4g} m (0.75 d)")
+        out["A_R"], out["H_R"] = AR, HR
+        out["f_alpha"] = _m.fujii_f_alpha(HR ** 2 / AR)
+    if get("propeller_x") is not None:
+        out["x_P"] = get("propeller_x") / L
+    if get("rudder_x") is not None:
+        out["x_R"] = get("rudder_x") / L
+    if get("thrust_deduction") is not None:
+        out["t_P"] = get("thrust_deduction")
+    if get("wake_fraction") is not None:
+        out["w_P0"] = get("wake_fraction")
+    if get("thruster_spacing") is not None:
+        out["y_P"] = get("thruster_spacing") / (2.0 * L)
+    given = {f.name for f in _m.FIELDS} & set(extra)
+    for k in given:
+        out[k] = extra[k] if k in ("variant", "thrust_law", "wake_model") else float(extra[k])
+    generic = [k for k in GENERIC if k not in given and not (
+        (k == "t_P" and get("thrust_deduction") is not None)
+        or (k == "w_P0" and get("wake_fraction") is not None)
+        or (k == "x_P" and get("propeller_x") is not None)
+        or (k == "x_R" and get("rudder_x") is not None))]
+    if variant != "rudder":
+        generic = [k for k in generic if k in ("k_0", "k_1", "k_2", "t_P", "w_P0", "x_P",
+                                               "C_1", "C_2_plus", "C_2_minus")]
+        out["f_alpha"] = 0.0
+    if out["f_alpha"] is None:
+        out["f_alpha"] = 0.0
+    scale = _kt_scale(out, data)
+    if scale is not None:
+        for k in ("k_0", "k_1", "k_2"):
+            out[k] *= scale
+        out["kt_scale_from_thrust"] = scale
+    if generic:
+        missing.append("interaction coefficients " + ", ".join(generic)
+                       + " from Yasukawa & Yoshimura 2015's KVLCC2 values"
+                       + (f" (K_T scaled by {scale:.3f} to the logged thrust)"
+                          if scale is not None else ""))
+    if missing:
+        warnings.warn("mmg particulars not given (format spec vessel block): "
+                      + "; ".join(missing), ParticularsWarning, stacklevel=3)
+    out.pop("kt_scale_from_thrust", None)
+    n = get("shaft_speed_rps")
+    if n is None:
+        ns = [np.asarray(s["n"], float) for s in data if "n" in s]
+        ns = [a[np.isfinite(a)] for a in ns]
+        ns = [a for a in ns if a.size]
+        n = float(np.median(np.concatenate(ns))) if ns else None
+    out["n"] = n
+    return out
+
+
+def _kt_scale(fixed: Mapping[str, Any], data: Sequence[Mapping[str, np.ndarray]]
+              ) -> float | None:
+    """Least-squares factor c of ``T_meas = c rho n^2 D^4 K_T(J)`` (Y&Y 2015 propeller model
+    with the held wake fraction w_P0, J = (1 - w_P0) u/(n D)) over the samples with a measured
+    thrust [N], u [m/s] and n > 0 [rps]; None without such samples."""
+    num = den = 0.0
+    D, rho = fixed["D_p"], fixed["rho"]
+    for s in data:
+        if not all(k in s for k in ("thrust", "n", "u")):
+            continue
+        T, n, u = (np.asarray(s[k], float) for k in ("thrust", "n", "u"))
+        ok = np.isfinite(T) & np.isfinite(n) & np.isfinite(u) & (n > 0.1)
+        if ok.sum() < 10:
+            continue
+        J = (1.0 - fixed["w_P0"]) * u[ok] / (n[ok] * D)
+        Tm = rho * n[ok] ** 2 * D ** 4 * (fixed["k_0"] + fixed["k_1"] * J + fixed["k_2"] * J * J)
+        num += float(Tm @ T[ok])
+        den += float(Tm @ Tm)
+    return num / den if den > 0.0 else None
+
+
+KIND = ModelKind(
+    name="mmg",
+    title="MMG standard model (3 DOF, speed varying)",
+    equation="Y&Y 2015 eq. 4 about midship: (M + M_A) (u', v', r') + Coriolis = hull "
+             "(polynomials in v', r') + rudder + propeller forces",
+    reference="Yasukawa & Yoshimura 2015, eq. 4 and the hull, propeller and rudder force models",
+    dynamics=MMG,
+    states=("u", "v", "r"),
+    body=(0, 1, 2),
+    inputs=("delta", "n", "n_port", "n_stbd"),
+    rhs=rhs,
+    pack=pack,
+    initial=initial,
+    speed=straight_speed,
+    outputs=("u", "v", "r", "psi"),
+    regression=Regression(_mmg_fit.blocks, _mmg_fit.to_params, needs=("u",)),
+    particulars=particulars,
+    uses_trig=True,
+    state_estimation=True,
+)
+
+__all__ = ["EXTRA_KEYS", "GENERIC", "KIND", "MMG", "ParticularsWarning", "equilibrium_rps",
+           "from_physics", "straight_speed_of"]

@@ -1,0 +1,181 @@
+"""Identification pieces of the kind ``mmg``: particulars from the vessel block (warnings for what
+is missing), the K_T scale from a logged thrust, the regularised regression and its
+collinearity warning, state estimation (EKF + RTS) as the source of v and the accelerations.
+The end-to-end recovery test (noisy virtual KVLCC2 zig-zags -> ``usvid identify --model mmg``
+-> turning circle and 20/20 zig-zag) is ``tests/test_model_core.py`` (kind ``mmg``)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from usvid.errors import UsvidError
+from usvid.identify.estimator import ModelEstimator
+from usvid.identify.series import trial_series
+from usvid.models import mmg
+from usvid.models.kinds import _mmg_fit
+from usvid.models.kinds.mmg import (
+    ParticularsWarning,
+    equilibrium_rps,
+    from_physics,
+    particulars,
+    straight_speed_of,
+)
+from usvid.models.model import VesselModel
+from usvid.models.registry import get
+from usvid.models.servo import IdealServo
+from usvid.sim import ZigZag, simulate
+from usvid.sim.virtual import SensorModel, virtual_trial_uniform
+from usvid.trial import Vessel
+
+P = mmg.kvlcc2("hsva").replace(R_0=0.016)
+FULL = {"x_g": P.x_G, "yaw_inertia": P.I_zG, "propeller_diameter": P.D_p,
+        "rudder_area": P.A_R, "rudder_span": P.H_R, "water_density": P.rho}
+
+
+def _vessel(**extra: float) -> Vessel:
+    return Vessel(length=P.L, beam=P.B, draft=P.d, mass=P.m, block_coefficient=0.81,
+                  speed=1.18, extra=extra)
+
+
+def test_equilibrium_and_straight_speed_are_inverse():
+    n = equilibrium_rps(P, 1.18)
+    assert straight_speed_of(P, n) == pytest.approx(1.18, rel=1e-9)
+    # by hand: at that n the surge acceleration vanishes
+    assert abs(float(mmg.accelerations(P, 1.18, 0.0, 0.0, 0.0, n)[0])) < 1e-9
+
+
+def test_particulars_from_the_vessel_block():
+    with pytest.warns(ParticularsWarning) as rec:
+        f = particulars(_vessel(**FULL), [], {})
+    text = str(rec[0].message)
+    # given particulars are used, nothing is said about them
+    assert f["x_G"] == P.x_G and f["I_zG"] == P.I_zG and f["A_R"] == P.A_R
+    assert "x_g" not in text and "yaw_inertia" not in text and "rudder_area" not in text
+    # interaction coefficients without a regression: named in the warning
+    assert "gamma_R_plus" in text and "KVLCC2" in text
+    # Zhou et al. 1983 added masses (published KVLCC2: 0.022, 0.223, 0.011; hull.py tests)
+    assert f["m_y"] == pytest.approx(0.223, abs=0.01)
+    # Fujii's lift gradient from the aspect ratio H_R^2 / A_R
+    assert f["f_alpha"] == pytest.approx(mmg.fujii_f_alpha(P.H_R ** 2 / P.A_R))
+
+
+def test_missing_particulars_are_named():
+    with pytest.warns(ParticularsWarning) as rec:
+        f = particulars(_vessel(), [], {})
+    text = str(rec[0].message)
+    for name in ("x_g = 0", "yaw_inertia", "rudder_area", "propeller_diameter"):
+        assert name in text
+    # k_zz = 0.25 L rule and the DNV rudder-area rule, by hand
+    assert f["I_zG"] == pytest.approx(P.m * (0.25 * P.L) ** 2)
+    assert f["A_R"] == pytest.approx(P.L * P.d * (1 + 25 * (P.B / P.L) ** 2) / 100)
+    with pytest.raises(UsvidError, match="vessel.beam"):
+        particulars(Vessel(length=7.0, draft=0.4, mass=1000.0), [], {})
+
+
+def test_kt_law_scaled_to_a_logged_thrust():
+    """A thrust channel 10 % above the K_T law scales k_0..k_2 by 1.10."""
+    u = np.full(200, 1.1)
+    n = np.linspace(9.0, 11.0, 200)
+    T = 1.10 * mmg.forces(P, u, 0.0, 0.0, 0.0, n)["T"]
+    with pytest.warns(ParticularsWarning):
+        f = particulars(_vessel(**FULL, wake_fraction=P.w_P0), [{"u": u, "n": n, "thrust": T}], {})
+    assert f["k_0"] == pytest.approx(1.10 * P.k_0, rel=1e-9)
+    assert f["n"] == pytest.approx(10.0)
+
+
+def test_regression_recovers_the_hull_on_exact_states():
+    """Exact states and accelerations of the model itself: the ridge towards the priors
+    (ALPHA = 1e-3 of each regressor's information) leaves the well-excited coefficients within
+    a few per cent; the collinearity warning names the cubic terms."""
+    rng = np.random.default_rng(0)
+    N = 4000
+    u = rng.uniform(0.8, 1.2, N)
+    v = rng.uniform(-0.1, 0.1, N)
+    r = rng.uniform(-0.03, 0.03, N)
+    delta = rng.uniform(-0.4, 0.4, N)
+    n = rng.uniform(9.0, 11.0, N)
+    du, dv, dr = mmg.accelerations(P, u, v, r, delta, n)
+    s = {"u_s": u, "v_s": v, "r_s": r, "udot_s": du, "vdot_s": dv, "rdot_s": dr,
+         "delta_s": delta, "n": n}
+    fixed = {k: getattr(P, k) for k in mmg.FIELD_NAMES if k not in mmg.HULL_COEFFICIENTS}
+    blocks = _mmg_fit.blocks([s], fixed, "continuous", 0.1)
+    for b in blocks:
+        theta = np.linalg.lstsq(b.Phi, b.y, rcond=None)[0]
+        got = dict(zip(b.names, theta, strict=True))
+        for k in ("R_0", "Y_v", "N_v", "N_r"):
+            if k in got:
+                assert got[k] == pytest.approx(getattr(P, k), rel=0.05), k
+
+
+def test_states_option_is_checked():
+    with pytest.raises(UsvidError, match="`states`"):
+        ModelEstimator("mmg", states="kalman")
+
+
+def test_ekf_states_give_the_sway_velocity():
+    """A noisy virtual KVLCC2 zig-zag with GNSS positions: v (not logged) comes from the EKF +
+    RTS smoother within 20 % of its own RMS (GNSS 0.3 m at 10 Hz on a 1.2 m/s model)."""
+    truth = VesselModel(from_physics(P, n=equilibrium_rps(P, 1.18)),
+                        IdealServo(max_rate=math.radians(10.0)), Vessel(length=7.0, speed=1.18))
+    amp = math.radians(20.0)
+    res = simulate(truth, ZigZag(amp, amp), t_end=120.0, dt=0.02)
+    sens = SensorModel(heading_sigma_deg=0.3, gyro_sigma_deg_s=0.1, rudder_sigma_deg=0.1,
+                       speed_sigma_m_s=0.02, gps_sigma_m=0.3)
+    tr = virtual_trial_uniform(res, sens, seed=4, rate_hz=10.0)
+    tr = tr.with_data(tr.data.drop(columns=[c for c in ("v", "u") if c in tr.data.columns]))
+    s = trial_series(tr, get("mmg"), fixed={"n": 10.0})
+    v_true = np.interp(s["t"], res.t, res.channels["v"][0])
+    rms = math.sqrt(np.mean(v_true ** 2))
+    err = math.sqrt(np.mean((s["v_s"] - v_true)[50:-50] ** 2))
+    print(f"\nEKF v: RMS error {err:.4f} m/s of an RMS sway velocity {rms:.4f} m/s")
+    assert err < 0.2 * rms
+    assert np.array_equal(s["v"], s["v_s"])  # the estimate is the v output error compares
+
+
+def test_twin_thruster_spec_works_with_catamaran_and_no_negative_mass(twin_dir, tmp_path):
+    """Issue 9: the shipped twin-thruster spec with --model catamaran (PWM commands through the
+    declared thrust map) identifies a model; least squares gives a negative sway mass on the sine
+    run (m22 < 0), which is never returned: the masses are constrained positive and the warning
+    names the coefficient held at its bound."""
+    import json
+
+    from usvid.cli import main
+    from usvid.identify.series import IdentificationWarning
+
+    out = tmp_path / "cat.json"
+    with pytest.warns(IdentificationWarning, match="constrained positive"):
+        code = main(["identify", str(twin_dir / "boat1_2_sin.xlsx"), "--format",
+                     "twin_thruster_xlsx", "--model", "catamaran", "--out", str(out), "--json"])
+    assert code == 0
+    p = json.loads(out.read_text())["parameters"]
+    assert min(p["m11"], p["m22"], p["m33"]) > 0
+    assert p["thrust"]["kind"] == "twin_thrust" and p["thrust"]["command"] == "pwm"
+
+
+def test_simulate_rps_option(tmp_path, capsys):
+    """`usvid simulate turning M.json --rps N` runs the MMG model at N rps (faster shaft, faster
+    steady turn); a kind without a shaft speed is a one-line error naming the option."""
+    import json
+
+    from usvid.cli import main
+    from usvid.io.modelfile import save_model
+
+    model = VesselModel(from_physics(P, n=10.0), IdealServo(max_rate=math.radians(15.8)),
+                        Vessel(length=7.0, speed=1.0))
+    f = save_model(model, tmp_path / "m.json")
+    speeds = []
+    for rps in ("9", "12"):
+        assert main(["simulate", "turning", str(f), "--rps", rps, "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["shaft_speed_rps"] == float(rps)
+        speeds.append(out["steady_speed_m_s"])
+    assert speeds[1] > speeds[0]
+    nomoto = tmp_path / "n.json"
+    nomoto.write_text(json.dumps({"usvid_model": 1, "kind": "nomoto1",
+                                  "parameters": {"K": 0.1, "T": 10.0},
+                                  "vessel": {"length": 7.0, "speed": 1.0}}))
+    assert main(["simulate", "turning", str(nomoto), "--rps", "9"]) == 2
+    assert "--rps" in capsys.readouterr().err
