@@ -30,8 +30,10 @@ def kinds() -> dict[str, ModelKind]:
             continue
         module = importlib.import_module(f"{_kinds_pkg.__name__}.{info.name}")
         kind = getattr(module, "KIND", None)
-        if not isinstance(kind, ModelKind):
-            continue
+        if not isinstance(kind, ModelKind):  # never skipped silently (a half-imported module
+            # in an import cycle has no KIND yet; helpers are private modules, "_name.py")
+            raise UsvidError(f"model kind module {module.__name__} defines no KIND "
+                             "(a ModelKind); private helpers are named with a leading '_'")
         digest = hashlib.sha256(inspect.getsource(module).encode()).hexdigest()[:12]
         object.__setattr__(kind, "source_hash", digest)
         found[kind.name] = kind
