@@ -9,6 +9,7 @@ COMMAND_MODULES = [
     "audit",
     "metrics",
     "identify",
+    "validate",
     "fit_turning_diameter",
     "demo",
     "report",
