@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import browser
 from usvid.cli import main
 from usvid.identify.series import IdentificationWarning
 from usvid.identify.validation import metric_error
@@ -21,6 +23,7 @@ from usvid.trial import Vessel
 
 K, T, U, L = 0.3, 5.0, 2.0, 6.0  # Nomoto gain [1/s], time constant [s], speed [m/s], length [m]
 RATE = 10.0  # helm rate [deg/s]
+ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
 
 
 def _model() -> VesselModel:
@@ -173,3 +176,33 @@ def test_metric_error_hand_values():
                                                                            "period_s", "x"])
     assert e["overshoot_deg"] == [1.0, -0.5]
     assert math.isnan(e["period_s"]) and "x" not in e
+
+
+def test_identify_report_separates_training_and_held_out(files, tmp_path, capsys):
+    rep = tmp_path / "rep"
+    code, out = _run(capsys, "identify", files["zz"], "--format", files["spec"], "--model",
+                     "nomoto1", "--validate", files["tc"], "--out", tmp_path / "m.json",
+                     "--report", rep, "--json")
+    assert code == 0, out.err
+    assert json.loads(out.out)["report"] == str(rep / "report.html")
+    run = json.loads((rep / "run.json").read_text())
+    assert [e["trial"] for e in run["training"]] == ["zz"]
+    assert [e["trial"] for e in run["held_out"]] == ["tc"]
+    # the 95 % band from the parameter covariance contains the true-model replay
+    assert "psi_lo" in run["training"][0]["band"]
+    corr = run["model"]["correlation"]
+    assert corr["names"][:2] == ["K", "T"] and corr["matrix"][0][0] == pytest.approx(1.0)
+    text = (rep / "report.html").read_text()
+    assert "Training trials" in text and "Held-out trials" in text
+    assert "does not apply" in text  # IMO MSC.137(76): ships of 100 m and over; L = 6 m
+    assert "steady turning diameter" in text and "95 % prediction band" in text
+    # usvid report DIR rebuilds the same page from run.json
+    (rep / "report.html").unlink()
+    assert main(["report", str(rep)]) == 0
+    assert (rep / "report.html").read_text() == text
+    if browser.find_chromium() is not None:
+        check = browser.check_html(rep / "report.html", timeout=120)
+        assert check.errors == [], check.errors
+        shot = browser.screenshot(rep / "report.html", ARTIFACTS / "report_identify.png",
+                                  height=2600, timeout=120)
+        assert shot.stat().st_size > 50_000  # figures drawn (a blank page is ~5 kB)

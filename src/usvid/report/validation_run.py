@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from usvid import __version__
 from usvid.identify.validation import TrialValidation, ValidationResult, replay_band
 from usvid.models.registry import get as get_kind
 from usvid.models.registry import kind_of
@@ -114,8 +115,6 @@ def build_run(model: Any, held: ValidationResult | None, held_trials: Sequence[A
               cov: Any = None, title: str = "usvid validation report",
               created_by: str = "usvid validate") -> dict[str, Any]:
     """The ``run.json`` dictionary (module docstring)."""
-    from usvid import __version__
-
     names, cov = _uncertainty(model, names, cov)
     run: dict[str, Any] = {
         "usvid_run": 1, "run_kind": "validation", "title": title, "created_by": created_by,
