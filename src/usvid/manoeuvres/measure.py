@@ -8,9 +8,9 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.manoeuvres.detect import Segment, find_manoeuvres
+from usvid.manoeuvres.detect import Segment, find_manoeuvres, repair_heading
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
-from usvid.prep.filters import savgol_smooth, unwrap_angle
+from usvid.prep.filters import savgol_smooth
 from usvid.prep.prepare import prepare
 from usvid.trial import Trial
 
@@ -18,10 +18,12 @@ from usvid.trial import Trial
 def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) -> dict[str, Any]:
     """Measured metrics of one segment, with the same keys as ``usvid simulate``.
 
-    The heading is smoothed first (zero-phase cubic Savitzky-Golay over ``smooth_s`` [s]; 0 turns
-    it off): the maximum of noisy samples around a flat heading peak is biased upwards by about
-    two noise standard deviations, which a cubic fit over 2 s removes without flattening the
-    peak (a zig-zag heading peak is tens of seconds wide).
+    Heading glitches are repaired first (:func:`usvid.manoeuvres.detect.repair_heading`; their
+    count is ``heading_glitches``), then the heading is smoothed (zero-phase cubic
+    Savitzky-Golay over ``smooth_s`` [s]; 0 turns it off): the maximum of noisy samples
+    around a flat heading peak is biased upwards by about two noise standard deviations, which
+    a cubic fit over 2 s removes without flattening the peak (a zig-zag heading peak is tens
+    of seconds wide).
 
     Zig-zag: :func:`usvid.manoeuvres.metrics.zigzag_metrics` (overshoot_deg, period_s,
     initial_turning_time_s, time_to_check_yaw_s, ...); turning: :func:`turning_metrics`
@@ -34,12 +36,14 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
     # filter window, so psi0 (the reference of every overshoot) carries the least noise
     part = trial.slice_time(segment.t_start - 5.0, segment.t_end)
     t = part.t
+    n_glitch = 0
     if smooth_s and len(t) > 3:
         data = part.data.copy()
-        data["psi"] = savgol_smooth(unwrap_angle(part["psi"]), float(np.median(np.diff(t))),
-                                    smooth_s)
+        psi, n_glitch = repair_heading(t, part["psi"])
+        data["psi"] = savgol_smooth(psi, float(np.median(np.diff(t))), smooth_s)
         part = part.with_data(data)
     out = segment.to_dict()
+    out["heading_glitches"] = n_glitch  # repaired before the metrics (detect.repair_heading)
     if segment.kind == "zigzag":
         rudder = segment.command.startswith("delta")
         m = zigzag_metrics(
