@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from usvid.manoeuvres import find_manoeuvres, measured_metrics, turning_metrics, zigzag_metrics
+from usvid.sim import ZigZag, simulate
 from usvid.trial import Trial, Vessel
 
 L, U_MAX, T_U = 3.0, 1.5, 8.0  # length [m], top speed [m/s], surge time constant [s]
@@ -113,3 +114,25 @@ def test_manually_steered_manoeuvre_is_found_and_measured(kind, amp, sw, side, s
                               U=truth["u"], t_execute=t_order)
         for key in ("advance_m", "transfer_m", "tactical_diameter_m", "steady_diameter_m"):
             assert m[key] == pytest.approx(getattr(ref, key), rel=0.02), key
+
+
+def test_demo_zigzag_log_switch_angle_and_overshoots():
+    """The demo's 10/10 zig-zag log (the Lanxin 3-DOF model, a servo with 1 s dead time, the
+    rudder angle logged but not the order, 0.3-deg compass): its rudder reverses ~1.2 s after
+    the 10-deg crossings, at 18.4 deg of heading change; the switch is the 10-deg amplitude
+    (a steering lag explains the rest), and the overshoots are the truth model's."""
+    from usvid.demo.campaign import SENSORS, lanxin_model
+    from usvid.sim import run_zigzag
+    from usvid.sim.virtual import SensorModel, virtual_trial
+
+    model = lanxin_model()
+    res = simulate(model, ZigZag(DEG(10), DEG(10), t_start=5.0), t_end=80.0, dt=0.02,
+                   u0=float(model.vessel.speed))
+    trial = virtual_trial(res, SensorModel(**SENSORS), seed=3)
+    trial = trial.with_data(trial.data.drop(columns=["delta_cmd"], errors="ignore"))
+    (m,) = [x for x in measured_metrics(trial) if x["kind"] == "zigzag"]
+    assert m["psi_switch_deg"] == pytest.approx(10.0) and m["psi_switch_from"] == "amplitude"
+    assert 0.8 < m["rudder_lag_s"] < 1.5  # 1 s dead time + the servo's second-order lag
+    _, truth = run_zigzag(model, 10.0, 10.0)
+    # 0.3-deg compass smoothed over 2 s and 0.2-deg rudder: within 0.3 deg of the truth's
+    np.testing.assert_allclose(m["overshoot_deg"][:3], truth.overshoot_deg[:3], atol=0.3)
