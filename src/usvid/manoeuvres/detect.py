@@ -54,10 +54,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from usvid.errors import UsvidError
 from usvid.prep.filters import savgol_derivative, savgol_smooth, unwrap_angle
+from usvid.prep.glitches import repair_trial_heading
 from usvid.prep.prepare import prepare
 from usvid.trial import Trial
 
@@ -154,50 +154,6 @@ def turning_command(trial: Trial) -> tuple[str, np.ndarray, bool] | None:
         if trial.has(port) and trial.has(stbd):
             return f"{port}-{stbd}", trial[port] - trial[stbd], False
     return None
-
-
-#: Half-width [s] of the running median that heading glitches are judged against.
-GLITCH_WINDOW_S = 0.5
-#: Smallest heading glitch [rad] (0.5 deg; and at least 6 robust noise standard deviations).
-GLITCH_MIN = math.radians(0.5)
-
-
-def heading_glitches(t: Any, psi: Any) -> np.ndarray:
-    """Mask of heading glitches: samples of the (unwrapped) heading ``psi`` [rad] on times
-    ``t`` [s] farther from the running median over +-:data:`GLITCH_WINDOW_S` than
-    max(:data:`GLITCH_MIN`, 6 sigma), sigma the robust noise level (1.4826 x the median
-    absolute deviation from the running median; Hampel 1974). A turning heading follows its
-    running median closely (a straight ramp exactly), so a sample off by a fraction of a degree
-    is a compass glitch, not motion. Non-finite samples are not glitches."""
-    t = as_1d("t", t)
-    psi = as_1d("psi", psi, len(t))
-    ok = np.isfinite(psi) & np.isfinite(t)
-    out = np.zeros(len(t), dtype=bool)
-    if ok.sum() < 5:
-        return out
-    tt, pp = t[ok], psi[ok]
-    dt = float(np.median(np.diff(tt)))
-    k = max(int(round(GLITCH_WINDOW_S / dt)), 1)
-    med = median_filter(pp, size=2 * k + 1, mode="nearest")
-    res = pp - med
-    sigma = 1.4826 * float(np.median(np.abs(res)))
-    out[np.flatnonzero(ok)] = np.abs(res) > max(GLITCH_MIN, 6.0 * sigma)
-    return out
-
-
-def repair_heading(t: Any, psi: Any) -> tuple[np.ndarray, int]:
-    """The heading ``psi`` [rad] (unwrapped) with its glitches (:func:`heading_glitches`)
-    replaced by linear interpolation between the good samples around them, and the number of
-    glitch samples."""
-    t = as_1d("t", t)
-    p = unwrap_angle(as_1d("psi", psi, len(t)))
-    bad = heading_glitches(t, p)
-    n = int(bad.sum())
-    if n:
-        good = ~bad & np.isfinite(p)
-        p = p.copy()
-        p[bad] = np.interp(t[bad], t[good], p[good])
-    return p, n
 
 
 def _runs(mask: np.ndarray) -> np.ndarray:
@@ -690,11 +646,12 @@ def find_manoeuvres(
     """
     if not trial.has("psi"):
         raise UsvidError(f"trial {trial.name or '?'}: no heading 'psi', cannot find manoeuvres")
+    trial, _ = repair_trial_heading(trial)  # at the sensor's own samples, before resampling
     if not trial.is_uniform or trial.data[["t", "psi"]].isna().any().any():
         trial = prepare(trial, derivatives=False)
     t = trial.t
     dt = float(np.median(np.diff(t)))
-    psi, n_glitch = repair_heading(t, trial["psi"])
+    psi = unwrap_angle(trial["psi"])
     psi_s = savgol_smooth(psi, dt, 2.0)  # zero-phase cubic over 2 s (as the metrics)
     segs: list[Segment] = []
     used = np.zeros(len(t), dtype=bool)

@@ -8,9 +8,10 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.manoeuvres.detect import Segment, find_manoeuvres, repair_heading
+from usvid.manoeuvres.detect import Segment, find_manoeuvres
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
-from usvid.prep.filters import savgol_smooth
+from usvid.prep.filters import savgol_smooth, unwrap_angle
+from usvid.prep.glitches import repair_trial_heading
 from usvid.prep.prepare import prepare
 from usvid.trial import Trial
 
@@ -18,8 +19,9 @@ from usvid.trial import Trial
 def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) -> dict[str, Any]:
     """Measured metrics of one segment, with the same keys as ``usvid simulate``.
 
-    Heading glitches are repaired first (:func:`usvid.manoeuvres.detect.repair_heading`; their
-    count is ``heading_glitches``), then the heading is smoothed (zero-phase cubic
+    Heading glitches are repaired first, at the sensor's own samples
+    (:func:`usvid.prep.glitches.repair_trial_heading`; their count is ``heading_glitches``),
+    then the heading is smoothed (zero-phase cubic
     Savitzky-Golay over ``smooth_s`` [s]; 0 turns it off): the maximum of noisy samples
     around a flat heading peak is biased upwards by about two noise standard deviations, which
     a cubic fit over 2 s removes without flattening the peak (a zig-zag heading peak is tens
@@ -30,20 +32,20 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
     (advance_m, transfer_m, tactical_diameter_m, steady_diameter_m, ...). Returns the segment's
     description merged with its metrics.
     """
+    trial, n_glitch = repair_trial_heading(trial)
     if not trial.is_uniform or (trial.has("lat") and not trial.has("x")):
         trial = prepare(trial, derivatives=False)
     # 5 s of approach before the execute: the heading there is smoothed in the interior of the
     # filter window, so psi0 (the reference of every overshoot) carries the least noise
     part = trial.slice_time(segment.t_start - 5.0, segment.t_end)
     t = part.t
-    n_glitch = 0
     if smooth_s and len(t) > 3:
         data = part.data.copy()
-        psi, n_glitch = repair_heading(t, part["psi"])
-        data["psi"] = savgol_smooth(psi, float(np.median(np.diff(t))), smooth_s)
+        data["psi"] = savgol_smooth(unwrap_angle(part["psi"]), float(np.median(np.diff(t))),
+                                    smooth_s)
         part = part.with_data(data)
     out = segment.to_dict()
-    out["heading_glitches"] = n_glitch  # repaired before the metrics (detect.repair_heading)
+    out["heading_glitches"] = n_glitch  # repaired before the metrics (log's count)
     if segment.kind == "zigzag":
         rudder = segment.command.startswith("delta")
         m = zigzag_metrics(
@@ -71,5 +73,6 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
 
 def measured_metrics(trial: Trial, **find_kw: Any) -> list[dict[str, Any]]:
     """Find every manoeuvre in ``trial`` and measure it: one dict per manoeuvre (time order)."""
+    trial, _ = repair_trial_heading(trial)  # at the sensor's own samples, before resampling
     prepared = prepare(trial, derivatives=False)
     return [manoeuvre_metrics(prepared, s) for s in find_manoeuvres(prepared, **find_kw)]
