@@ -135,7 +135,7 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     if b is None:
         raise IdentificationError(
             "model 'catamaran' needs the distance b [m] between the two thrusters: give "
-            "vessel.extra.thruster_spacing in the format spec (or the option b)")
+            "vessel.extra.thruster_spacing in the format spec (or --vessel thruster_spacing=B)")
     k = num(vessel, options, "thrust_per_command")
     cp = [s["n_port"] for s in data if "n_port" in s and "n_stbd" in s]
     cs = [s["n_stbd"] for s in data if "n_port" in s and "n_stbd" in s]
