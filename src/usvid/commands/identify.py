@@ -25,14 +25,14 @@ from usvid.commands._common import emit_json
 from usvid.commands._logs import TEndOpt, TStartOpt, load_trimmed
 from usvid.commands.validate import PsiOpt, ReportOpt, print_validation, psi_switch_option
 from usvid.errors import UsvidError
-from usvid.files import to_json
-from usvid.identify.estimator import ModelEstimator
-from usvid.identify.series import IdentificationWarning
-from usvid.identify.validate import validation_table
-from usvid.identify.validation import validate_model
-from usvid.io.modelfile import save_model
-from usvid.models.registry import names as kind_names
-from usvid.prep import prepare
+
+
+def kind_names() -> list[str]:
+    """The model kinds for the help text, from the kind modules' names (importing the registry
+    compiles the kinds: the help stays fast without it)."""
+    folder = Path(__file__).resolve().parent.parent / "models" / "kinds"
+    return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
+
 
 LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify from.",
                                                show_default=False)]
@@ -67,6 +67,9 @@ VesselOpt = Annotated[list[str] | None, typer.Option(
 
 def _load(paths: list[Path], fmt: str, t_start: float | None = None,
           t_end: float | None = None) -> list[Any]:
+    from usvid.identify.series import IdentificationWarning
+    from usvid.prep import prepare
+
     out = []
     for p in paths:
         tr = load_trimmed(p, fmt, t_start, t_end)
@@ -114,6 +117,11 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
                   ) -> dict[str, Any]:
     """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``).
     Logs are ``LOG`` or ``LOG:T0:T1`` (:func:`usvid.commands._logs.parse_log_arg`)."""
+    from usvid.identify.estimator import ModelEstimator
+    from usvid.identify.validate import validation_table
+    from usvid.identify.validation import validate_model
+    from usvid.io.modelfile import save_model
+
     if not logs:
         raise UsvidError("identify: give at least one LOG")
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
@@ -147,6 +155,8 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
             report, est, training, trials, held_res, held if validate else [],
             model_file=str(out) if out is not None else None))
     if out is not None:
+        from usvid.files import to_json
+
         if "validation" in summary:
             est.model_.identification["validation"] = json.loads(to_json(summary["validation"]))
         save_model(est.model_, out)
