@@ -457,8 +457,10 @@ class ModelEstimator(FittedAttributes):
         self.fixed_ = fixed
         model = VesselModel(dyn, servo=servo, vessel=vessel)
         self.fit_ = self._metrics(model, series)
+        # every log the model was identified from: the turning trials of the two-step Norrbin
+        # fit too (its alpha comes from them)
         self.data_ = [{"file": str(src), "sha256": _sha256(str(src))}
-                      for tr in trials for src in (tr.sources or [tr.name])]
+                      for tr in [*trials, *turning] for src in (tr.sources or [tr.name])]
         opts: dict[str, Any] = {"form": self.form, "smooth_s": self.smooth_s,
                                 "window_s": self.window_s, "overlap": self.overlap,
                                 "step_s": series[0].h * self._decimation(series[0])}
