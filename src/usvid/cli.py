@@ -71,7 +71,15 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns (and exits with) the process exit code."""
     import warnings
 
-    warnings.formatwarning = _one_line_warning
+    previous = warnings.formatwarning
+    warnings.formatwarning = _one_line_warning  # restored on return (main() called in-process)
+    try:
+        return _main(argv)
+    finally:
+        warnings.formatwarning = previous
+
+
+def _main(argv: list[str] | None) -> int:
     try:
         app(args=argv, prog_name="usvid", standalone_mode=True)
     except SystemExit as exc:  # typer/click end here in standalone mode
