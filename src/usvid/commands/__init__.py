@@ -6,6 +6,7 @@ The CLI contract (options and ``--json`` keys) is documented in the README.
 #: Modules registered on the CLI, in help order.
 COMMAND_MODULES = [
     "simulate",
+    "autopilot",
     "audit",
     "metrics",
     "identify",
