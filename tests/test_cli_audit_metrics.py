@@ -13,16 +13,17 @@ from usvid.cli import main
 HSVA = "HSVA_CPMC_KVLCC2_Z_{}.dat"
 
 
-def run_json(capsys, argv):
+def run_json(capsys, argv, expect=0):
     code = main(argv)
     out = capsys.readouterr()
-    assert code == 0, out.err
+    assert code == expect, out.err
     return json.loads(out.out)
 
 
 def test_audit_catalogue_spec_names_the_problems(capsys, hsva_dir):
+    # error findings: exit code 3, with the whole JSON on stdout
     out = run_json(capsys, ["audit", str(hsva_dir / HSVA.format("10_10_S")),
-                            "--format", "hsva_kvlcc2_catalogue", "--json"])
+                            "--format", "hsva_kvlcc2_catalogue", "--json"], expect=3)
     assert out["rejected"] == {} and out["samples"] == 1341
     codes = {f["code"]: f for f in out["findings"]}
     assert codes["yaw_rate_column"]["data"]["yaw_rate_channel"] == "p"
@@ -42,6 +43,10 @@ def test_audit_twin_by_spec_path(capsys, twin_dir):
     out = run_json(capsys, ["audit", str(twin_dir / "boat1_2_sin.xlsx"), "--format",
                             str(shipped_spec_path("twin_thruster_xlsx")), "--json"])
     codes = {f["code"]: f for f in out["findings"]}
+    # no false alarms: the PWM commands follow the yaw rate (through the hull) but are no yaw
+    # rate; the GNSS heading holds values in turns (no glitches)
+    assert not {"yaw_rate_found", "yaw_rate_weak", "heading_glitch"} & set(codes)
+    assert out["counts"]["error"] == 0
     assert codes["position_scale"]["data"]["factor"] == pytest.approx(1.1117, abs=0.001)
     assert codes["stale_gnss_fix"]["data"]["rate"] == pytest.approx(0.452, abs=0.002)
 
@@ -90,7 +95,7 @@ def _csv_spec(tmp_path) -> str:
 
 def test_text_audit_prints_table(capsys, hsva_dir):
     assert main(["audit", str(hsva_dir / HSVA.format("10_10_S")),
-                 "--format", "hsva_kvlcc2_catalogue"]) == 0
+                 "--format", "hsva_kvlcc2_catalogue"]) == 3  # error findings
     out = capsys.readouterr().out
     assert "yaw_rate_column" in out and "rudder_sign" in out
 

@@ -68,6 +68,12 @@ def test_demo_json_and_run_contents(demo_runs) -> None:
     run = json.loads((a / "run.json").read_text())
     assert run["usvid_run"] == 1 and run["truth_definition"]
     assert len(run["validation"]) >= 8 and run["course_keeping"]["runs"][0]["label"] == "PD"
+    # every comparison says whether its trial was fitted: Nomoto's turning tests are held out,
+    # its zig-zags (and all of the 3-DOF model's trials) are training data
+    role = {(v["model"], v["trial"]): v["role"] for v in run["validation"]}
+    assert role[("nomoto1", "turning_35")] == "held out"
+    assert role[("nomoto1", "zigzag_10_10")] == "training"
+    assert role[("threedof", "turning_35")] == "training"
     # model files load back through usvid.io.modelfile
     from usvid.io.modelfile import load_model
 

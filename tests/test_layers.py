@@ -44,5 +44,7 @@ def test_imports_at_module_top_outside_the_cli():
     for path in sorted(SRC.rglob("*.py")):
         if path.name == "cli.py" or "commands" in path.parts:
             continue
+        if path == SRC / "__init__.py":  # the package root's lazy Trial/Vessel/Finding (PEP 562)
+            continue
         local += _local_usvid_imports(path)
     assert local == [], "usvid imports inside functions: " + ", ".join(sorted(set(local)))

@@ -90,15 +90,25 @@ def synthetic():
 
 def test_nominal_switch_hand_values():
     deg = math.radians
-    # upper bounds from a delayed helm round down to the standard angle
-    assert math.degrees(nominal_switch(deg(10.85))) == pytest.approx(10.0)
-    assert math.degrees(nominal_switch(deg(7.01))) == pytest.approx(5.0)
-    assert math.degrees(nominal_switch(deg(1.73))) == pytest.approx(1.0)
-    # sampling: +0.1 deg allowance
-    assert math.degrees(nominal_switch(deg(9.95))) == pytest.approx(10.0)
-    # an n/n zig-zag with a non-standard amplitude
-    assert math.degrees(nominal_switch(deg(12.4), deg(12.0))) == pytest.approx(12.0)
-    assert math.degrees(nominal_switch(deg(0.5))) == pytest.approx(0.5)
+
+    def sw(*a, **k):
+        v, how = nominal_switch(*a, **k)
+        return round(math.degrees(v), 6), how
+
+    # a logged rudder order reverses at the switching heading: taken as measured, any value
+    assert sw(deg(12.3), deg(20.0), deg(5.0), order=True) == (12.3, "order")
+    # the rudder angle of an n/n zig-zag lags the order: 18.4 deg at 7 deg/s is 8.4 deg late,
+    # 1.2 s of steering lag (<= 1.5 s): the amplitude, to the whole degree (9.94 -> 10)
+    assert sw(deg(18.4), deg(9.94), deg(7.0)) == (10.0, "amplitude")
+    assert sw(deg(12.6), deg(12.4), deg(3.0)) == (12.4, "amplitude")  # not near a whole degree
+    # a 10/5 of the HSVA model tests: 5.54 deg at 2.4 deg/s is 0.23 s after the 5 deg crossing
+    assert sw(deg(5.54), deg(9.99), deg(2.4)) == (5.0, "standard")
+    # 12.5 deg at 4 deg/s: 10 deg would mean 0.63 s of helm lag (> 0.45 s + 0.3 deg): measured,
+    # not rounded
+    assert sw(deg(12.5), deg(20.0), deg(4.0)) == (12.5, "measured")
+    # an amplitude 2.1 s behind (> 1.5 s) is not this test's switching angle
+    assert sw(deg(25.0), deg(10.0), deg(7.0)) == (25.0, "standard")
+    assert sw(deg(0.5)) == (0.5, "measured")
 
 
 def test_finds_zigzag_and_turning_in_long_log(synthetic):

@@ -2,7 +2,8 @@
 
 Each command lives in ``usvid.commands.<name>`` and registers itself on :data:`app`. Every command
 takes ``--json`` and then prints exactly one JSON object on stdout. Exit codes: 0 success,
-2 bad usage or bad input (one-line reason on stderr), 1 internal error.
+2 bad usage or bad input (one-line reason on stderr), 3 ``usvid audit`` found error-severity
+problems, 1 internal error. Warnings are printed as one line each (``usvid: warning: ...``).
 """
 
 from __future__ import annotations
@@ -42,11 +43,43 @@ def version() -> None:
     print(__version__)
 
 
+def _version_flag(value: bool) -> None:
+    if value:
+        from usvid import __version__
+
+        print(f"usvid {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(version: bool = typer.Option(  # noqa: B008 - typer's option declaration
+        False, "--version", help="Print the usvid version and exit.", is_eager=True,
+        callback=_version_flag)) -> None:
+    """Identify, validate and simulate USV manoeuvring models from sea-trial logs."""
+
+
+def _one_line_warning(message: Warning | str, category: type[Warning], filename: str,
+                      lineno: int, line: str | None = None) -> str:
+    """Warnings on the command line: one clean line, no source location."""
+    return f"usvid: warning: {' '.join(str(message).split())}\n"
+
+
 _register_all()
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns (and exits with) the process exit code."""
+    import warnings
+
+    previous = warnings.formatwarning
+    warnings.formatwarning = _one_line_warning  # restored on return (main() called in-process)
+    try:
+        return _main(argv)
+    finally:
+        warnings.formatwarning = previous
+
+
+def _main(argv: list[str] | None) -> int:
     try:
         app(args=argv, prog_name="usvid", standalone_mode=True)
     except SystemExit as exc:  # typer/click end here in standalone mode

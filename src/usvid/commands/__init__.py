@@ -1,6 +1,6 @@
 """CLI commands, one module each; every module defines ``register(app)``.
 
-The CLI contract (options and ``--json`` keys) is in ``../shared/ARCHITECTURE.md``.
+The CLI contract (options and ``--json`` keys) is documented in the README.
 """
 
 #: Modules registered on the CLI, in help order.
@@ -10,7 +10,9 @@ COMMAND_MODULES = [
     "audit",
     "metrics",
     "identify",
+    "validate",
     "fit_turning_diameter",
     "demo",
     "report",
+    "example",
 ]

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from usvid.files import to_json
-
 
 def emit_json(obj: Any) -> None:
     """Print exactly one JSON object on stdout."""
+    from usvid.files import to_json  # numpy: loaded when a command runs, not for --help
+
     print(to_json(obj))

@@ -4,8 +4,9 @@ Reads the log with its trial format spec (a YAML path or a shipped spec name), r
 :func:`usvid.prep.audit` and prints the findings (reader findings first). With ``--json`` one
 object: ``file``, ``format``, ``samples``, ``duration_s``, ``channels``, ``rejected`` (record counts
 per reason from the reader), ``findings`` (list of {severity, code, message, count, t_start, t_end,
-channel, data}) and ``counts`` per severity. A log that cannot be read at all, or holds fewer than
-three valid records, exits with code 2 and a one-line reason.
+channel, data}) and ``counts`` per severity. Exit code 3 when error-severity findings exist
+(the output is complete; a script can test for it). A log that cannot be read at all, or holds
+fewer than three valid records, exits with code 2 and a one-line reason.
 """
 
 from __future__ import annotations
@@ -71,6 +72,7 @@ def register(app: typer.Typer) -> None:
         out = audit_log(log, fmt)
         if json_out:
             emit_json(out)
+            _exit_on_errors(out)
             return
         from rich.console import Console
         from rich.table import Table
@@ -87,3 +89,13 @@ def register(app: typer.Typer) -> None:
             table.add_row(f["severity"], f["code"], f["channel"] or "", str(f["count"]),
                           f["message"])
         con.print(table)
+        _exit_on_errors(out)
+
+
+#: Exit code of ``usvid audit`` when error-severity findings exist (the log was read).
+EXIT_FINDINGS = 3
+
+
+def _exit_on_errors(out: dict[str, Any]) -> None:
+    if out["counts"].get("error", 0):
+        raise typer.Exit(EXIT_FINDINGS)

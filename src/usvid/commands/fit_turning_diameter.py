@@ -23,8 +23,8 @@ def register(app: typer.Typer) -> None:
     @app.command("fit-turning-diameter")
     def fit_turning_diameter_cmd(
         table: Annotated[Path | None, typer.Argument(
-            help="CSV with columns Fr, delta_rad, DL_test (seed 004 Table 2 form) or speed_kn, "
-                 "rudder_deg, turning_diameter_m (Table 1 form). Default: seed 004 Table 2.")
+            help="CSV with columns Fr, delta_rad, DL_test (Ma et al., Table 2 form) or speed_kn, "
+                 "rudder_deg, turning_diameter_m (Table 1 form). Default: Ma et al., Table 2.")
         ] = None,
         json_out: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
         seed: Annotated[int, typer.Option("--seed", help="Seed of the CGA and of differential "
@@ -32,7 +32,7 @@ def register(app: typer.Typer) -> None:
         length: Annotated[float, typer.Option("--length", help="Vessel length [m] for a Table 1 "
                                                               "form table.")] = 1.5,
     ) -> None:
-        """Fit seed 004's relative turning diameter D/L(Fr, delta) by CGA and least squares."""
+        """Fit Ma et al.'s relative turning diameter D/L(Fr, delta) by CGA and least squares."""
         from usvid.identify.turning_diameter import fit_turning_diameter, load_turning_table
 
         Fr, delta, DL = load_turning_table(table, length=length)
@@ -43,7 +43,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
         from rich.table import Table
 
-        t = Table(title=f"Seed 004 eq. 1 fit on {table or 'seed 004 Table 2'} "
+        t = Table(title=f"Ma et al. eq. 1 fit on {table or 'Ma et al. Table 2'} "
                         f"(N = {Fr.size}, F = RMS of D/L, eq. 2)")
         for col in ("method", "a1", "a2", "a3", "a4", "a5", "F", "LOO RMS", "max rel err",
                     "at bounds"):

@@ -22,15 +22,17 @@ from typing import Annotated, Any
 import typer
 
 from usvid.commands._common import emit_json
-from usvid.commands.audit import load_log
+from usvid.commands._logs import TEndOpt, TStartOpt, load_trimmed
+from usvid.commands.validate import PsiOpt, ReportOpt, print_validation, psi_switch_option
 from usvid.errors import UsvidError
-from usvid.files import to_json
-from usvid.identify.estimator import ModelEstimator
-from usvid.identify.series import IdentificationWarning
-from usvid.identify.validate import validation_table
-from usvid.io.modelfile import save_model
-from usvid.models.registry import names as kind_names
-from usvid.prep import prepare
+
+
+def kind_names() -> list[str]:
+    """The model kinds for the help text, from the kind modules' names (importing the registry
+    compiles the kinds: the help stays fast without it)."""
+    folder = Path(__file__).resolve().parent.parent / "models" / "kinds"
+    return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
+
 
 LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify from.",
                                                show_default=False)]
@@ -63,10 +65,14 @@ VesselOpt = Annotated[list[str] | None, typer.Option(
     "vessel block (e.g. propeller_diameter=0.46); repeat for several.")]
 
 
-def _load(paths: list[Path], fmt: str) -> list[Any]:
+def _load(paths: list[Path], fmt: str, t_start: float | None = None,
+          t_end: float | None = None) -> list[Any]:
+    from usvid.identify.series import IdentificationWarning
+    from usvid.prep import prepare
+
     out = []
     for p in paths:
-        tr = load_log(p, fmt)
+        tr = load_trimmed(p, fmt, t_start, t_end)
         if tr.is_uniform:
             # a single-rate log with gaps: prepare() repairs them before the estimator sees the
             # data, so the estimator's own NaN count would under-report; name them here
@@ -105,23 +111,52 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
                   validate: list[Path] | None = None, out: Path | None = None,
                   window_s: float = 20.0, overlap: float = 0.0, lam: float = 1.0,
                   norrbin: str = "joint", turning: list[Path] | None = None,
-                  x_l: float | None = None, vessel: list[str] | None = None) -> dict[str, Any]:
-    """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``)."""
+                  x_l: float | None = None, vessel: list[str] | None = None,
+                  t_start: float | None = None, t_end: float | None = None,
+                  psi_deg: float | None = None, report: Path | None = None
+                  ) -> dict[str, Any]:
+    """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``).
+    Logs are ``LOG`` or ``LOG:T0:T1`` (:func:`usvid.commands._logs.parse_log_arg`)."""
+    from usvid.identify.estimator import ModelEstimator
+    from usvid.identify.validate import validation_table
+    from usvid.identify.validation import validate_model
+    from usvid.io.modelfile import save_model
+
     if not logs:
         raise UsvidError("identify: give at least one LOG")
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
                          norrbin=norrbin, particulars=_particulars(x_l, vessel))
-    trials = _load(logs, fmt)
-    est.fit(trials, turning=_load(turning, fmt) if turning else None)
+    trials = _load(logs, fmt, t_start, t_end)
+    if psi_deg is not None:  # the zig-zag switching angle of the training logs, as given
+        for tr in trials:
+            tr.meta["psi_switch"] = psi_switch_option(psi_deg)
+    est.fit(trials, turning=_load(turning, fmt, t_start, t_end) if turning else None)
     res = est.result_
     summary: dict[str, Any] = {
         "model_file": str(out) if out is not None else None,
         **res.summary(),
         "data": res.data,
     }
+    held_res = None
     if validate:
-        summary["validation"] = validation_table(est, _load(validate, fmt))
+        held = _load(validate, fmt, t_start, t_end)
+        held_res = validate_model(est.model_, held, psi_switch=psi_switch_option(psi_deg))
+        rows = held_res.to_dict()["validation"]
+        # the rows of `usvid validate`, plus the windowed fit metrics ("metrics", labelled by
+        # their window_s) and the former zig-zag check ("zigzag") kept for compatibility
+        for row, old in zip(rows, validation_table(est, held), strict=True):
+            row.update({k: v for k, v in old.items() if k not in row})
+        summary["validation"] = rows
+    if report is not None:
+        from usvid.report.validation_run import write_identify_report
+
+        training = validate_model(est.model_, trials, psi_switch=psi_switch_option(psi_deg))
+        summary["report"] = str(write_identify_report(
+            report, est, training, trials, held_res, held if validate else [],
+            model_file=str(out) if out is not None else None))
     if out is not None:
+        from usvid.files import to_json
+
         if "validation" in summary:
             est.model_.identification["validation"] = json.loads(to_json(summary["validation"]))
         save_model(est.model_, out)
@@ -139,13 +174,10 @@ def _print_summary(s: dict[str, Any]) -> None:
             if isinstance(m, dict) and "rmse" in m:
                 print(f"  {label} {ch:4s} rmse {m['rmse']:.4g}  nrmse {m['nrmse']:.3g}  "
                       f"r2 {m['r2']:.4f}")
-    for v in s.get("validation", []):
-        z = v.get("zigzag", {})
-        line = f"  validation {Path(str(v.get('file', v.get('trial')))).name}:"
-        if "overshoot_error_deg" in z:
-            line += " overshoot error [deg] " + ", ".join(
-                f"{e:+.2f}" for e in z["overshoot_error_deg"][:3])
-        print(line)
+    if s.get("validation"):
+        print_validation(s["validation"])
+    if s.get("report"):
+        print(f"report: {s['report']}")
 
 
 def register(app: typer.Typer) -> None:
@@ -157,11 +189,14 @@ def register(app: typer.Typer) -> None:
                      json_out: JsonOpt = False, window_s: WindowOpt = 20.0,
                      overlap: OverlapOpt = 0.0, lam: LamOpt = 1.0,
                      norrbin: NorrbinOpt = "joint", turning: TurningOpt = None,
-                     x_l: XlOpt = None, vessel: VesselOpt = None) -> None:
+                     x_l: XlOpt = None, vessel: VesselOpt = None,
+                     t_start: TStartOpt = None, t_end: TEndOpt = None,
+                     psi_deg: PsiOpt = None, report: ReportOpt = None) -> None:
         """Identify a manoeuvring model from trial logs and write the model file."""
         s = identify_logs(logs, fmt, model, method, validate=validate, out=out,
                           window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin,
-                          turning=turning, x_l=x_l, vessel=vessel)
+                          turning=turning, x_l=x_l, vessel=vessel, t_start=t_start,
+                          t_end=t_end, psi_deg=psi_deg, report=report)
         if json_out:
             emit_json(s)
         else:

@@ -22,8 +22,8 @@ from usvid.commands.audit import FormatOpt, JsonOpt, LogArg, load_log
 from usvid.errors import UsvidError
 
 PsiOpt = Annotated[float | None, typer.Option(
-    "--psi-deg", help="Zig-zag switching angle [deg] when known (default: measured, rounded "
-                      "down to a standard angle).")]
+    "--psi-deg", help="Zig-zag switching angle [deg] when known (default: from the heading at "
+                      "the rudder reversals; see psi_switch_from).")]
 TurnOpt = Annotated[float, typer.Option(
     "--min-turn-deg", help="Heading change [deg] that makes a single rudder pulse a turning "
                            "circle.")]
@@ -88,8 +88,9 @@ def register(app: typer.Typer) -> None:
             con.print(f"{log.name}: {out['message']}")
             return
         keys = {
-            "zigzag": ("delta_amp_deg", "psi_switch_deg", "first_side", "overshoot_deg",
-                       "period_s", "initial_turning_time_s", "time_to_check_yaw_s"),
+            "zigzag": ("delta_amp_deg", "psi_switch_deg", "psi_switch_from", "rudder_lag_s",
+                       "first_side", "overshoot_deg", "period_s", "initial_turning_time_s",
+                       "time_to_check_yaw_s", "heading_glitches"),
             "turning": ("first_side", "advance_m", "transfer_m", "tactical_diameter_m",
                         "steady_diameter_m", "steady_yaw_rate_rad_s", "steady_speed_m_s"),
         }

@@ -237,13 +237,13 @@ def course_cmd(
         "--controller", help="pd or pid autopilot.")] = ControllerKind.pd,
     kp: Annotated[float, typer.Option("--kp", help="Proportional gain [rad/rad].")] = 0.7,
     ki: Annotated[float | None, typer.Option(
-        "--ki", help="Integral gain [1/s] (pid; default 0.00095, seed 000).")] = None,
+        "--ki", help="Integral gain [1/s] (pid; default 0.00095, Mu et al. 2018).")] = None,
     kd: Annotated[float, typer.Option("--kd", help="Derivative gain [s].")] = 1.0,
     target_deg: Annotated[float, typer.Option("--target-deg", help="Target course [deg].")] =
         100.0,
     seed: Annotated[int, typer.Option("--seed", help="Disturbance seed.")] = 1,
     noise: Annotated[float, typer.Option(
-        "--noise", help="Disturbance std [deg] (seed 000 filter); 0 = calm.")] = 1.0,
+        "--noise", help="Disturbance std [deg] (filter of Mu et al. 2018); 0 = calm.")] = 1.0,
     t_end: Annotated[float, typer.Option(
         "--t-end", help="Simulated time [s]: the horizon of ITAE and IAE.")] = 100.0,
     dt: DtOpt = 0.02,

@@ -304,10 +304,14 @@ class DemoPipeline:
         for model_kind in kinds:
             if model_kind not in ident:
                 continue
+            used = " ".join(str(d.get("file", d)) for d in ident[model_kind].data)
             for tname in ("zigzag_15_15", "zigzag_10_10", "turning_35", "turning_10"):
                 if tname in trials:
-                    entries.append(validate_against(ident[model_kind].model, trials[tname],
-                                                    camp.manoeuvre(tname), model_kind, camp))
+                    e = validate_against(ident[model_kind].model, trials[tname],
+                                         camp.manoeuvre(tname), model_kind, camp)
+                    # in-sample or not: said in the report next to every comparison
+                    e["role"] = "training" if tname in used else "held out"
+                    entries.append(e)
         self.run["validation"] = entries
         return f"{len(entries)} comparisons"
 

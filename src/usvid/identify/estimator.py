@@ -36,6 +36,7 @@ clusters and Student-t intervals with (windows - 1) degrees of freedom.
 from __future__ import annotations
 
 import hashlib
+import html
 import math
 import warnings
 from collections.abc import Sequence
@@ -213,6 +214,18 @@ class IdentifiedModel:
     def to_dict(self) -> dict[str, Any]:
         """The model file as a JSON-ready dict (:func:`usvid.io.modelfile.model_to_dict`)."""
         return model_to_dict(self.model)
+
+    def _repr_html_(self) -> str:
+        """A parameter table for Jupyter: estimate, standard error and 95 % interval."""
+        rows = "".join(
+            f"<tr><td><code>{html.escape(k)}</code></td><td>{v:.6g}</td>"
+            f"<td>{self.std_errors.get(k, math.nan):.3g}</td>"
+            f"<td>{self.ci95.get(k, [math.nan, math.nan])[0]:.6g} .. "
+            f"{self.ci95.get(k, [math.nan, math.nan])[1]:.6g}</td></tr>"
+            for k, v in self.params.items())
+        return (f"<table><caption>{html.escape(self.kind)} identified by "
+                f"{html.escape(self.method)}</caption><tr><th>parameter</th><th>estimate</th>"
+                f"<th>std. error</th><th>95 % interval</th></tr>{rows}</table>")
 
     def summary(self) -> dict[str, Any]:
         """Parameters, std errors, intervals and fit metrics (the CLI's JSON summary)."""
@@ -462,8 +475,10 @@ class ModelEstimator(FittedAttributes):
         self.fixed_ = fixed
         model = VesselModel(dyn, servo=servo, vessel=vessel)
         self.fit_ = self._metrics(model, series)
+        # every log the model was identified from: the turning trials of the two-step Norrbin
+        # fit too (its alpha comes from them)
         self.data_ = [{"file": str(src), "sha256": _sha256(str(src))}
-                      for tr in trials for src in (tr.sources or [tr.name])]
+                      for tr in [*trials, *turning] for src in (tr.sources or [tr.name])]
         opts: dict[str, Any] = {"form": self.form, "smooth_s": self.smooth_s,
                                 "window_s": self.window_s, "overlap": self.overlap,
                                 "step_s": series[0].h * self._decimation(series[0])}

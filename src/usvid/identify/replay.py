@@ -172,7 +172,9 @@ def zigzag_runs(trials: Sequence[Any], series: Sequence[Series], kind: ModelKind
     nrev = None if horizon == "run" else (2 if horizon == "cycle" else int(horizon))
     runs = []
     for tr, s in zip(trials, series, strict=True):
-        segs = [g for g in find_manoeuvres(tr) if g.kind == "zigzag"]
+        # a switching angle given by the user (meta["psi_switch"] [rad]) overrides detection
+        segs = [g for g in find_manoeuvres(tr, psi_switch=tr.meta.get("psi_switch"))
+                if g.kind == "zigzag"]
         if not segs:
             raise IdentificationError(
                 f"trial {tr.name or '?'}: no zig-zag found; the closed-loop (zig-zag replay) "

@@ -31,10 +31,11 @@ Finding manoeuvres (:func:`find_manoeuvres`). The rudder (or, without a rudder, 
 differential port - starboard, seed 002: tau_r = (T_port - T_stbd) b/2) is cut into *pulses*:
 runs where the smoothed command keeps one sign beyond ``min_level``. Then
 
-* a **zig-zag** is a chain of at least two pulses of alternating sign and similar level, joined by
-  short transitions, whose reversals all happen at about the same heading deviation from the
-  heading at the first execute (that deviation is the switching angle ``psi_switch``; it is rounded
-  to whole degrees when above 0.75 deg, as zig-zag tests are specified);
+* a **zig-zag** is a chain of at least three pulses of alternating sign and similar level, joined
+  by short transitions, whose reversals all happen at about the same heading deviation from the
+  heading at the first execute (within 30 % or 0.5 deg: steering corrections held for a few
+  seconds each are not a zig-zag); that deviation, read at the starts of the reversing rudder
+  ramps, gives the switching angle ``psi_switch`` (:func:`nominal_switch`);
 * a **turning circle** is a single pulse during which the heading changes by at least
   ``min_turn_deg`` (180 deg by default, enough for the tactical diameter);
 * where no command explains it, a run of one-signed yaw rate turning at least 360 deg is a
@@ -56,11 +57,16 @@ import numpy as np
 
 from usvid.errors import UsvidError
 from usvid.prep.filters import savgol_derivative, savgol_smooth, unwrap_angle
+from usvid.prep.glitches import repair_trial_heading
 from usvid.prep.prepare import prepare
 from usvid.trial import Trial
 
 #: The approach before a manoeuvre [s]: the rudder over it is the reference ``delta_0``.
 APPROACH_S = 5.0
+
+#: Largest interquartile range [rad] of the rudder over the approach for it to count as held
+#: steady (0.5 deg): its median is then a zero offset.
+STEADY_RUDDER = math.radians(0.5)
 
 #: Thruster command pairs (port, starboard) used as a turning command when there is no rudder.
 THRUSTER_PAIRS: tuple[tuple[str, str], ...] = (
@@ -290,14 +296,48 @@ def _edge_start(t: np.ndarray, mag: np.ndarray, s: int, i0: int, i1: int) -> flo
     rising = np.flatnonzero(mag[i0:i1] >= 0.5 * level)
     if not rising.size:
         return float(t[i0])
-    i50 = i0 + int(rising[0])
-    quiet = np.flatnonzero(mag[s:i50] <= 0.1 * level)
+    return ramp_start(t, mag, i0 + int(rising[0]), s, level)
+
+
+def ramp_start(t: np.ndarray, mag: np.ndarray, i_mid: int, lo: int, level: float) -> float:
+    """Start [s] of the ramp of ``mag`` that passes sample ``i_mid`` on its way up to
+    ``level`` (a rudder order, the helm putting the rudder over or reversing it).
+
+    The ramp is the run of samples around ``i_mid`` where the slope of ``mag`` (0.5 s
+    Savitzky-Golay) is at least a quarter of its slope at ``i_mid``; its foot is where that run
+    begins. The baseline ``b`` is the median of ``mag`` over the second before the foot (the
+    rudder held before the order, which may be a small steering correction rather than the
+    approach rudder), and the start is the straight line through the first sample beyond
+    ``b + 0.5 (level - b)`` and the last one before it within ``0.1 (level - b)`` of ``b``,
+    extended back to ``b`` (a rate-limited ramp gives its start, a sampled step its last
+    sample before the step). Not before sample ``lo``. Units of ``mag``: any (rad)."""
+    dt = float(t[min(i_mid + 1, len(t) - 1)] - t[max(i_mid - 1, 0)]) / 2 or 1.0
+    a = max(lo, i_mid - int(round(30.0 / dt)))
+    seg = mag[a:i_mid + 1]
+    if seg.size >= 5:
+        slope = savgol_derivative(seg, dt, 0.5, order=2)
+        ref = slope[-1] if np.isfinite(slope[-1]) else np.nan
+        steep = (slope >= 0.25 * ref) if ref > 0 else np.ones(seg.size, dtype=bool)
+        flat = np.flatnonzero(~steep)
+        foot = a + (int(flat[-1]) + 1 if flat.size else 0)
+    else:
+        foot = a
+    b0 = max(lo, foot - int(round(1.0 / dt)))
+    base = mag[b0:foot + 1]
+    base = base[np.isfinite(base)]
+    b = float(np.median(base)) if base.size else 0.0
+    b = min(b, 0.5 * level)
+    rel = mag - b
+    lev = level - b
+    up = np.flatnonzero(rel[foot:i_mid + 1] >= 0.5 * lev)
+    i50 = foot + int(up[0]) if up.size else i_mid
+    quiet = np.flatnonzero(rel[b0:i50] <= 0.1 * lev)
     if not quiet.size:
-        return float(t[s])
-    i10 = s + int(quiet[-1])
-    rise = (mag[i50] - mag[i10]) / (t[i50] - t[i10])
-    t0 = float(t[i10]) - max(float(mag[i10]), 0.0) / rise if rise > 0 else float(t[i10])
-    return max(t0, float(t[s]))
+        return float(t[max(b0, lo)])
+    i10 = b0 + int(quiet[-1])
+    rise = (rel[i50] - rel[i10]) / (t[i50] - t[i10]) if t[i50] > t[i10] else 0.0
+    t0 = float(t[i10]) - max(float(rel[i10]), 0.0) / rise if rise > 0 else float(t[i10])
+    return max(t0, float(t[lo]))
 
 
 def rudder_amplitude(t: Any, delta: Any, t_execute: float, t_end: float | None = None) -> float:
@@ -309,7 +349,10 @@ def rudder_amplitude(t: Any, delta: Any, t_execute: float, t_end: float | None =
     (deflections to both sides, the smaller side at least 25 % of the larger) has the mean of
     its starboard and port :func:`plateau_level` (half the distance between the median
     starboard and the median port plateau: a rudder zero offset cancels); a one-sided
-    manoeuvre (turning circle) the plateau level of its side. NaN without finite samples.
+    manoeuvre (turning circle) the plateau level of its side, from ``delta_0`` when the rudder
+    was steady before the execute (interquartile range within :data:`STEADY_RUDDER`), else
+    from zero (the rudder before was a helmsman's steering corrections, not a zero offset).
+    NaN without finite samples.
     """
     t = as_1d("t", t)
     t, delta = clean(t, as_1d("delta", delta, len(t)))
@@ -327,7 +370,15 @@ def rudder_amplitude(t: Any, delta: Any, t_execute: float, t_end: float | None =
     hi, lo = float(dev.max()), float(-dev.min())
     if stbd > 0 and port > 0 and min(hi, lo) > 0.25 * max(hi, lo):
         return 0.5 * (stbd + port)
-    return stbd if hi >= lo else port
+    # one side only (a turning circle): from delta_0 when the rudder was held steady before
+    # the execute (a zero offset), else from zero (the rudder before was steering corrections:
+    # their median is no offset)
+    a = int(np.searchsorted(t, t_execute - APPROACH_S))
+    before = delta[a:i_e]
+    if before.size >= 3 and float(np.subtract(*np.percentile(before, [75, 25]))) > STEADY_RUDDER:
+        dev = delta[sel]
+        hi, lo = float(dev.max()), float(-dev.min())
+    return plateau_level(dev) if hi >= lo else plateau_level(-dev)
 
 
 def rudder_rate(t: Any, delta: Any) -> float:
@@ -475,12 +526,24 @@ def _pulses(c: np.ndarray, cs: np.ndarray, dt: float, min_level: float, min_puls
     return out
 
 
-def _reversal_index(c: np.ndarray, p: _Pulse) -> int:
-    """Where the command leaves the plateau of pulse ``p`` (within 10 % of its level): the first
-    sample after its last plateau sample, at or after the reversal order, so the heading
-    deviation there is an upper bound of the switching angle (see :func:`nominal_switch`)."""
+def _plateau_end(c: np.ndarray, p: _Pulse) -> int:
+    """Index of the last sample of pulse ``p`` within 10 % of its plateau level."""
     on = np.flatnonzero(np.abs(p.sign * c[p.i0:p.i1] - p.level) <= 0.1 * p.level)
-    return min(p.i0 + int(on[-1]) + 1, p.i1 - 1) if on.size else p.i1 - 1
+    return p.i0 + int(on[-1]) if on.size else p.i1 - 1
+
+
+def reversal_time(t: np.ndarray, c: np.ndarray, p: _Pulse) -> float:
+    """The instant [s] the command of pulse ``p`` leaves its plateau to reverse: the start of
+    the ramp away from the plateau (:func:`ramp_start` on ``level - sign c``), so that a
+    rate-limited rudder gives the reversal order, not the end of the plateau."""
+    mag = p.level - p.sign * c
+    on = np.flatnonzero(np.abs(p.sign * c[p.i0:p.i1] - p.level) <= 0.1 * p.level)
+    last = p.i0 + int(on[-1]) if on.size else p.i1 - 1
+    away = np.flatnonzero(mag[last:] >= 0.5 * p.level)
+    if not away.size:
+        return float(t[min(p.i1, len(t) - 1)])
+    return ramp_start(t, mag, last + int(away[0]), max(p.i0, last - int(2.0 / (t[1] - t[0]))),
+                      p.level)
 
 
 #: Switching angles [deg] zig-zag tests are specified with (IMO MSC.137(76): 10 and 20 deg;
@@ -488,28 +551,51 @@ def _reversal_index(c: np.ndarray, p: _Pulse) -> int:
 STANDARD_SWITCH_DEG: tuple[float, ...] = (1.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0)
 
 
-def nominal_switch(measured: float, delta_amp: float | None = None) -> float:
-    """Nominal switching angle [rad] from the heading deviation [rad] at the rudder reversals.
+#: Longest delay [s] between a rudder reversal order and the logged rudder angle leaving its
+#: plateau that is taken as steering-gear lag of an n/n zig-zag (servo dead time and lag of a
+#: small craft's steering: about 1 s).
+MAX_HELM_LAG_S = 1.5
+#: Longest such delay [s] for a switching angle other than the amplitude (a helm reacting
+#: to the heading crossing; the HSVA KVLCC2 model tests: 0.2-0.4 s).
+MAX_HELM_LAG_STANDARD_S = 0.45
 
-    The rudder can only start to reverse after the heading has passed the switching angle (the
-    helm or autopilot reacts with some delay, the heading keeps turning meanwhile), so the
-    deviation measured where the rudder leaves its plateau is an upper bound: HSVA's 10/10
-    zig-zags reverse at 10.7-10.9 deg, their 20/5 at 6.3 deg. Read from a logged rudder order
-    (an autopilot reversing at the crossing) it can fall slightly below: heading noise, and the
-    logged heading lagging the logged order (the virtual Lanxin 10/10 zig-zags reverse at 9.8
-    deg). The nominal value is the largest standard angle (:data:`STANDARD_SWITCH_DEG`, plus the
-    rudder amplitude for n/n tests) not above the measured deviation + 10 % (at least 0.1 deg);
-    below 1 deg the measured value to 0.1 deg. Angles [rad].
+
+def nominal_switch(measured: float, delta_amp: float | None = None, yaw_rate: float = 0.0,
+                   *, order: bool = False) -> tuple[float, str]:
+    """Switching angle [rad] of a zig-zag and how it was found.
+
+    ``measured`` [rad] is the median heading deviation at the reversals (the starts of the
+    rudder ramps, :func:`reversal_time`). Read from a logged rudder order (``order``) it is the
+    switching angle itself (any value; to the whole degree when within 0.2 deg of one, the
+    heading noise, as orders are given in whole degrees). Read from the rudder angle it is late by
+    the steering lag tau (servo dead time and lag, helm reaction): measured = psi_s + |r| tau,
+    ``yaw_rate`` |r| [rad/s] the median yaw rate at the reversals. So the amplitude
+    ``delta_amp`` (an n/n zig-zag; to the whole degree when within 0.25 deg of one, as helm
+    orders are given) is taken when its lag (measured - amplitude) / |r| lies in
+    -0.3 deg/|r| .. :data:`MAX_HELM_LAG_S`, else a standard angle (:data:`STANDARD_SWITCH_DEG`)
+    whose lag lies within :data:`MAX_HELM_LAG_STANDARD_S` and 1.5 deg, else the measured value
+    (so a 13 deg switch of a fast-turning craft is not taken for 10 deg). Returns
+    (angle [rad], "order" | "amplitude" | "standard" | "measured").
     """
-    deg = math.degrees(measured)
-    deg += max(0.1, 0.1 * deg)
-    cands = list(STANDARD_SWITCH_DEG)
-    if delta_amp is not None:
-        cands.append(float(round(math.degrees(delta_amp))))
-    below = [c for c in cands if c <= deg]
-    if not below:
-        return math.radians(round(math.degrees(measured), 1))
-    return math.radians(max(below))
+    tol = math.radians(0.3)
+    if order:  # orders are given in whole degrees: within 0.2 deg (heading noise) of one, it
+        whole = math.radians(round(math.degrees(measured)))
+        return (whole if abs(measured - whole) <= math.radians(0.2) else float(measured)), "order"
+    r = abs(float(yaw_rate))
+
+    def lag_ok(c: float, tmax: float, cap: float = math.inf) -> bool:
+        return -tol <= measured - c <= min(r * tmax, cap) + tol
+
+    if delta_amp is not None and math.isfinite(delta_amp) and lag_ok(delta_amp, MAX_HELM_LAG_S):
+        # helm orders are whole degrees: a measured amplitude within 0.25 deg of one is that
+        whole = math.radians(round(math.degrees(delta_amp)))
+        near = abs(delta_amp - whole) <= math.radians(0.25)
+        return (whole if near else float(delta_amp)), "amplitude"
+    ok = [math.radians(c) for c in STANDARD_SWITCH_DEG
+          if lag_ok(math.radians(c), MAX_HELM_LAG_STANDARD_S, math.radians(1.5))]
+    if ok:
+        return max(ok), "standard"
+    return float(measured), "measured"
 
 
 def _steady_before(psi: np.ndarray, i_exec: int, i_end: int, dt: float) -> bool:
@@ -560,6 +646,7 @@ def find_manoeuvres(
     """
     if not trial.has("psi"):
         raise UsvidError(f"trial {trial.name or '?'}: no heading 'psi', cannot find manoeuvres")
+    trial, _ = repair_trial_heading(trial)  # at the sensor's own samples, before resampling
     if not trial.is_uniform or trial.data[["t", "psi"]].isna().any().any():
         trial = prepare(trial, derivatives=False)
     t = trial.t
@@ -596,11 +683,13 @@ def find_manoeuvres(
                     if s is not None:
                         segs.append(s)
                         used[(t >= s.t_start) & (t <= s.t_end)] = True
-                    floor = p.i1
+                    floor = _plateau_end(cc, p)
             else:
                 segs.append(seg)
                 used[(t >= seg.t_start) & (t <= seg.t_end)] = True
-            floor = chain[-1].i1
+            # the next order's ramp may start before this pulse has ended (a correction reversed
+            # straight into the order): the next search starts at this pulse's last plateau
+            floor = _plateau_end(cc, chain[-1])
     segs += _turning_from_heading(t, psi, dt, used)
     segs.sort(key=lambda s: s.t_start)
     return segs
@@ -608,24 +697,33 @@ def find_manoeuvres(
 
 def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch
             ) -> Segment | None:
-    if len(chain) < 2:
+    if len(chain) < 3:  # two reversals at least (IMO's first and second overshoot need them)
         return None
     t_e, side = find_execute(t, c, start=floor, pulse=(chain[0].i0, chain[0].i1))
     ie = int(np.searchsorted(t, t_e))
     # the switching angle from the smoothed heading (psi_s): a noisy sample at the execute or at
     # a reversal would shift it by the heading noise
     psi0 = float(np.interp(t_e, t, psi_s))
-    rev = [_reversal_index(c, p) for p in chain[:-1]]
-    dev = np.array([p.sign * (psi_s[i] - psi0) for p, i in zip(chain[:-1], rev, strict=True)])
+    rev = [reversal_time(t, c, p) for p in chain[:-1]]
+    dev = np.array([p.sign * (float(np.interp(tr, t, psi_s)) - psi0)
+                    for p, tr in zip(chain[:-1], rev, strict=True)])
     if not np.all(np.isfinite(dev)) or np.any(dev <= 0):
         return None
     est = float(np.median(dev))
-    # every reversal at the same heading deviation (within 50 % or 1 deg): a real zig-zag
-    if np.any(np.abs(dev - est) > max(0.5 * est, math.radians(1.0))):
+    # every reversal at the same heading deviation (within 30 % or 0.5 deg): a real zig-zag,
+    # not a helmsman's steering corrections (held for a few seconds each, whatever the heading)
+    if np.any(np.abs(dev - est) > max(0.3 * est, math.radians(0.5))):
         return None
     i_end = chain[-1].i1 - 1
     level = rudder_amplitude(t, c, t_e, float(t[i_end]))
-    sw = psi_switch if psi_switch is not None else nominal_switch(est, level if rudder else None)
+    r_s = np.gradient(psi_s, t)
+    yaw = float(np.median([abs(np.interp(tr, t, r_s)) for tr in rev]))
+    if psi_switch is not None:
+        sw, how = psi_switch, "given"
+    elif not rudder:
+        sw, how = nominal_switch(est, None, yaw)
+    else:
+        sw, how = nominal_switch(est, level, yaw, order=name == "delta_cmd")
     # the smoothed heading: the 3-s heading change of two raw samples carries the compass noise
     # (0.5 deg: 0.24 deg/s, near the 0.3 deg/s limit)
     if not _steady_before(psi_s, ie, i_end, float(t[1] - t[0])):
@@ -641,8 +739,8 @@ def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_swit
         psi_switch=sw,
         n_pulses=len(chain),
         heading_change=float(np.nanmax(psi[ie:i_end + 1]) - np.nanmin(psi[ie:i_end + 1])),
-        extra={"psi_switch_measured_deg": math.degrees(est),
-               "psi_switch_from": "given" if psi_switch is not None else "nominal"},
+        extra={"psi_switch_measured_deg": math.degrees(est), "psi_switch_from": how,
+               "rudder_lag_s": (est - sw) / yaw if yaw > 0 else math.nan},
     )
 
 

@@ -11,6 +11,7 @@ from usvid.errors import UsvidError
 from usvid.manoeuvres.detect import Segment, find_manoeuvres
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.prep.filters import savgol_smooth, unwrap_angle
+from usvid.prep.glitches import repair_trial_heading
 from usvid.prep.prepare import prepare
 from usvid.trial import Trial
 
@@ -18,16 +19,20 @@ from usvid.trial import Trial
 def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) -> dict[str, Any]:
     """Measured metrics of one segment, with the same keys as ``usvid simulate``.
 
-    The heading is smoothed first (zero-phase cubic Savitzky-Golay over ``smooth_s`` [s]; 0 turns
-    it off): the maximum of noisy samples around a flat heading peak is biased upwards by about
-    two noise standard deviations, which a cubic fit over 2 s removes without flattening the
-    peak (a zig-zag heading peak is tens of seconds wide).
+    Heading glitches are repaired first, at the sensor's own samples
+    (:func:`usvid.prep.glitches.repair_trial_heading`; their count is ``heading_glitches``),
+    then the heading is smoothed (zero-phase cubic
+    Savitzky-Golay over ``smooth_s`` [s]; 0 turns it off): the maximum of noisy samples
+    around a flat heading peak is biased upwards by about two noise standard deviations, which
+    a cubic fit over 2 s removes without flattening the peak (a zig-zag heading peak is tens
+    of seconds wide).
 
     Zig-zag: :func:`usvid.manoeuvres.metrics.zigzag_metrics` (overshoot_deg, period_s,
     initial_turning_time_s, time_to_check_yaw_s, ...); turning: :func:`turning_metrics`
     (advance_m, transfer_m, tactical_diameter_m, steady_diameter_m, ...). Returns the segment's
     description merged with its metrics.
     """
+    trial, n_glitch = repair_trial_heading(trial)
     if not trial.is_uniform or (trial.has("lat") and not trial.has("x")):
         trial = prepare(trial, derivatives=False)
     # 5 s of approach before the execute: the heading there is smoothed in the interior of the
@@ -40,6 +45,7 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
                                     smooth_s)
         part = part.with_data(data)
     out = segment.to_dict()
+    out["heading_glitches"] = n_glitch  # repaired before the metrics (log's count)
     if segment.kind == "zigzag":
         rudder = segment.command.startswith("delta")
         m = zigzag_metrics(
@@ -67,5 +73,6 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
 
 def measured_metrics(trial: Trial, **find_kw: Any) -> list[dict[str, Any]]:
     """Find every manoeuvre in ``trial`` and measure it: one dict per manoeuvre (time order)."""
+    trial, _ = repair_trial_heading(trial)  # at the sensor's own samples, before resampling
     prepared = prepare(trial, derivatives=False)
     return [manoeuvre_metrics(prepared, s) for s in find_manoeuvres(prepared, **find_kw)]

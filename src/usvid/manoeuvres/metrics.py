@@ -52,6 +52,7 @@ Turning circle
 
 from __future__ import annotations
 
+import html
 import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -107,6 +108,18 @@ def parabolic_peak(t: np.ndarray, y: np.ndarray, i: int) -> tuple[float, float]:
     return float(t1 + dt), float(a * dt * dt + b * dt + y1)
 
 
+def _html_table(title: str, d: dict[str, Any]) -> str:
+    def cell(v: Any) -> str:
+        if isinstance(v, float):
+            return f"{v:.4g}"
+        if isinstance(v, list):
+            return ", ".join(cell(x) for x in v[:6]) + (" ..." if len(v) > 6 else "")
+        return html.escape(str(v))
+
+    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{cell(v)}</td></tr>" for k, v in d.items())
+    return f"<table><caption>{html.escape(title)}</caption>{rows}</table>"
+
+
 # --------------------------------------------------------------------------------------------
 # zig-zag
 # --------------------------------------------------------------------------------------------
@@ -129,6 +142,10 @@ class ZigZagMetrics:
     delta_amp_deg: float = math.nan
     psi_switch_deg: float = math.nan
     initial_turning_distance_m: float = math.nan
+
+    def _repr_html_(self) -> str:
+        """The metrics as a two-column table (Jupyter)."""
+        return _html_table(type(self).__name__, self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
         """The CLI keys (``overshoot_deg``, ``period_s``, ``initial_turning_time_s``,
@@ -279,6 +296,10 @@ class TurningMetrics:
     time_to_180_s: float = math.nan
     steady_window_deg: float = math.nan
     steady_diameter_method: str = "circle_fit"
+
+    def _repr_html_(self) -> str:
+        """The metrics as a two-column table (Jupyter)."""
+        return _html_table(type(self).__name__, self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
         """The CLI keys first (``advance_m`` ... ``steady_speed_m_s``), then the extras."""

@@ -22,6 +22,7 @@ The checks:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,8 +30,19 @@ import pandas as pd
 from scipy.signal import savgol_coeffs
 
 from usvid.errors import UsvidError
-from usvid.prep.filters import nan_runs, savgol_derivative, window_samples
+from usvid.prep.filters import (
+    nan_runs,
+    savgol_derivative,
+    savgol_smooth,
+    unwrap_angle,
+    window_samples,
+)
 from usvid.prep.geodesy import geodetic_to_ned
+from usvid.prep.glitches import (
+    GLITCH_MIN,
+    heading_glitches,
+    repair_trial_heading,
+)
 from usvid.prep.kinematics import earth_to_body
 from usvid.prep.prepare import prepare
 from usvid.prep.stale import POSITION_GROUPS, detect_stale
@@ -49,6 +61,9 @@ _GAINS: tuple[tuple[float, str], ...] = (
 #: Channels never candidates for a rate: time, positions, headings (derived channels are not
 #: candidates either: only what the log measured is tested).
 _NOT_RATE = {"t", "x", "y", "lat", "lon", "x_src", "y_src", "psi", "cog"}
+#: Input channels (commands and actuator states): never a yaw rate, however well they follow it.
+_INPUTS = {"delta", "delta_cmd", "n", "n_port", "n_stbd", "thrust", "tau_u", "tau_r"}
+_INPUT_PREFIXES = ("delta", "pwm", "n_", "thrust", "T_", "rudder", "throttle")
 #: Motion channels: outputs of the physics, whose steady values are not saturation.
 _KINEMATIC = {"u", "v", "r", "p", "q", "U", "sog", "psi_cmd", "psi_set"}
 #: Thruster differential pairs (port, starboard), first present wins.
@@ -251,9 +266,26 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
     if not prep.has("psi"):
         return [Finding("info", "no_heading", "no heading channel 'psi': yaw rate not checked")]
     t = prep.t
-    ref = savgol_derivative(prep["psi"], dt, window_s)
     out: list[Finding] = []
-    spikes = heading_jumps(prep["psi"], window_samples(window_s, dt))
+    # glitches of a few tenths of a degree to a few degrees: repaired before the derivative (a
+    # 1-deg glitch is 1 deg/s in a 1-s derivative, which would hide a good gyro's agreement)
+    w = max(window_s, 2.0)
+    psi = unwrap_angle(prep["psi"])
+    spikes = heading_jumps(psi, window_samples(w, dt))
+    # glitches were found and repaired at the compass's own samples, before resampling
+    n_glitch = int(prep.meta.get("heading_glitches", 0))
+    if n_glitch:
+        a, b = prep.meta.get("heading_glitch_span", (None, None))
+        out.append(Finding(
+            "warning", "heading_glitch",
+            f"{n_glitch} heading sample(s) leave the heading's course (glitches of more than "
+            f"{math.degrees(GLITCH_MIN):.1f} deg and 6 noise standard deviations off its course, "
+            "a running median); repaired by interpolation for the checks and the manoeuvre "
+            "metrics", count=n_glitch, t_start=a, t_end=b, channel="psi",
+            data={"count": n_glitch}))
+    # derivative and candidates smoothed over at least 2 s alike: the heading's noise
+    # differentiated over 1 s would decorrelate a good gyro on a straight run
+    ref = savgol_derivative(psi, dt, w)
     if spikes.any():
         a, b = _span(t, spikes)
         out.append(Finding(
@@ -270,10 +302,14 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
     for ch in prep.channels:
         if ch in _NOT_RATE or ch not in measured:
             continue
-        m = _ls_match(ch, prep[ch], ref)
+        m = _ls_match(ch, savgol_smooth(prep[ch], dt, w), ref)
         if m is not None:
             matches.append(m)
-    good = [m for m in matches if abs(m.corr) >= 0.95 and m.r2 >= 0.85]
+    # a yaw rate only when its gain is a unit conversion and it is no input: a rudder or
+    # thruster command follows the yaw rate too (through the hull's response, with its gain)
+    good = [m for m in matches if abs(m.corr) >= 0.95 and m.r2 >= 0.85
+            and m.name not in _INPUTS and not m.name.startswith(_INPUT_PREFIXES)
+            and (m.name == "r" or m.explanation() is not None)]
     good.sort(key=lambda m: -abs(m.corr))
     best = good[0] if good else None
     span = (float(t[0]), float(t[-1]))
@@ -585,7 +621,8 @@ def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
     list of Finding, most severe first (errors, warnings, infos), each with a stable ``code``:
     ``time_reversal``, ``time_repeated``, ``time_gap``, ``duplicate_rows``, ``stale_gnss_fix``,
     ``nan_run``, ``nan_samples``, ``channel_empty``, ``saturation``, ``heading_jump``,
-    ``yaw_rate_column``, ``yaw_rate_sign``, ``yaw_rate_scale``, ``yaw_rate_found``,
+    ``heading_glitch``, ``yaw_rate_column``, ``yaw_rate_sign``, ``yaw_rate_scale``,
+    ``yaw_rate_weak``, ``yaw_rate_found``,
     ``u_mismatch``, ``v_mismatch``, ``speed_scale``, ``rudder_sign``, ``thruster_sign``,
     ``position_scale``, ``position_axes``, ``no_heading``, ``no_turning``, ``not_prepared``.
     """
@@ -612,7 +649,12 @@ def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
     findings += _check_saturation(trial, chans)
     findings += _check_position_sources(trial, stale_rows)
     try:
-        prep = prepare(trial, derivatives=False, window_s=window_s)
+        fixed, n_glitch = repair_trial_heading(trial)
+        if n_glitch:
+            ok = np.isfinite(trial["psi"])
+            bad = heading_glitches(trial.t[ok], unwrap_angle(trial["psi"][ok]))
+            fixed.meta["heading_glitch_span"] = _span(trial.t[ok], bad)
+        prep = prepare(fixed, derivatives=False, window_s=window_s)
     except UsvidError as exc:  # the audit reports, it does not die on odd data
         findings.append(Finding("warning", "not_prepared",
                                 f"physics checks skipped: the trial cannot be prepared ({exc})"))

@@ -1,4 +1,5 @@
-"""Report figures: matplotlib (Agg backend, no display, no network) rendered to base64 PNG.
+"""Report figures: matplotlib (object-oriented Figure with its own Agg canvas: no display, no
+pyplot state and no change of the user's backend, no network) rendered to base64 PNG.
 
 Every function takes plain data (lists/arrays in the units named in the argument names, as stored
 in a run's ``run.json``) and returns a ``data:image/png;base64,...`` URI that the HTML embeds, so
@@ -15,11 +16,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import matplotlib
-
-matplotlib.use("Agg")  # before pyplot: never needs a display
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
+from matplotlib.figure import Figure
 
 #: PNG resolution [dots per inch]: sharp enough to print, small enough to embed (~40-80 kB each).
 DPI = 96
@@ -43,7 +41,6 @@ def fig_to_data_uri(fig: Any) -> str:
     """
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight", metadata={"Software": None})
-    plt.close(fig)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -62,8 +59,9 @@ def trajectory_figure(
     ``tracks`` maps a label (``"measured"``, ``"simulated"``, ...) to ``{"x": [...], "y": [...]}``
     in metres (NED). Returns a PNG data URI.
     """
-    with plt.rc_context(_STYLE):
-        fig, ax = plt.subplots(figsize=(4.2, 4.0))
+    with matplotlib.rc_context(_STYLE):
+        fig = Figure(figsize=(4.2, 4.0))
+        ax = fig.subplots()
         for label, tr in tracks.items():
             style = _SIMULATED if label.startswith("sim") else _MEASURED
             if label not in ("measured", "simulated"):
@@ -93,8 +91,9 @@ def timeseries_figure(
     """
     t = _arr(t_s)
     n = max(len(panels), 1)
-    with plt.rc_context(_STYLE):
-        fig, axes = plt.subplots(n, 1, figsize=(7.0, 1.55 * n + 0.5), sharex=True, squeeze=False)
+    with matplotlib.rc_context(_STYLE):
+        fig = Figure(figsize=(7.0, 1.55 * n + 0.5))
+        axes = fig.subplots(n, 1, sharex=True, squeeze=False)
         for ax, panel in zip(axes[:, 0], panels, strict=False):
             for line in panel.get("lines", []):
                 kind = line.get("kind", "other")
@@ -128,8 +127,9 @@ def course_keeping_figure(cc: Mapping[str, Any]) -> str:
     # one colour and one dash pattern per run: gains that differ little (PD vs PID with a tiny
     # ki) stay distinguishable, and the heading-error panel magnifies their differences
     styles = ["-", "--", "-.", ":", (0, (5, 1, 1, 1))]
-    with plt.rc_context(_STYLE):
-        fig, axes = plt.subplots(n, 1, figsize=(7.0, 1.7 * n + 0.5), sharex=True)
+    with matplotlib.rc_context(_STYLE):
+        fig = Figure(figsize=(7.0, 1.7 * n + 0.5))
+        axes = fig.subplots(n, 1, sharex=True)
         for i, run in enumerate(cc.get("runs", [])):
             psi = _arr(run.get("psi_deg"))
             dlt = _arr(run.get("delta_deg"))
@@ -173,8 +173,9 @@ def scatter_fit_figure(
 
     Units are whatever the labels say. Returns a PNG data URI.
     """
-    with plt.rc_context(_STYLE):
-        fig, ax = plt.subplots(figsize=(4.6, 3.2))
+    with matplotlib.rc_context(_STYLE):
+        fig = Figure(figsize=(4.6, 3.2))
+        ax = fig.subplots()
         ax.plot(_arr(x), _arr(y), "o", ms=4, label=point_label)
         if curve_x is not None and curve_y is not None:
             ax.plot(_arr(curve_x), _arr(curve_y), "-", lw=1.2, color="#d62728", label=curve_label)

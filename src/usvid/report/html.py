@@ -335,11 +335,15 @@ def _validation(run: Mapping[str, Any]) -> str:
     if not val:
         return "".join(out) + _unavailable(run, "validate", "Validation")
     out.append("<p>Each identified model is driven by the measured propulsion angle (turning) or "
-               "by the same zig-zag logic, and compared with the measured trial (seed 000 "
-               "figures 7-10).</p>")
+               "by the same zig-zag logic, and compared with the measured trial (Mu et al. 2018, "
+               "figures 7-10); each comparison says whether the trial was used in the fit.</p>")
+    roles = {"training": "training trial: in-sample, the model was fitted to it",
+             "held out": "held out: not used in the fit"}
     for v in val:
         title = f"{v.get('trial', '')}: {v.get('model', '')}"
-        out.append(f'<h3>{esc(title)}</h3><div class="row">')
+        role = v.get("role")
+        tag = f' <span class="sub">({esc(roles.get(role, role))})</span>' if role else ""
+        out.append(f'<h3>{esc(title)}{tag}</h3><div class="row">')
         if v.get("xy"):
             out.append(_figure(figures.trajectory_figure(v["xy"], title=""),
                                f"Trajectory, {title}", f"trajectory {title}"))

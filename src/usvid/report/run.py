@@ -24,12 +24,14 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
 from usvid.errors import UsvidError
 from usvid.files import to_json, write_atomic
 from usvid.report.html import build_html, external_urls
+from usvid.report.validation_html import build_validation_html
 
 RUN_FILE = "run.json"
 REPORT_FILE = "report.html"
@@ -50,7 +52,8 @@ def load_run(run_dir: str | Path) -> dict[str, Any]:
     if path.is_dir():
         path = path / RUN_FILE
     if not path.is_file():
-        raise UsvidError(f"{path}: no run file (expected the run.json written by `usvid demo`)")
+        raise UsvidError(f"{path}: no run file (expected the run.json written by `usvid demo` "
+                         "or by --report DIR of `usvid identify` / `usvid validate`)")
     try:
         run = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -69,8 +72,15 @@ def write_report(run: dict[str, Any], run_dir: str | Path) -> Path:
 
     Raises :class:`UsvidError` if the HTML would name an external URL (it must open offline).
     """
-    text = build_html(run)
-    urls = external_urls(text)
+    if run.get("run_kind") == "validation":  # identify/validate --report
+        text = build_validation_html(run)
+        # the embedded plotly.js names URLs in strings it never fetches offline; the rest of
+        # the page must name none
+        urls = external_urls(re.sub(r'<script id="plotly-js">.*?</script>', "", text,
+                                    count=1, flags=re.S))
+    else:
+        text = build_html(run)
+        urls = external_urls(text)
     if urls:  # defensive: esc() neutralises text, so only a bug gets here
         raise UsvidError(f"report would reference external URLs: {sorted(set(urls))[:3]}")
     return write_atomic(Path(run_dir) / REPORT_FILE, text)

@@ -168,8 +168,9 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     if b is None and arm is None:
         raise IdentificationError(
             "model 'catamaran' needs each thruster's distance arm [m] from the centreline "
-            "(vessel.extra.thruster_arm, or the option arm) or the spacing b [m] between the "
-            "two thrusters (vessel.extra.thruster_spacing, or the option b) in the format spec")
+            "(vessel.extra.thruster_arm, or --vessel thruster_arm=ARM) or the spacing b [m] "
+            "between the two thrusters (vessel.extra.thruster_spacing, or --vessel "
+            "thruster_spacing=B) in the format spec")
     if b is not None and arm is not None and abs(arm - 0.5 * b) > 1e-9 * b:
         raise IdentificationError(
             f"vessel.extra.thruster_arm ({arm:g} m, from the centreline) and "

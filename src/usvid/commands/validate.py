@@ -1,0 +1,115 @@
+"""CLI: ``usvid validate MODEL LOG... --format SPEC [--psi-deg S] [--t-start/--t-end]
+[--report DIR] [--json]`` - validate a model file on measured logs.
+
+For each log (``LOG`` or ``LOG:T0:T1``, times in seconds from its first record): the manoeuvre
+found in it, its measured metrics, the model's closed-loop prediction of the same manoeuvre (the
+detected amplitude, switching angle and first side, the measured approach speed and shaft
+speed) and a free-run replay of the measured inputs (:mod:`usvid.identify.validation`). JSON:
+``{"model_file", "validation": [{"trial", "file", "manoeuvre": "zigzag"|"turning"|"other",
+"measured", "predicted", "error", "replay", "settings", "messages"}]}``; the metric keys are
+those of ``usvid metrics``. ``identify --validate LOG`` gives the same rows.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from usvid.commands._logs import TEndOpt, TStartOpt
+
+ModelArg = Annotated[Path, typer.Argument(help="Model file (JSON) to validate.",
+                                          show_default=False)]
+LogsArg = Annotated[list[str], typer.Argument(
+    help="Log file(s) to validate on; LOG:T0:T1 uses the part T0..T1 [s] of a log.",
+    show_default=False)]
+FormatOpt = Annotated[str, typer.Option(
+    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto.")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+PsiOpt = Annotated[float | None, typer.Option(
+    "--psi-deg", help="Zig-zag switching angle [deg] when known (default: detected).")]
+ReportOpt = Annotated[Path | None, typer.Option(
+    "--report", help="Write run.json and report.html into this directory.")]
+
+
+def psi_switch_option(psi_deg: float | None) -> float | None:
+    """``--psi-deg`` [deg] -> radians, checked."""
+    from usvid.errors import UsvidError
+
+    if psi_deg is None:
+        return None
+    if not (math.isfinite(psi_deg) and 0 < psi_deg <= 180):
+        raise UsvidError(f"--psi-deg must be in (0, 180] deg (got {psi_deg!r})")
+    return math.radians(psi_deg)
+
+
+def validate_logs(model_path: Path, logs: list[str], fmt: str = "auto", *,
+                  psi_deg: float | None = None, t_start: float | None = None,
+                  t_end: float | None = None) -> tuple[dict[str, Any], Any]:
+    """Everything ``usvid validate`` does; returns its JSON object and
+    ``(ValidationResult, trials, model)`` for the report."""
+    from usvid.commands._logs import load_trimmed
+    from usvid.errors import UsvidError
+    from usvid.identify.validation import validate_model
+    from usvid.io.modelfile import load_model
+
+    if not logs:
+        raise UsvidError("validate: give at least one LOG")
+    model = load_model(model_path)
+    trials = [load_trimmed(p, fmt, t_start, t_end) for p in logs]
+    res = validate_model(model, trials, psi_switch=psi_switch_option(psi_deg))
+    return {"model_file": str(model_path), **res.to_dict()}, (res, trials, model)
+
+
+def print_validation(rows: list[dict[str, Any]]) -> None:
+    """The human-readable table of validation rows (measured, predicted, error)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    def f(v: Any) -> str:
+        if isinstance(v, float):
+            return "-" if not math.isfinite(v) else f"{v:.4g}"
+        if isinstance(v, list):
+            return ", ".join(f(x) for x in v[:3]) + (" ..." if len(v) > 3 else "")
+        return "-" if v is None else str(v)
+
+    con = Console()
+    for r in rows:
+        table = Table("metric", "measured", "predicted", "error",
+                      title=f"{Path(str(r.get('file') or r['trial'])).name}: {r['manoeuvre']}")
+        for k in r.get("error", {}):
+            table.add_row(k, f(r["measured"].get(k)), f(r["predicted"].get(k)), f(r["error"][k]))
+        for k, v in r.get("replay", {}).items():
+            table.add_row(f"free-run replay {k}", f(v), "", "")
+        con.print(table)
+        for m in r.get("messages", []):
+            con.print(f"  note: {m}")
+
+
+def register(app: typer.Typer) -> None:
+    """Register ``usvid validate``."""
+
+    @app.command("validate")
+    def validate_cmd(model_path: ModelArg, logs: LogsArg, fmt: FormatOpt = "auto",
+                     json_out: JsonOpt = False, psi_deg: PsiOpt = None,
+                     t_start: TStartOpt = None, t_end: TEndOpt = None,
+                     report: ReportOpt = None) -> None:
+        """Validate a model file on logs: predicted vs measured manoeuvres, free-run replay."""
+        from usvid.commands._common import emit_json
+
+        out, res = validate_logs(model_path, logs, fmt, psi_deg=psi_deg, t_start=t_start,
+                                 t_end=t_end)
+        if report is not None:
+            from usvid.report.validation_run import write_validation_report
+
+            vres, trials, model = res
+            out["report"] = str(write_validation_report(report, vres, trials, model=model,
+                                                        model_path=model_path))
+        if json_out:
+            emit_json(out)
+        else:
+            print_validation(out["validation"])
+            if "report" in out:
+                print(f"report: {out['report']}")

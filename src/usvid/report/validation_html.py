@@ -1,0 +1,268 @@
+"""The HTML report of an identification or validation run (``run_kind`` "validation", written
+by :mod:`usvid.report.validation_run`): one self-contained file that works offline.
+
+Sections: the model (equation, parameters with standard errors and 95 % intervals, correlation
+matrix of the estimates), then the **training** trials and the **held-out** trials in separate
+sections (a model judged on the data it was fitted to says little about its prediction). Per
+trial: measured vs predicted manoeuvre metrics with labels and units, the IMO MSC.137(76)
+criteria with their applicability (the Standards apply to ships of 100 m in length and over),
+and interactive figures (plotly, its JavaScript embedded once, no network): measured heading and
+yaw rate against the free-run replay with its 95 % prediction band, the residuals, the track
+(axes scaled independently so a long run is not squashed) and the predicted manoeuvre against
+the measured one. Print CSS keeps each heading with its figure.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import plotly.graph_objects as go
+import plotly.offline
+
+from usvid.manoeuvres.imo import imo_turning_check, imo_zigzag_check
+from usvid.report.html import CSS, _table, esc, fmt
+
+#: Length [m] from which IMO MSC.137(76) applies (its section 1.2: ships of 100 m and over).
+IMO_MIN_LENGTH_M = 100.0
+
+#: Readable labels and units of the metric keys (those of ``usvid metrics``).
+LABELS: dict[str, tuple[str, str]] = {
+    "overshoot_deg": ("overshoot angles (first first)", "deg"),
+    "period_s": ("period", "s"),
+    "initial_turning_time_s": ("initial turning time", "s"),
+    "time_to_check_yaw_s": ("time to check yaw", "s"),
+    "advance_m": ("advance", "m"),
+    "transfer_m": ("transfer", "m"),
+    "tactical_diameter_m": ("tactical diameter", "m"),
+    "steady_diameter_m": ("steady turning diameter", "m"),
+    "steady_yaw_rate_rad_s": ("steady yaw rate", "rad/s"),
+    "steady_speed_m_s": ("steady speed", "m/s"),
+    "psi_rms_deg": ("heading error, RMS", "deg"),
+    "r_rms_deg_s": ("yaw-rate error, RMS", "deg/s"),
+    "u_rms_m_s": ("surge-speed error, RMS", "m/s"),
+    "track_rms_m": ("track error, RMS", "m"),
+    "track_max_m": ("track error, largest", "m"),
+    "duration_s": ("replayed duration", "s"),
+}
+
+PRINT_CSS = """
+@media print {
+  h2, h3 { break-after: avoid; page-break-after: avoid; }
+  .trial { break-inside: avoid-page; }
+  .plotly-graph-div { break-inside: avoid; }
+  h2 { break-before: auto; }
+}
+.band { color: #1565c0; }
+"""
+
+_CONFIG = {"displaylogo": False, "responsive": True,
+           "toImageButtonOptions": {"format": "svg"}}
+
+
+def _plot(fig: go.Figure, div_id: str) -> str:
+    fig.update_layout(margin={"l": 60, "r": 20, "t": 40, "b": 45}, template="plotly_white",
+                      legend={"orientation": "h", "y": -0.2})
+    return fig.to_html(full_html=False, include_plotlyjs=False, config=_CONFIG, div_id=div_id)
+
+
+def _deg(a: Sequence[Any] | None) -> list[float | None]:
+    return [None if v is None else math.degrees(v) for v in (a or [])]
+
+
+def _timeseries(e: Mapping[str, Any], idx: str) -> str:
+    s, b = e.get("series", {}), e.get("band", {})
+    if "t" not in s or "psi_replay" not in s:
+        return '<p class="na">no replay of this trial</p>'
+    t = s["t"]
+    out = []
+    for ch, label, unit in (("psi", "heading", "deg"), ("r", "yaw rate", "deg/s")):
+        fig = go.Figure()
+        if f"{ch}_lo" in b:
+            fig.add_trace(go.Scatter(x=b["t"], y=_deg(b[f"{ch}_hi"]), line={"width": 0},
+                                     showlegend=False, hoverinfo="skip"))
+            fig.add_trace(go.Scatter(x=b["t"], y=_deg(b[f"{ch}_lo"]), line={"width": 0},
+                                     fill="tonexty", fillcolor="rgba(21,101,192,0.2)",
+                                     name="95 % prediction band"))
+        fig.add_trace(go.Scatter(x=t, y=_deg(s.get(ch)), name="measured",
+                                 line={"color": "#222"}))
+        fig.add_trace(go.Scatter(x=t, y=_deg(s.get(f"{ch}_replay")), name="model (free run)",
+                                 line={"color": "#1565c0"}))
+        fig.update_layout(title=f"{label}: measured vs model", height=330,
+                          xaxis_title="time [s]", yaxis_title=f"{label} [{unit}]")
+        out.append(_plot(fig, f"{idx}-{ch}"))
+    fig = go.Figure()
+    for ch, label in (("psi", "heading [deg]"), ("r", "yaw rate [deg/s]")):
+        m, r = s.get(ch) or [], s.get(f"{ch}_replay") or []
+        res = [None if a is None or c is None else math.degrees(a - c)
+               for a, c in zip(m, r, strict=False)]
+        fig.add_trace(go.Scatter(x=t, y=res, name=f"residual {label}"))
+    fig.update_layout(title="residuals (measured - model)", height=300, xaxis_title="time [s]",
+                      yaxis_title="residual")
+    out.append(_plot(fig, f"{idx}-res"))
+    return "".join(out)
+
+
+def _track(e: Mapping[str, Any], idx: str) -> str:
+    s = e.get("series", {})
+    if "x" not in s or "x_replay" not in s:
+        return ""
+    fig = go.Figure()
+    fig.add_trace(go.Scatter(x=s["y"], y=s["x"], name="measured", line={"color": "#222"}))
+    fig.add_trace(go.Scatter(x=s["y_replay"], y=s["x_replay"], name="model (free run)",
+                             line={"color": "#1565c0"}))
+    xs = [v for v in s["x"] + s["x_replay"] if v is not None]
+    ys = [v for v in s["y"] + s["y_replay"] if v is not None]
+    span_x = (max(xs) - min(xs)) if xs else 1.0
+    span_y = (max(ys) - min(ys)) if ys else 1.0
+    # equal aspect only when it does not squash the track (ratio of spans within 1:4)
+    if span_x > 0 and span_y > 0 and 0.25 <= span_x / span_y <= 4:
+        fig.update_yaxes(scaleanchor="x", scaleratio=1)
+    fig.update_layout(title="track (north up)", height=420, xaxis_title="east y [m]",
+                      yaxis_title="north x [m]")
+    return _plot(fig, f"{idx}-xy")
+
+
+def _manoeuvre_plot(e: Mapping[str, Any], idx: str) -> str:
+    s, m = e.get("series", {}), e.get("measured", {})
+    if "t_pred" not in s or "t" not in s or "t_execute" not in m:
+        return ""
+    side = 1 if m.get("first_side", "starboard") == "starboard" else -1
+    te = m["t_execute"]
+    t, psi = s["t"], s["psi"]
+    k0 = min(range(len(t)), key=lambda i: abs(t[i] - te))
+    dev = [None if p is None else math.degrees(side * (p - psi[k0])) for p in psi]
+    tp, pp = s["t_pred"], s.get("psi_pred") or []
+    dev_p = [None if p is None else math.degrees(side * (p - pp[0])) for p in pp]
+    fig = go.Figure()
+    fig.add_trace(go.Scatter(x=[v - te for v in t], y=dev, name="measured",
+                             line={"color": "#222"}))
+    fig.add_trace(go.Scatter(x=tp, y=dev_p, name="predicted (closed loop)",
+                             line={"color": "#c62828", "dash": "dash"}))
+    fig.update_layout(title=f"{e['manoeuvre']}: heading change from the execute", height=330,
+                      xaxis_title="time from the execute [s]",
+                      yaxis_title="heading change, first side positive [deg]")
+    return _plot(fig, f"{idx}-man")
+
+
+def _metric_table(e: Mapping[str, Any]) -> str:
+    rows = []
+    for k, err in e.get("error", {}).items():
+        label, unit = LABELS.get(k, (k, ""))
+        rows.append([esc(label), esc(unit), fmt(e["measured"].get(k)),
+                     fmt(e["predicted"].get(k)), fmt(err)])
+    if not rows:
+        return '<p class="na">no manoeuvre metrics (no zig-zag or turning circle found)</p>'
+    return _table(["metric", "unit", "measured", "predicted", "predicted - measured"], rows, 2)
+
+
+def _replay_table(e: Mapping[str, Any]) -> str:
+    rows = [[esc(LABELS.get(k, (k, ""))[0]), esc(LABELS.get(k, ("", ""))[1]), fmt(v)]
+            for k, v in e.get("replay", {}).items()]
+    return _table(["free-run replay", "unit", "value"], rows, 2) if rows else ""
+
+
+def _imo(e: Mapping[str, Any], vessel: Mapping[str, Any]) -> str:
+    L = vessel.get("length")
+    sett = e.get("settings", {})
+    U = sett.get("speed_m_s")
+    if not L or e.get("manoeuvre") not in ("zigzag", "turning"):
+        return ""
+    applies = L >= IMO_MIN_LENGTH_M
+    note = ("IMO MSC.137(76) applies (L = {:.1f} m >= 100 m)." if applies else
+            "IMO MSC.137(76) does not apply (it covers ships of 100 m and over; L = {:.1f} m): "
+            "the criteria are shown for reference only.").format(L)
+    checks = []
+    try:
+        if e["manoeuvre"] == "zigzag":
+            a, p = sett.get("delta_deg", 0.0), sett.get("psi_deg", 0.0)
+            kind = next((f"{k}/{k}" for k in (10, 20)
+                         if abs(a - k) <= 0.5 and abs(p - k) <= 0.5), None)
+            if kind is None or not U:
+                return f'<p class="na">{esc(note)} No IMO zig-zag criterion for a ' \
+                       f'{a:.1f}/{p:.1f} test.</p>'
+            for which in ("measured", "predicted"):
+                checks.append((which, imo_zigzag_check(e[which], L, U, kind)))
+        else:
+            if abs(sett.get("delta_deg", 0.0)) < 34.5:
+                return (f'<p class="na">{esc(note)} The turning criteria judge a circle at the '
+                        'largest rudder angle (35 deg); this one is not.</p>')
+            for which in ("measured", "predicted"):
+                checks.append((which, imo_turning_check(e[which], L)))
+    except Exception as exc:  # noqa: BLE001 - a report shows what it cannot judge
+        return f'<p class="na">IMO criteria not evaluated: {esc(exc)}</p>'
+    rows = []
+    for which, c in checks:
+        for cr in c.criteria:
+            ok = {True: '<span class="ok">pass</span>', False: '<span class="bad">fail</span>',
+                  None: '<span class="na">unknown</span>'}[cr.passed]
+            rows.append([esc(which), esc(cr.name.replace("_", " ")), fmt(cr.value),
+                         fmt(cr.limit), esc(cr.unit), ok])
+    return (f"<p>{esc(note)}</p>" + _table(["", "criterion", "value", "limit", "unit", "verdict"],
+                                           rows, 2))
+
+
+def _trials(entries: Sequence[Mapping[str, Any]], vessel: Mapping[str, Any], prefix: str
+            ) -> str:
+    if not entries:
+        return '<p class="na">none in this run</p>'
+    out = []
+    for i, e in enumerate(entries):
+        idx = f"{prefix}{i}"
+        sett = e.get("settings", {})
+        desc = esc(e["manoeuvre"])
+        if e["manoeuvre"] == "zigzag" and "psi_deg" in sett:
+            desc = f"zig-zag {sett['delta_deg']:.1f}/{sett['psi_deg']:.1f} deg"
+        elif e["manoeuvre"] == "turning" and "delta_deg" in sett:
+            desc = f"turning circle, rudder {sett['delta_deg']:.1f} deg"
+        notes = "".join(f'<p class="na">{esc(m)}</p>' for m in e.get("messages", []))
+        out.append(
+            f'<div class="trial"><h3 id="{idx}">{esc(e["trial"])}: {desc}</h3>{notes}'
+            f"{_metric_table(e)}{_imo(e, vessel)}{_manoeuvre_plot(e, idx)}"
+            f"{_replay_table(e)}{_timeseries(e, idx)}{_track(e, idx)}</div>")
+    return "".join(out)
+
+
+def _model(model: Mapping[str, Any]) -> str:
+    rows = []
+    for k, v in model.get("params", {}).items():
+        lo, hi = (model.get("ci95", {}).get(k) or [None, None])[:2]
+        rows.append([f"<code>{esc(k)}</code>", esc(model.get("units", {}).get(k, "")), fmt(v),
+                     fmt(model.get("std_errors", {}).get(k)), fmt(lo), fmt(hi)])
+    head = (f"<p>kind <code>{esc(model.get('kind'))}</code>: {esc(model.get('equation', ''))}"
+            f"; method {esc(model.get('method') or 'not recorded')}; model file "
+            f"{esc(model.get('file') or '(not written)')}</p>")
+    table = _table(["parameter", "unit", "estimate", "std. error", "95 % low", "95 % high"],
+                   rows, 2)
+    corr = model.get("correlation")
+    ctab = ""
+    if corr:
+        names = corr["names"]
+        crow = [[f"<code>{esc(n)}</code>"] + [fmt(v, 3) for v in r]
+                for n, r in zip(names, corr["matrix"], strict=True)]
+        ctab = ("<h3>Correlation of the estimates</h3>"
+                + _table([""] + [f"<code>{esc(n)}</code>" for n in names], crow))
+    return head + table + ctab
+
+
+def build_validation_html(run: Mapping[str, Any]) -> str:
+    """The report of a validation run (module docstring)."""
+    model = run.get("model", {})
+    vessel = model.get("vessel", {})
+    body = [
+        f"<h1>{esc(run.get('title', 'usvid report'))}</h1>",
+        f"<p class=\"sub\">{esc(run.get('created_by', ''))}, usvid "
+        f"{esc(run.get('usvid_version', ''))}</p>",
+        '<h2 class="first" id="model">Model</h2>', _model(model),
+        '<h2 id="training">Training trials (the data the model was fitted to)</h2>',
+        _trials(run.get("training", []), vessel, "tr"),
+        '<h2 id="held-out">Held-out trials (not used in the fit)</h2>',
+        _trials(run.get("held_out", []), vessel, "ho"),
+    ]
+    js = plotly.offline.get_plotlyjs()
+    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>{esc(run.get('title', 'usvid report'))}</title>"
+            f"<style>{CSS}{PRINT_CSS}</style>"
+            f'<script id="plotly-js">{js}</script></head><body>'
+            + "".join(body) + "</body></html>")
