@@ -19,9 +19,9 @@ from usvid.trial import Vessel
 def test_programme_is_seed000_plus_extras() -> None:
     names = [m.name for m in C.programme()]
     # seed 000 section 2.4: turning 10/15/25/35 deg and the 10/10 zig-zag; plus 15/15 and the
-    # propeller-speed steps that separate a_u from a_tau
+    # propeller-speed steps that separate a_u from a_tau, and the held-out 20/20 zig-zag
     assert names == ["turning_10", "turning_15", "turning_25", "turning_35", "zigzag_10_10",
-                     "zigzag_15_15", "speed_steps"]
+                     "zigzag_15_15", "speed_steps", "zigzag_20_20"]
     assert all(q.duration_s < f.duration_s for q, f in zip(C.programme(True), C.programme(),
                                                            strict=True))
 
@@ -115,7 +115,7 @@ def quick_campaign(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, C.Ca
 
 def test_campaign_files_and_truth(quick_campaign) -> None:
     out, camp = quick_campaign
-    assert len(camp.trials) == 7
+    assert len(camp.trials) == 8  # the programme: 7 identification trials + the held-out 20/20
     for ct in camp.trials:
         assert set(ct.files) == {"nmea0183", "nmea2000", "csv"}
         for f in ct.files.values():

@@ -90,7 +90,8 @@ class Manoeuvre:
 
 def programme(quick: bool = False) -> list[Manoeuvre]:
     """The seed 000 test programme (section 2.4): turning 10/15/25/35 deg, zig-zag 10/10, plus
-    a 15/15 zig-zag and a straight run with propeller-speed steps (``speed_steps``).
+    a 15/15 zig-zag, a straight run with propeller-speed steps (``speed_steps``) and a 20/20
+    zig-zag that no model is identified from (the held-out validation trial).
 
     The speed steps are an addition to seed 000's programme: at one constant shaft speed the
     surge equation's ``a_u u`` and ``a_tau tau_u`` terms are collinear (thrust and resistance
@@ -107,6 +108,7 @@ def programme(quick: bool = False) -> list[Manoeuvre]:
         Manoeuvre("zigzag_10_10", "zigzag", 10.0, 10.0, zz_s),
         Manoeuvre("zigzag_15_15", "zigzag", 15.0, 15.0, zz_s),
         Manoeuvre("speed_steps", "speed", 0.0, None, sp_s),
+        Manoeuvre("zigzag_20_20", "zigzag", 20.0, 20.0, zz_s),
     ]
 
 

@@ -305,7 +305,8 @@ class DemoPipeline:
             if model_kind not in ident:
                 continue
             used = " ".join(str(d.get("file", d)) for d in ident[model_kind].data)
-            for tname in ("zigzag_15_15", "zigzag_10_10", "turning_35", "turning_10"):
+            for tname in ("zigzag_20_20", "zigzag_15_15", "zigzag_10_10", "turning_35",
+                          "turning_10"):
                 if tname in trials:
                     e = validate_against(ident[model_kind].model, trials[tname],
                                          camp.manoeuvre(tname), model_kind, camp)
