@@ -282,9 +282,9 @@ class DemoPipeline:
                     f"K = {lin['K']:.4g} 1/s, T1 = {lin['T1']:.4g} s, T2 = {lin['T2']:.4g} s, "
                     f"T3 = {lin['T3']:.4g} s (T1 + T2 - T3 = {lin['T']:.4g} s).")
             if m["kind"] == "threedof":
-                m["note"] = ("Identified from all seven trials (Mu et al. 2018 used the 10/10 "
-                             "zig-zag alone, which cannot separate the surge damping from the "
-                             "thrust at one shaft speed).")
+                m["note"] = ("Identified from the seven trials other than the held-out 20/20 "
+                             "(Mu et al. 2018 used the 10/10 zig-zag alone, which cannot "
+                             "separate the surge damping from the thrust at one shaft speed).")
         self.state["identified"] = ident
         self.run["models"] = models
         nb = _norrbin_curve(ident["norrbin"], turns)
