@@ -13,7 +13,7 @@ import pytest
 import browser
 from usvid.cli import main
 from usvid.errors import UsvidError
-from usvid.report.html import build_html, esc, external_urls, fit_label
+from usvid.report.html import _kinds_compared, build_html, esc, external_urls, fit_label
 from usvid.report.run import REPORT_FILE, load_run, save_run, write_report
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -208,3 +208,27 @@ def test_report_labels_units_of_vessel_fit_and_gains():
     assert "ITAE [rad s^2]" in html and "Ki [1/s]" in html
     assert fit_label("u.rmse") == "u.rmse [m/s]" and fit_label("r2") == "r2 [-]"
     assert fit_label("window_s") == "window_s"
+
+
+def test_kinds_compared_table_by_hand():
+    # two kinds on a held-out zig-zag and a training turn: the cells are simulated minus
+    # measured (first overshoot 12.5 - 12.0 = +0.50 deg; tactical diameter 21/20 - 1 = +5.0 %)
+    zz = {"overshoot_deg": [12.0, 13.0]}
+    val = [
+        {"trial": "zigzag_20_20", "model": "nomoto1", "role": "held out",
+         "fit": {"psi RMS error [deg]": 1.234},
+         "metrics": {"measured": zz, "simulated": {"overshoot_deg": [12.5, 13.0]}}},
+        {"trial": "zigzag_20_20", "model": "threedof", "role": "held out",
+         "metrics": {"measured": zz, "simulated": {"overshoot_deg": [11.0]}}},
+        {"trial": "turning_35", "model": "threedof", "role": "training",
+         "metrics": {"measured": {"tactical_diameter_m": 20.0},
+                     "simulated": {"tactical_diameter_m": 21.0}}},
+    ]
+    html = _kinds_compared(val)
+    assert "<th>nomoto1</th>" in html and "<th>threedof</th>" in html
+    assert "psi RMS 1.23 deg; 1st overshoot +0.50 deg" in html
+    assert "1st overshoot -1.00 deg" in html
+    assert "tactical diameter +5.0 %" in html
+    assert "zigzag_20_20 (held out)" in html and "turning_35 (training)" in html
+    # nomoto1 was not run on the turn: a dash, not a made-up number
+    assert re.search(r"turning_35 \(training\)</td><td>-</td>", html)

@@ -337,6 +337,7 @@ def _validation(run: Mapping[str, Any]) -> str:
     out.append("<p>Each identified model is driven by the measured propulsion angle (turning) or "
                "by the same zig-zag logic, and compared with the measured trial (Mu et al. 2018, "
                "figures 7-10); each comparison says whether the trial was used in the fit.</p>")
+    out.append(_kinds_compared(val))
     roles = {"training": "training trial: in-sample, the model was fitted to it",
              "held out": "held out: not used in the fit"}
     for v in val:
@@ -364,6 +365,38 @@ def _validation(run: Mapping[str, Any]) -> str:
             out.append("<p><b>IMO MSC.137(76) criteria</b> (measured trial):</p>")
             out.append(_table(["criterion", "value", "limit", "result"], _imo_rows(v["imo"])))
     return "".join(out)
+
+
+def _kind_error(v: Mapping[str, Any]) -> str:
+    """One trial/model cell: heading RMS error [deg] and the manoeuvre's headline error
+    (first overshoot [deg] of a zig-zag, tactical diameter [%] of a turn)."""
+    parts = []
+    rms = (v.get("fit") or {}).get("psi RMS error [deg]")
+    if isinstance(rms, (int, float)):
+        parts.append(f"psi RMS {rms:.2f} deg")
+    met = v.get("metrics") or {}
+    m, s = met.get("measured") or {}, met.get("simulated") or {}
+    try:
+        if m.get("overshoot_deg") and s.get("overshoot_deg"):
+            parts.append(f"1st overshoot {s['overshoot_deg'][0] - m['overshoot_deg'][0]:+.2f} deg")
+        elif m.get("tactical_diameter_m") and s.get("tactical_diameter_m"):
+            e = 100.0 * (s["tactical_diameter_m"] / m["tactical_diameter_m"] - 1.0)
+            parts.append(f"tactical diameter {e:+.1f} %")
+    except (TypeError, IndexError, ZeroDivisionError):
+        pass
+    return esc("; ".join(parts)) if parts else "-"
+
+
+def _kinds_compared(val: list) -> str:
+    """Summary table: one row per trial (with its role), one column per model kind."""
+    kinds = list(dict.fromkeys(str(v.get("model", "")) for v in val))
+    trials = list(dict.fromkeys((str(v.get("trial", "")), str(v.get("role", ""))) for v in val))
+    cell = {(str(v.get("trial", "")), str(v.get("model", ""))): _kind_error(v) for v in val}
+    rows = [[esc(f"{t} ({r})" if r else t)] + [cell.get((t, k), "-") for k in kinds]
+            for t, r in trials]
+    return ("<h3>Model kinds compared</h3><p>Simulated minus measured, per trial; held-out "
+            "trials are the test of prediction, training trials only of the fit.</p>"
+            + _table(["trial"] + [esc(k) for k in kinds], rows))
 
 
 def _course_keeping(run: Mapping[str, Any]) -> str:
