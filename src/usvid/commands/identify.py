@@ -24,7 +24,7 @@ import typer
 from usvid.commands._common import emit_json
 from usvid.commands.audit import load_log
 from usvid.errors import UsvidError
-from usvid.files import to_json
+from usvid.files import check_outputs, to_json
 from usvid.identify.estimator import ModelEstimator
 from usvid.identify.series import IdentificationWarning
 from usvid.identify.validate import validation_table
@@ -82,6 +82,12 @@ def _load(paths: list[Path], fmt: str) -> list[Any]:
     return out
 
 
+def _spec_files(fmt: str) -> list[Path]:
+    """The format spec's file when ``fmt`` names one (an input the output must not overwrite)."""
+    p = Path(fmt) if fmt else None
+    return [p] if p is not None and p.is_file() else []
+
+
 def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in vessel or []:
@@ -109,6 +115,8 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
     """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``)."""
     if not logs:
         raise UsvidError("identify: give at least one LOG")
+    inputs = [*logs, *(validate or []), *(turning or []), *_spec_files(fmt)]
+    check_outputs([out], inputs)  # before any work: never overwrite an input
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
                          norrbin=norrbin, particulars=_particulars(x_l, vessel))
     trials = _load(logs, fmt)
@@ -124,7 +132,7 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
     if out is not None:
         if "validation" in summary:
             est.model_.identification["validation"] = json.loads(to_json(summary["validation"]))
-        save_model(est.model_, out)
+        save_model(est.model_, out, inputs=inputs)
     return summary
 
 

@@ -489,9 +489,10 @@ def load_model(path: str | Path) -> Any:
     return model_from_dict(d, source=source)
 
 
-def save_model(model: Any, path: str | Path) -> Path:
+def save_model(model: Any, path: str | Path, *, inputs: Any = ()) -> Path:
     """Write ``model`` (a ``VesselModel``) as a model file, atomically. Returns the path.
-    The one writer of model files (the CLI and the estimator's ``to_dict`` use it)."""
+    The one writer of model files (the CLI and the estimator's ``to_dict`` use it).
+    ``inputs``: paths the model file must not overwrite (:func:`usvid.files.check_outputs`)."""
     d = model_to_dict(model)
     text = json.dumps(d, indent=2, allow_nan=False) + "\n"
-    return write_atomic(path, text)
+    return write_atomic(path, text, inputs=inputs)

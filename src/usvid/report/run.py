@@ -64,7 +64,7 @@ def load_run(run_dir: str | Path) -> dict[str, Any]:
     return run
 
 
-def write_report(run: dict[str, Any], run_dir: str | Path) -> Path:
+def write_report(run: dict[str, Any], run_dir: str | Path, *, inputs: Any = ()) -> Path:
     """Build the HTML from ``run`` and write ``RUN_DIR/report.html`` atomically; returns the path.
 
     Raises :class:`UsvidError` if the HTML would name an external URL (it must open offline).
@@ -73,11 +73,12 @@ def write_report(run: dict[str, Any], run_dir: str | Path) -> Path:
     urls = external_urls(text)
     if urls:  # defensive: esc() neutralises text, so only a bug gets here
         raise UsvidError(f"report would reference external URLs: {sorted(set(urls))[:3]}")
-    return write_atomic(Path(run_dir) / REPORT_FILE, text)
+    return write_atomic(Path(run_dir) / REPORT_FILE, text, inputs=inputs)
 
 
 def regenerate(run_dir: str | Path) -> Path:
     """``usvid report RUN_DIR``: read ``run.json`` and (re)write ``report.html`` next to it."""
     run_dir = Path(run_dir)
     run = load_run(run_dir)
-    return write_report(run, run_dir if run_dir.is_dir() else run_dir.parent)
+    src = run_dir / RUN_FILE if run_dir.is_dir() else run_dir
+    return write_report(run, run_dir if run_dir.is_dir() else run_dir.parent, inputs=[src])
