@@ -279,3 +279,112 @@ def move_into(src_dir: str | Path, dst_dir: str | Path) -> list[Path]:
                 raise _fail(d, exc) from None
             moved.append(d)
     return moved
+
+
+# ----------------------------------------------------------------------------------------------
+# untrusted text: JSON and YAML with bounds
+# ----------------------------------------------------------------------------------------------
+#: Deepest nesting of lists/mappings accepted in a spec, model file or run file.
+MAX_DEPTH = 64
+#: Most YAML nodes after expanding aliases (an alias bomb of a few hundred bytes expands to
+#: billions); specs hold a few hundred.
+MAX_YAML_NODES = 100_000
+#: Most decimal digits of a JSON integer (a float holds 308; anything longer is hostile).
+MAX_INT_DIGITS = 309
+
+
+class InputLimitError(UsvidError):
+    """An input file exceeds a bound (size, nesting, alias expansion, number magnitude)."""
+
+
+def _short(text: str, n: int = 80) -> str:
+    return text if len(text) <= n else text[:n] + "..."
+
+
+def _json_depth(text: str) -> int:
+    """Deepest bracket nesting of a JSON text (strings skipped)."""
+    import re
+
+    stripped = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text)
+    b = np.frombuffer(stripped.encode("utf-8", "replace"), dtype=np.uint8)
+    step = np.zeros(len(b), dtype=np.int32)
+    step[(b == ord("[")) | (b == ord("{"))] = 1
+    step[(b == ord("]")) | (b == ord("}"))] = -1
+    return int(np.cumsum(step).max(initial=0))
+
+
+def _parse_int(s: str) -> int:
+    if len(s.lstrip("-")) > MAX_INT_DIGITS:
+        raise InputLimitError(f"an integer of {len(s.lstrip('-'))} digits (at most "
+                              f"{MAX_INT_DIGITS})")
+    return int(s)
+
+
+def load_json_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
+                   parse_constant: Any = None) -> Any:
+    """Parse untrusted JSON ``text`` with bounds: nesting at most ``max_depth``, integers of at
+    most 309 digits. Raises :class:`InputLimitError` or :class:`UsvidError` (``"source line L
+    column C: not valid JSON (...)"``) naming ``source``."""
+    depth = _json_depth(text)
+    if depth > max_depth:
+        raise InputLimitError(f"{source}: nested {depth} levels deep (at most {max_depth})")
+    try:
+        return json.loads(text, parse_int=_parse_int, parse_constant=parse_constant)
+    except InputLimitError as exc:
+        raise InputLimitError(f"{source}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise UsvidError(f"{source} line {exc.lineno} column {exc.colno}: not valid JSON "
+                         f"({exc.msg})") from None
+    except (ValueError, RecursionError) as exc:
+        raise UsvidError(f"{source}: not valid JSON ({_short(str(exc))})") from None
+
+
+def load_yaml_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
+                   max_nodes: int = MAX_YAML_NODES) -> Any:
+    """Parse untrusted YAML ``text`` the safe way (``yaml.SafeLoader``: plain data only) with
+    bounds: nesting at most ``max_depth``, at most ``max_nodes`` nodes once aliases are expanded
+    (so an alias bomb is refused in milliseconds). Raises :class:`InputLimitError` or
+    :class:`UsvidError` naming ``source`` and the line."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        depth = 0
+
+        def compose_node(self, parent: Any, index: Any) -> Any:
+            self.depth += 1
+            if self.depth > max_depth:
+                mark = self.peek_event().start_mark
+                raise InputLimitError(f"{source} line {mark.line + 1}: nested more than "
+                                      f"{max_depth} levels deep")
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
+    loader = Loader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        stack, n = [node], 0
+        while stack:
+            nd = stack.pop()
+            n += 1
+            if n > max_nodes:
+                raise InputLimitError(f"{source}: more than {max_nodes} YAML nodes once aliases "
+                                      "are expanded (an alias bomb?)")
+            if isinstance(nd, yaml.MappingNode):
+                for k, v in nd.value:
+                    stack.extend((k, v))
+            elif isinstance(nd, yaml.SequenceNode):
+                stack.extend(nd.value)
+        return loader.construct_document(node)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise UsvidError(f"{source}:{where} {_short(str(problem))}") from None
+    except (RecursionError, ValueError, OverflowError) as exc:
+        raise UsvidError(f"{source}: not usable YAML ({_short(str(exc))})") from None
+    finally:
+        loader.dispose()

@@ -15,6 +15,7 @@ Shared by every reader, so that all of them treat bad records the same way:
 
 from __future__ import annotations
 
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,18 @@ import pandas as pd
 from usvid.errors import LogReadError
 from usvid.io.spec import FormatSpec
 from usvid.trial import Finding, Trial, Vessel
+
+#: Largest time stamp accepted [s]: epoch seconds up to the year 5138 (a larger prefix or stamp
+#: is no time, and would overflow a date).
+MAX_EPOCH_S = 1e11
+
+
+def utc_iso(t: float) -> str | None:
+    """ISO 8601 UTC date-time of epoch seconds ``t`` [s]; None when ``t`` is no date."""
+    try:
+        return datetime.fromtimestamp(t, tz=UTC).isoformat()
+    except (OverflowError, OSError, ValueError):
+        return None
 
 
 def read_log_bytes(path: Path, limit: int = -1) -> bytes:
@@ -48,6 +61,60 @@ def check_log_file(path: Path) -> None:
         raise LogReadError(f"{path}: no such file")
     if path.stat().st_size == 0:
         raise LogReadError(f"{path}: empty file")
+
+
+#: Excel's own limits: rows and columns of a worksheet.
+XLSX_MAX_ROW, XLSX_MAX_COL = 1_048_576, 16_384
+#: Largest uncompressed worksheet accepted [bytes] and largest compression ratio (zip bombs).
+XLSX_MAX_BYTES, XLSX_MAX_RATIO = 2_000_000_000, 1000
+
+
+def check_xlsx_bounds(path: Path) -> None:
+    """Refuse a workbook whose worksheets claim rows or columns beyond Excel's limits (a 5 kB
+    file with ``<row r="1e308">`` would make a reader allocate gigabytes) or that is a zip bomb.
+
+    Raises :class:`LogReadError` naming the file, the sheet part and the bad reference. Files
+    that are not zip archives are left to the reader (its own one-line error).
+    """
+    import re
+    import zipfile
+
+    try:
+        zf = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return
+    row_re = re.compile(rb'<(?:\w+:)?row\b[^>]*?\sr="([^"]*)"')
+    cell_re = re.compile(rb'<(?:\w+:)?c\b[^>]*?\sr="([A-Za-z]*)([^"]*)"')
+    with zf:
+        for info in zf.infolist():
+            if not info.filename.startswith("xl/worksheets/"):
+                continue
+            ratio = info.file_size / max(info.compress_size, 1)
+            if info.file_size > XLSX_MAX_BYTES or ratio > XLSX_MAX_RATIO:
+                raise LogReadError(f"{path}: {info.filename} unpacks to {info.file_size} bytes "
+                                   f"(ratio {ratio:.0f}); at most {XLSX_MAX_BYTES} bytes and "
+                                   f"ratio {XLSX_MAX_RATIO}")
+            try:
+                data = zf.read(info)
+            except Exception as exc:  # zipfile raises many kinds on a corrupt member
+                raise LogReadError(f"{path}: {info.filename} cannot be unpacked "
+                                   f"({type(exc).__name__})") from None
+            for m in row_re.finditer(data):
+                v = m.group(1)
+                if not v.isdigit() or not 1 <= int(v) <= XLSX_MAX_ROW:
+                    ref = v[:30].decode(errors="replace")
+                    raise LogReadError(f"{path}: {info.filename}: row r=\"{ref}\" is not a row "
+                                       f"number 1..{XLSX_MAX_ROW}")
+            for m in cell_re.finditer(data):
+                col, row = m.group(1), m.group(2)
+                ncol = 0
+                for ch in col.upper()[:4]:
+                    ncol = ncol * 26 + (ch - 64)
+                if (not row.isdigit() or not 1 <= int(row) <= XLSX_MAX_ROW or len(col) > 3
+                        or ncol > XLSX_MAX_COL):
+                    ref = (col + row)[:30].decode(errors="replace")
+                    raise LogReadError(f"{path}: {info.filename}: cell r=\"{ref}\" is beyond "
+                                       f"Excel's {XLSX_MAX_ROW} rows x {XLSX_MAX_COL} columns")
 
 
 def ignored_finding(path: Path, code: str, what: str, ignored: dict, *,

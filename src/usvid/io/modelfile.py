@@ -41,7 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
 from usvid.errors import ModelFileError, UsvidError
-from usvid.files import jsonable, write_atomic
+from usvid.files import jsonable, load_json_text, write_atomic
 from usvid.models import registry
 from usvid.models.model import VesselModel
 from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo
@@ -78,6 +78,10 @@ class _Servo(BaseModel):
     max_rate_deg_s: Pos | None = None
 
 
+#: Longest servo dead time accepted [s].
+MAX_SERVO_DELAY_S = 3600.0
+
+
 class IdealServoSpec(_Servo):
     kind: Literal["ideal"]
 
@@ -92,7 +96,8 @@ class SecondOrderServoSpec(_Servo):
     omega_n: Pos
     zeta: NonNeg
     gain: Pos = 1.0
-    delay: NonNeg = 0.0
+    # a dead time beyond an hour is no servo (and would need an hour of samples per run)
+    delay: Annotated[float, Field(ge=0, le=MAX_SERVO_DELAY_S, allow_inf_nan=False)] = 0.0
 
 
 ServoSpec = Annotated[
@@ -310,7 +315,7 @@ def _build_nested(obj: Any, where: str, source: str) -> Any:
         return obj
     classes = _nested_classes()
     kind = obj.get("kind")
-    if kind not in classes:
+    if not isinstance(kind, str) or kind not in classes:
         raise ModelFileError(f"{source}: {where}.kind must be one of "
                              f"{', '.join(sorted(classes))} (got {_show(kind)})")
     cls = classes[kind]
@@ -466,6 +471,10 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     return out
 
 
+#: Largest model file accepted [characters] (identification metadata included; ~10 kB usual).
+MAX_MODEL_CHARS = 50_000_000
+
+
 def load_model(path: str | Path) -> Any:
     """Read and validate a model file; returns a :class:`usvid.models.model.VesselModel`.
 
@@ -480,12 +489,16 @@ def load_model(path: str | Path) -> Any:
         raise ModelFileError(f"{path}: model file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelFileError(f"{path}: cannot read model file ({exc})") from None
+    if len(text) > MAX_MODEL_CHARS:
+        raise ModelFileError(f"{source}: {len(text)} characters; a model file has at most "
+                             f"{MAX_MODEL_CHARS}")
     try:
-        # NaN / Infinity literals are not JSON: report them as a bad value of their field below
-        d = json.loads(text, parse_constant=lambda c: float(c.replace("Infinity", "inf")))
-    except json.JSONDecodeError as exc:
-        raise ModelFileError(f"{source} line {exc.lineno} column {exc.colno}: not valid JSON "
-                             f"({exc.msg})") from None
+        # bounded nesting and integer size (usvid.files); NaN / Infinity literals are not JSON:
+        # report them as a bad value of their field below
+        d = load_json_text(text, source,
+                           parse_constant=lambda c: float(c.replace("Infinity", "inf")))
+    except UsvidError as exc:
+        raise ModelFileError(str(exc)) from None
     return model_from_dict(d, source=source)
 
 

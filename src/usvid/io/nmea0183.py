@@ -49,7 +49,14 @@ import numpy as np
 
 from usvid.errors import LogReadError
 from usvid.files import write_atomic
-from usvid.io._assemble import apply_renames, assemble, ignored_finding, read_log_bytes
+from usvid.io._assemble import (
+    MAX_EPOCH_S,
+    apply_renames,
+    assemble,
+    ignored_finding,
+    read_log_bytes,
+    utc_iso,
+)
 from usvid.io.spec import FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
@@ -148,7 +155,7 @@ def _prefix_time(p: bytes) -> float:
         return math.nan
     try:
         v = float(s)
-        return v if math.isfinite(v) else math.nan
+        return v if math.isfinite(v) and abs(v) <= MAX_EPOCH_S else math.nan
     except ValueError:
         pass
     try:
@@ -647,7 +654,7 @@ def read_nmea0183(
     rel0 = float(np.min(t_rel[ok]))
     t0 = base + rel0
     if has_date:
-        meta["t0_utc"] = datetime.fromtimestamp(t0, tz=UTC).isoformat()
+        meta["t0_utc"] = utc_iso(t0)
         meta["t0_epoch"] = t0
     else:
         meta["t0_time_of_day_s"] = t0
