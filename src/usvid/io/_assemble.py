@@ -171,7 +171,12 @@ def assemble(
         detail = ", ".join(f"{k}: {n}" for k, n in rejected.items()) or "no data records"
         raise LogReadError(f"{path}: no usable records ({detail})")
 
-    # time going backwards
+    # isolated bad stamps, clock resets and forward jumps (time integrity)
+    t, chans, breaks = _time_integrity(path, t, chans, rejected, findings)
+    if breaks:
+        meta = {**(meta or {}), "time_breaks": breaks}
+
+    # time going backwards (small steps: jitter, records written slightly out of order)
     if len(t) > 1:
         runmax = np.maximum.accumulate(t)
         late = np.r_[False, t[1:] < runmax[:-1]]
@@ -224,6 +229,130 @@ def assemble(
         meta={"reader": spec.reader if spec else None, "spec": spec.source if spec else None,
               **(meta or {})},
     )
+
+
+#: A time step is a jump (clock reset backwards, or a jump forwards) when it exceeds
+#: ``max(JUMP_STEPS * median step, JUMP_MIN_S)``; smaller backward steps are jitter, left to the
+#: spec's ``non_monotonic`` policy.
+JUMP_STEPS, JUMP_MIN_S = 10.0, 1.0
+#: Records compared with their neighbours to find an isolated bad stamp (a running median of
+#: this many records; up to (BAD_STAMP_WINDOW - 1) / 2 consecutive bad stamps are found).
+BAD_STAMP_WINDOW = 5
+
+
+def jump_threshold(t: np.ndarray) -> float:
+    """The step [s] beyond which a time step of ``t`` [s] is a jump (see ``JUMP_STEPS``)."""
+    d = np.diff(t)
+    d = d[d > 0]
+    med = float(np.median(d)) if len(d) else 0.0
+    return max(JUMP_STEPS * med, JUMP_MIN_S)
+
+
+def bad_stamps(t: np.ndarray) -> np.ndarray:
+    """Mask of isolated bad time stamps in ``t`` [s] (records in log order): stamps farther
+    than the jump threshold from the running median of their ``BAD_STAMP_WINDOW`` neighbours,
+    while those neighbours agree with each other. A clock reset (a lasting step) is not a bad
+    stamp: on either side of it the running median follows the records.
+    """
+    n = len(t)
+    if n < BAD_STAMP_WINDOW:
+        return np.zeros(n, dtype=bool)
+    h = BAD_STAMP_WINDOW // 2
+    pad = np.r_[np.full(h, t[0]), t, np.full(h, t[-1])]
+    med = np.median(np.lib.stride_tricks.sliding_window_view(pad, BAD_STAMP_WINDOW), axis=1)
+    return np.abs(t - med) > jump_threshold(t)
+
+
+def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
+                    rejected: dict[str, int], findings: list[Finding]
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray], list[dict]]:
+    """Isolated bad stamps -> re-timed between their neighbours (a warning finding counts
+    them; the log is not reordered); clock resets
+    (a step back beyond the jump threshold) -> the later records continue the clock one median
+    step after the last record before the reset; forward jumps kept as they are. Every reset
+    and jump is returned as a time break ``{"t", "t_before", "kind", "step_s", "record"}``
+    (``t`` [s]: the first time of the new segment, after the repair; ``t_before`` [s]: the last
+    time before the break) and named in a warning finding.
+    """
+    if len(t) < 3:
+        return t, chans, []
+    bad = bad_stamps(t)
+    rec = np.arange(len(t))
+    if bad.any():
+        # the record is good, its stamp is not: re-time it between its neighbours (by record
+        # position; within one sample step of the truth), so the log is not reordered
+        idx = np.flatnonzero(bad)
+        good = np.flatnonzero(~bad)
+        t0 = float(t[idx[0]])
+        t = t.copy()
+        t[idx] = np.interp(idx.astype(float), good.astype(float), t[good])
+        findings.append(Finding(
+            "warning", "bad_time_stamp",
+            f"{path.name}: {len(idx)} isolated record(s) with a time stamp out of line with "
+            f"their neighbours (first at record {int(idx[0])}, stamped {t0:.3f} s, re-timed "
+            f"{float(t[idx[0]]):.3f} s); each was re-timed between its neighbours",
+            count=len(idx), data={"records": [int(i) for i in idx[:20]]}))
+    thr = jump_threshold(t)
+    d = np.diff(t)
+    jumps = np.flatnonzero((d < -thr) | (d > thr))
+    if not len(jumps):
+        return t, chans, []
+    pos = d[d > 0]
+    med = float(np.median(pos)) if len(pos) else 0.0
+    t = t.copy()
+    breaks = []
+    repaired = []
+    for j in jumps:
+        step = float(t[j + 1] - t[j])  # after earlier repairs
+        kind = "clock_reset" if step < 0 else "forward_jump"
+        if step < 0:
+            t[j + 1:] += (t[j] + med) - t[j + 1]
+            if _continuous(chans, j):  # only the clock jumped: the repair is exact
+                repaired.append({"record": int(rec[j + 1]), "step_s": step})
+                continue
+        breaks.append({"t": float(t[j + 1]), "t_before": float(t[j]), "kind": kind,
+                       "step_s": step, "record": int(rec[j + 1])})
+    if repaired:
+        desc = "; ".join(f"{r['step_s']:+.3f} s at record {r['record']}" for r in repaired[:3])
+        more = ", ..." if len(repaired) > 3 else ""
+        findings.append(Finding(
+            "warning", "clock_reset_repaired",
+            f"{path.name}: {len(repaired)} clock reset(s) ({desc}{more})"
+            " with every channel continuous across them: the clock continues one sample step "
+            "later (no data lost)", count=len(repaired)))
+    if not breaks:
+        return t, chans, []
+    desc = "; ".join(f"{b['kind'].replace('_', ' ')} of {b['step_s']:+.3f} s at record "
+                     f"{b['record']}" for b in breaks[:3])
+    findings.append(Finding(
+        "warning", "time_discontinuity",
+        f"{path.name}: {len(breaks)} time discontinuit{'y' if len(breaks) == 1 else 'ies'} "
+        f"({desc}{', ...' if len(breaks) > 3 else ''}); the log is split into "
+        f"{len(breaks) + 1} segments there (meta['time_breaks']; clock resets continue the "
+        "clock one sample step later); identification fits each segment separately",
+        count=len(breaks)))
+    return t, chans, breaks
+
+
+def _continuous(chans: dict[str, np.ndarray], j: int, n: int = 3, factor: float = 4.0) -> bool:
+    """True when every channel with samples on both sides of the step between records ``j``
+    and ``j + 1`` changes across it by at most ``factor`` times its largest change between the
+    ``n`` samples on either side (a clock that jumped, no data lost). At least one channel
+    must show it."""
+    seen = False
+    for v in chans.values():
+        before = v[max(0, j - 4 * n):j + 1]
+        after = v[j + 1:j + 1 + 4 * n]
+        before = before[np.isfinite(before)][-n:]
+        after = after[np.isfinite(after)][:n]
+        if len(before) < 2 or len(after) < 2:
+            continue
+        typical = max(np.max(np.abs(np.diff(before))), np.max(np.abs(np.diff(after))))
+        scale = max(np.max(np.abs(before)), np.max(np.abs(after)), 1.0)
+        if abs(after[0] - before[-1]) > factor * typical + 1e-9 * scale:
+            return False
+        seen = True
+    return seen
 
 
 def apply_renames(chans: dict[str, np.ndarray], spec: FormatSpec | None) -> dict[str, np.ndarray]:

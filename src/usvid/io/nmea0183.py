@@ -53,6 +53,7 @@ from usvid.io._assemble import (
     MAX_EPOCH_S,
     apply_renames,
     assemble,
+    bad_stamps,
     ignored_finding,
     read_log_bytes,
     utc_iso,
@@ -629,6 +630,18 @@ def read_nmea0183(
             j = int(dated[0])
             base = float(day[j] - (tod_u[j] - tod[j]))
         # seconds of day (roll-overs unwrapped), interpolated by line position where absent
+        # an isolated GGA/RMC time out of line with its neighbours is a bad stamp: the record
+        # is timed by line position between the good ones, like the sentences without a time
+        order = np.argsort(line_no[have], kind="stable")
+        bad = np.zeros(n, dtype=bool)
+        bad[np.flatnonzero(have)[order[bad_stamps(tod_u[have][order])]]] = True
+        if bad.any():
+            findings.append(Finding(
+                "warning", "bad_time_stamp",
+                f"{path.name}: {int(bad.sum())} GGA/RMC time(s) out of line with their "
+                f"neighbours (first on line {int(line_no[bad][0]) + 1}); each was re-timed "
+                "between its neighbours", count=int(bad.sum())))
+            have &= ~bad
         tt = tod_u[have]
         ln = line_no[have]
         order = np.argsort(ln, kind="stable")
@@ -648,7 +661,7 @@ def read_nmea0183(
     notime = ~np.isfinite(t_rel)
     if notime.any():
         rejected["no_time"] = rejected.get("no_time", 0) + int(notime.sum())
-    ok = ~notime
+    ok = np.isfinite(t_rel)
     if not ok.any():
         raise LogReadError(f"{path}: no sentence with a usable time ({n} sentences)")
     rel0 = float(np.min(t_rel[ok]))
