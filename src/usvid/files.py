@@ -361,7 +361,10 @@ def load_yaml_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
             finally:
                 self.depth -= 1
 
-    loader = Loader(text)
+    try:
+        loader = Loader(text)  # the reader refuses control characters here
+    except yaml.YAMLError as exc:
+        raise UsvidError(f"{source}: not usable YAML ({_short(str(exc))})") from None
     try:
         node = loader.get_single_node()
         if node is None:

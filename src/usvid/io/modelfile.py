@@ -30,6 +30,7 @@ one-line message names the file and the field, e.g.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import typing
@@ -266,9 +267,10 @@ def _snake(name: str) -> str:
     return "".join(out)
 
 
+@functools.lru_cache(maxsize=None)
 def _dataclass_params_model(cls: type, name: str) -> type[BaseModel]:
     """A strict pydantic model with one field per dataclass init field (numbers, strings,
-    booleans, lists of numbers, or nested ``{"kind": ...}`` objects)."""
+    booleans, lists of numbers, or nested ``{"kind": ...}`` objects); built once per class."""
     fields: dict[str, Any] = {}
     for f in dataclasses.fields(cls):
         if not f.init or f.name.startswith("_"):
