@@ -73,6 +73,8 @@ def main(argv: list[str] | None = None) -> int:
         app(args=argv, prog_name="usvid", standalone_mode=True)
     except SystemExit as exc:  # typer/click end here in standalone mode
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        if code == 130:  # typer turns Ctrl-C into exit code 130, silently
+            print("usvid: interrupted", file=sys.stderr)
         if argv is not None:
             return code
         raise
