@@ -267,7 +267,7 @@ def _snake(name: str) -> str:
     return "".join(out)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _dataclass_params_model(cls: type, name: str) -> type[BaseModel]:
     """A strict pydantic model with one field per dataclass init field (numbers, strings,
     booleans, lists of numbers, or nested ``{"kind": ...}`` objects); built once per class."""
