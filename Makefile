@@ -24,8 +24,9 @@ $(TSTAMP): pyproject.toml | $(BIN)/python
 demo: $(STAMP)
 	$(BIN)/usvid demo --out demo-out
 
+# the suite runs on every core (pytest-xdist; one test file per worker keeps module fixtures whole)
 test: $(TSTAMP) browser
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --dist loadfile
 
 # Headless Chromium (Debian's package) for the report's browser test; best effort: where it cannot
 # be installed (not root, no apt) the browser test is skipped with the reason.

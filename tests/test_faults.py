@@ -316,15 +316,20 @@ SIM_COMMANDS = {
     "zigzag": lambda m: ["simulate", "zigzag", m],
     "turning": lambda m: ["simulate", "turning", m],
     "course-keeping": lambda m: ["simulate", "course-keeping", m, "--t-end", "20"],
+    "autopilot": lambda m: ["autopilot", m, "--samples", "0"],
 }
+SIM_OPTIONS = (("--dt", "1e-9", "dt"), ("--dt", "-1", "dt"), ("--dt", "nan", "dt"),
+               ("--t-end", "1e12", "t-end"), ("--t-end", "-5", "t-end"))
+AUTOPILOT_OPTIONS = (("--dt", "1e-9", "GB"), ("--horizon", "1e12", "horizon"),
+                     ("--bandwidth", "nan", "bandwidth"), ("--samples", "1000000000", "samples"),
+                     ("--disturbance-deg", "inf", "disturbance"))
 for cmd, build in SIM_COMMANDS.items():
     for mid, mk in MODEL_CASES.items():
         def _c(ws, build=build, mk=mk):
             m, culprit = mk(ws)
             return build(m), culprit
         CASES.append((f"{cmd}-model-{mid}", _c))
-    for opt, val, culprit in (("--dt", "1e-9", "dt"), ("--dt", "-1", "dt"), ("--dt", "nan", "dt"),
-                              ("--t-end", "1e12", "t-end"), ("--t-end", "-5", "t-end")):
+    for opt, val, culprit in (AUTOPILOT_OPTIONS if cmd == "autopilot" else SIM_OPTIONS):
         CASES.append((f"{cmd}-option-{opt[2:]}={val}",
                       lambda ws, b=build, o=opt, v=val, c=culprit:
                       (b(str(ws.p("lanxin.json"))) + [o, v], c)))
@@ -480,7 +485,7 @@ def test_fault_matrix_size() -> None:
     assert len(CASES) >= 150
     commands = {c[0].split("-")[0] for c in CASES}
     assert commands >= {"audit", "metrics", "identify", "zigzag", "turning", "course",
-                        "fit", "demo", "report"}
+                        "autopilot", "fit", "demo", "report"}
 
 
 # ----------------------------------------------------------------------------------------------

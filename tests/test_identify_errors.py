@@ -90,7 +90,8 @@ def test_missing_particulars_named():
         ModelEstimator("threedof", x_l=1.0).fit(tr)
     with pytest.raises(IdentificationError, match=r"'threedof' needs the shaft speed.*'n'"):
         ModelEstimator("threedof", x_l=1.0, thrust=PodThrust(c=0.0, d=0.6)).fit(tr)
-    with pytest.raises(IdentificationError, match=r"'catamaran' needs the distance b"):
+    with pytest.raises(IdentificationError, match=r"'catamaran' needs each thruster's distance "
+                                                  r"arm.*thruster_arm.*spacing b.*thruster_"):
         ModelEstimator("catamaran").fit(tr)
 
 

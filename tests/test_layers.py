@@ -1,8 +1,9 @@
 """The package's layers: data flows one way, no import cycles, imports at module top.
 
 The layers contract (``[tool.importlinter]`` in pyproject.toml) is checked with import-linter:
-cli > commands > demo > report > identify > sim > prep > io > models > trial/files > errors. A new
-import against the flow (or a cycle, which always is one) fails this test.
+cli > commands > demo > report > identify | control (independent) > sim > prep > io > models >
+trial/files > errors. A new import against the flow (or a cycle, which always is one) fails
+this test.
 """
 
 from __future__ import annotations

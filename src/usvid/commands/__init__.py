@@ -6,6 +6,7 @@ The CLI contract (options and ``--json`` keys) is in ``../shared/ARCHITECTURE.md
 #: Modules registered on the CLI, in help order.
 COMMAND_MODULES = [
     "simulate",
+    "autopilot",
     "audit",
     "metrics",
     "identify",

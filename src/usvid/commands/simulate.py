@@ -8,7 +8,8 @@ JSON object whose keys are the ``ARCHITECTURE.md`` contract, followed by extras)
 - ``turning``: ``advance_m``, ``transfer_m``, ``tactical_diameter_m``, ``steady_diameter_m``,
   ``steady_yaw_rate_rad_s``, ``steady_speed_m_s`` (+ ``imo`` when L is known and the rudder is
   the maximum angle, 35 deg or the servo limit: MSC.137(76) 5.2.1);
-- ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder_deg``.
+- ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s] over the horizon ``horizon_s``
+  (= ``--t-end``, the run is 0 .. t_end), ``max_rudder_deg``.
 
 The runs are :mod:`usvid.sim.runs`; metric definitions :mod:`usvid.manoeuvres.metrics`; IMO
 criteria :mod:`usvid.manoeuvres.imo`.
@@ -216,7 +217,8 @@ def course_cmd(
     seed: Annotated[int, typer.Option("--seed", help="Disturbance seed.")] = 1,
     noise: Annotated[float, typer.Option(
         "--noise", help="Disturbance std [deg] (seed 000 filter); 0 = calm.")] = 1.0,
-    t_end: Annotated[float, typer.Option("--t-end", help="Simulated time [s].")] = 100.0,
+    t_end: Annotated[float, typer.Option(
+        "--t-end", help="Simulated time [s]: the horizon of ITAE and IAE.")] = 100.0,
     dt: DtOpt = 0.02,
     speed: SpeedOpt = None,
     as_json: JsonOpt = False,
@@ -235,10 +237,11 @@ def course_cmd(
                controller=controller.value, kp=kp,
                ki=ki if ki is not None else default_ki(controller.value),
                kd=kd, target_deg=target_deg, noise_deg=noise, seed=seed, t_end_s=t_end,
-               speed_m_s=u0)
+               horizon_s=t_end, speed_m_s=u0)
     _output(out, as_json, f"course change 0 -> {target_deg:g} deg, {controller.value.upper()}, "
             f"{model_path.name}",
-            [("ITAE", m["itae"], "rad s^2"), ("IAE", m["iae"], "rad s"),
+            [(f"ITAE over 0 .. {t_end:g} s", m["itae"], "rad s^2"),
+             (f"IAE over 0 .. {t_end:g} s", m["iae"], "rad s"),
              ("max rudder", m["max_rudder_deg"], "deg")])
 
 

@@ -149,7 +149,7 @@ def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
 
 def course_keeping(model: Any, camp: Any, *, seed: int,
                    gains: dict[str, tuple[float, float, float]], target_deg: float = 100.0,
-                   dist_deg: float = 2.0, t_end: float = 120.0) -> dict[str, Any]:
+                   dist_deg: float = 2.0, t_end: float = 100.0) -> dict[str, Any]:
     """PD vs PID course change 0 -> ``target_deg`` on the identified model under the seed 000
     disturbance (white noise through 0.42 s/(s^2 + 0.36 s + 0.37), std ``dist_deg``
     rudder-equivalent), the same disturbance realisation for every controller.
@@ -178,9 +178,10 @@ def course_keeping(model: Any, camp: Any, *, seed: int,
         "description": (
             f"Identified Norrbin model with the identified servo, course change 0 -> "
             f"{target_deg:g} deg, disturbance std {dist_deg:g} deg (rudder-equivalent, seed "
-            f"{seed}); PID gains of seed 000 section 6.1 (error in rad, delta in rad). ITAE = "
-            "int t |psi_d - psi| dt in rad s^2 over the whole run; seed 000 does not state its "
-            "units or horizon, so its Table 3 values are shown for orientation only."),
+            f"{seed}); PID gains of Mu et al. 2018, section 6.1 (error in rad, delta in rad). "
+            f"ITAE = int_0^H t |psi_d - psi| dt in rad s^2 over the horizon H = {t_end:g} s "
+            "(the run is 0 .. H); Mu et al. 2018 do not state their units, horizon or "
+            "disturbance intensity, so their Table 3 values are shown for orientation only."),
         "t": tt, "target_deg": target_deg, "runs": runs,
     }
     if d is not None:

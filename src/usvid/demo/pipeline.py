@@ -41,6 +41,7 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from usvid import __version__
+from usvid.control.design import design_autopilot
 from usvid.demo.analysis import course_keeping, turning_diameter_fit, validate_against
 from usvid.demo.campaign import generate_campaign, read_campaign_trial
 from usvid.errors import UsvidError
@@ -59,8 +60,26 @@ PAPER_ITAE = {"PID": 37.98, "PD": 38.6}
 COURSE_TARGET_DEG = 100.0
 #: Disturbance std [deg] of the course-keeping simulation (a rudder-equivalent disturbance).
 COURSE_DIST_DEG = 1.0
-#: Duration of the course-change simulation [s] (the ITAE horizon; seed 000 does not state its).
-COURSE_T_END_S = 60.0
+#: Duration of the course-change simulation [s]: the ITAE horizon, the same 100 s as the
+#: defaults of ``usvid simulate course-keeping`` and ``usvid autopilot`` (Mu et al. 2018 do
+#: not state theirs).
+COURSE_T_END_S = 100.0
+
+
+def designed_gains(model: Any, u0: float, seed: int) -> dict[str, tuple[float, float, float]]:
+    """PD and PID gains designed by pole placement (:func:`usvid.control.design_autopilot`,
+    Fossen 2021, Sec. 15.3) on the identified model at ``u0`` [m/s], labelled for the report
+    next to Mu et al. 2018's hand-tuned gains; none when the model admits no design."""
+    out = {}
+    for ctrl in ("pd", "pid"):
+        try:
+            d = design_autopilot(model, controller=ctrl, samples=0, u0=u0, seed=seed,
+                                 disturbance_deg=COURSE_DIST_DEG, horizon=COURSE_T_END_S,
+                                 target_deg=COURSE_TARGET_DEG, realisations=1)
+        except UsvidError:
+            continue
+        out[f"designed {ctrl.upper()}"] = (d.gains.kp, d.gains.ki, d.gains.kd)
+    return out
 
 
 class Skipped(Exception):
@@ -295,12 +314,16 @@ class DemoPipeline:
         (ident, camp) = self.require("identified", "campaign")
         kind = ("norrbin" if "norrbin" in ident
                 and norrbin_turns_everywhere(ident["norrbin"].params) else "nomoto1")
-        cc = course_keeping(ident[kind].model, camp, seed=self.seed, gains=PID_GAINS,
+        gains = dict(PID_GAINS)
+        gains.update(designed_gains(ident[kind].model, float(camp.vessel["speed"]), self.seed))
+        cc = course_keeping(ident[kind].model, camp, seed=self.seed, gains=gains,
                     target_deg=COURSE_TARGET_DEG, dist_deg=COURSE_DIST_DEG,
                     t_end=COURSE_T_END_S)
         cc["model"] = kind
         cc["description"] = cc["description"].replace("Identified Norrbin model",
-                                                      f"Identified {kind} model")
+                                                      f"Identified {kind} model") + (
+            " PD and PID: Mu et al. 2018's hand-tuned gains; designed PD/PID: Fossen's pole "
+            "placement on the identified model with its servo (usvid autopilot).")
         cc["paper_itae"] = PAPER_ITAE
         self.run["course_keeping"] = cc
         return f"{kind} model; " + ", ".join(f"{r['label']} ITAE {r['itae']:.4g}"
@@ -331,7 +354,7 @@ class DemoPipeline:
             self.step("audit", "Audit and prepare channels", self.step_audit)
             self.step("identify", "Identify servo, Nomoto, Norrbin, 3-DOF", self.step_identify)
             self.step("validate", "Validate: simulated vs measured", self.step_validate)
-            self.step("course_keeping", "Course keeping PD vs PID (ITAE)",
+            self.step("course_keeping", "Course keeping: paper and designed PD/PID (ITAE)",
                       self.step_course_keeping)
             self.step("turning_diameter", "Turning-diameter fit (seed 004, CGA)",
                       self.step_turning_diameter)

@@ -158,7 +158,7 @@ def one_grid(trials: Sequence[Trial]) -> list[Trial]:
 
 
 #: Longest stretch of a log [s] the steering servo is fitted on (its time constants are seconds).
-SERVO_WINDOW_S = 300.0
+SERVO_WINDOW_S = 120.0
 
 
 def _most_active(u: np.ndarray, dt: float, window_s: float) -> slice:

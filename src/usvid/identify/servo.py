@@ -20,11 +20,12 @@ Method (documented choices; the seeds only say "recursive least squares"):
    (:func:`usvid.identify.d2c.d2c`) and read as omega_n = sqrt(den[2]), zeta = den[1] /
    (2 omega_n), K = G(0).
 2. **Output-error refinement** (``refine=True``, default). Equation-error ARX is biased by sensor
-   noise on ``delta`` (poles at z ~ 0.97 for dt = 0.02 s are very sensitive), so for delays near
-   the ARX one the continuous parameters (omega_n, zeta, K) are refined by
+   noise on ``delta`` (poles at z ~ 0.97 for dt = 0.02 s are very sensitive; its delay is often
+   several samples off), so the continuous parameters (omega_n, zeta, K) are refined by
    ``scipy.optimize.least_squares`` on the *simulation* error (the servo simulated by the
    integration core -- the servo of every usvid simulation -- driven by the measured command,
-   held over each sample); the delay with the smallest simulation RMS wins.
+   held over each sample), at the delay found by a pattern search (steps of 4, 2, 1 samples from
+   the ARX delay, each fit started from the best so far): the delay of smallest simulation RMS.
 
 Standard errors. Refined: Gauss-Newton asymptotics ``cov = s^2 (J^T J)^-1`` of the output-error
 fit (J the Jacobian of the simulated output w.r.t. (omega_n, zeta, K), s^2 the residual variance;
@@ -67,7 +68,8 @@ class ServoIdentification:
     omega_n [rad/s], zeta [-], gain [-], delay [s] (= delay_samples * dt); std_errors and ci95 of
     (omega_n, zeta, gain); arx: the ARX coefficients at the chosen delay (a1, a2, b1, b2) with
     standard errors; delay_scan: (n_candidates, 2) array of (delay [samples], cost) where cost is
-    the simulation RMS [rad] after refinement, or the ARX residual RMS [rad] otherwise;
+    the simulation RMS [rad] after refinement (the delays the search visited), or the ARX
+    residual RMS [rad] otherwise;
     fit: simulation fit metrics of the final model [rad]; method: "arx" or "arx+oe".
     """
 
@@ -179,7 +181,7 @@ def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray
 
 def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
                                 max_delay: float = 2.0, refine: bool = True,
-                                refine_window: int = 5) -> ServoIdentification:
+                                initial_step: int = 4) -> ServoIdentification:
     """Identify omega_n, zeta, gain and dead time of a steering servo (see module docstring).
 
     Parameters
@@ -192,9 +194,9 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
         Largest dead time searched [s] (candidates 0, dt, ..., max_delay).
     refine : bool
         Output-error refinement (recommended with sensor noise).
-    refine_window : int
-        Delays within this many samples of the ARX optimum are refined (the window is extended
-        while the optimum sits on its edge).
+    initial_step : int
+        First step [samples] of the pattern search over the delay (halved down to one sample
+        where no neighbour improves the simulation RMS).
     """
     u, y = _validate(delta_cmd, delta, dt)
     dmax = int(round(max_delay / dt))
@@ -234,19 +236,21 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
         g0 = float(u @ y / (u @ u)) if u @ u > 0 else 1.0  # least-squares static gain
         x0 = phys if np.all(np.isfinite(phys)) and phys[2] > 0 else np.array(
             [1.0, 0.7, g0 if g0 > 0 else 1.0])
-        results: dict[int, optimize.OptimizeResult] = {}
-        lo, hi = max(0, d_arx - refine_window), min(dmax, d_arx + refine_window)
+        # pattern search over the integer delay on the simulation RMS: steps of 4, 2, 1 samples
+        # from the ARX delay, each fit started from the best fit so far
+        results: dict[int, optimize.OptimizeResult] = {d_arx: _oe_fit(u, y, d_arx, dt, x0)}
+        best, step = d_arx, max(1, int(initial_step))
         while True:
-            for d in range(lo, hi + 1):
-                if d not in results:
-                    results[d] = _oe_fit(u, y, d, dt, x0)
-            best = min(results, key=lambda k: results[k].cost)
-            if best == lo and lo > 0:
-                lo = max(0, lo - refine_window)
-            elif best == hi and hi < dmax:
-                hi = min(dmax, hi + refine_window)
+            for d in (best - step, best + step):
+                if 0 <= d <= dmax and d not in results:
+                    results[d] = _oe_fit(u, y, d, dt, results[best].x.copy())
+                if d in results and results[d].cost < results[best].cost:
+                    best = d
+                    break
             else:
-                break
+                if step == 1:
+                    break
+                step //= 2
         res = results[best]
         n, p = y.size, 3
         s2 = 2 * res.cost / (n - p)

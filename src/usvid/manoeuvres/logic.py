@@ -115,13 +115,23 @@ class Disturbance:
     q = 2 * 0.36 * intensity^2 / 0.42^2 and a piecewise-constant noise of variance q/dt per step.
     ``seed``: the generator seed, a whole number below 2^53 (run i of a batch uses the stream
     (seed, i); reproducible, independent of threads). May be arrays over the batch.
+    ``stream``: the stream index of each run (default ``None``: the run's index i in the
+    batch); runs with equal seed and stream see the same noise realisation (common random
+    numbers: candidate autopilot gains compared under one disturbance).
     """
 
     intensity: ArrayLike
     seed: ArrayLike = 0
+    stream: ArrayLike | None = None
 
     def __post_init__(self) -> None:
         _finite("Disturbance", intensity=self.intensity, seed=self.seed)
+        if self.stream is not None:
+            _finite("Disturbance", stream=self.stream)
+            st = np.asarray(self.stream, dtype=float)
+            if not np.all((st == np.round(st)) & (st >= 0) & (st < 2.0**53)):
+                raise SimulationError(f"Disturbance.stream must be whole numbers in [0, 2^53) "
+                                      f"(got {self.stream!r})")
         if not np.all(np.asarray(self.intensity, dtype=float) >= 0):
             raise SimulationError(f"Disturbance.intensity must be >= 0 (got {self.intensity!r})")
         # the kernel carries seeds as float64: whole numbers below 2^53 are exact, others would

@@ -114,33 +114,45 @@ def timeseries_figure(
 
 
 def course_keeping_figure(cc: Mapping[str, Any]) -> str:
-    """Course change 0 -> target under disturbance (seed 000 figures 11-12).
+    """Course change 0 -> target under disturbance (Mu et al. 2018, figures 11-12): heading,
+    heading error (magnified, +-8 deg), rudder angle and disturbance, one colour and dash
+    pattern per run.
 
     ``cc``: ``{"t": [...s], "target_deg": float, "disturbance": [...] (optional), "runs":
     [{"label": "PD", "psi_deg": [...], "delta_deg": [...]}]}``. Returns a PNG data URI.
     """
     t = _arr(cc.get("t"))
     dist = _arr(cc.get("disturbance"))
-    n = 3 if dist.size == t.size and t.size else 2
+    target = cc.get("target_deg")
+    n = (3 if dist.size == t.size and t.size else 2) + (1 if target is not None else 0)
+    # one colour and one dash pattern per run: gains that differ little (PD vs PID with a tiny
+    # ki) stay distinguishable, and the heading-error panel magnifies their differences
+    styles = ["-", "--", "-.", ":", (0, (5, 1, 1, 1))]
     with plt.rc_context(_STYLE):
         fig, axes = plt.subplots(n, 1, figsize=(7.0, 1.7 * n + 0.5), sharex=True)
-        for run in cc.get("runs", []):
+        for i, run in enumerate(cc.get("runs", [])):
             psi = _arr(run.get("psi_deg"))
             dlt = _arr(run.get("delta_deg"))
+            kw = dict(color=f"C{i}", ls=styles[i % len(styles)], label=run.get("label", ""))
             if psi.size == t.size:
-                axes[0].plot(t, psi, lw=1.1, label=run.get("label", ""))
+                axes[0].plot(t, psi, lw=1.1, **kw)
+                if target is not None:
+                    axes[1].plot(t, psi - float(target), lw=1.0, **kw)
             if dlt.size == t.size:
-                axes[1].plot(t, dlt, lw=0.9, label=run.get("label", ""))
-        target = cc.get("target_deg")
+                axes[2 if target is not None else 1].plot(t, dlt, lw=0.9, **kw)
         if target is not None:
             axes[0].axhline(float(target), color="k", lw=0.8, ls=":", label="target")
+            axes[1].axhline(0.0, color="k", lw=0.6, ls=":")
+            axes[1].set_ylim(-8.0, 8.0)
+            axes[1].set_ylabel("psi - psi_d [deg]")
+        kd = 2 if target is not None else 1
         axes[0].set_ylabel("psi [deg]")
-        axes[1].set_ylabel("delta [deg]")
+        axes[kd].set_ylabel("delta [deg]")
         axes[0].legend(loc="lower right", fontsize=7)
-        axes[1].legend(loc="upper right", fontsize=7)
-        if n == 3:
-            axes[2].plot(t, dist, color="#555555", lw=0.8)
-            axes[2].set_ylabel("disturbance [deg]")
+        axes[kd].legend(loc="upper right", fontsize=7)
+        if dist.size == t.size and t.size:
+            axes[-1].plot(t, dist, color="#555555", lw=0.8)
+            axes[-1].set_ylabel("disturbance [deg]")
         axes[-1].set_xlabel("t [s]")
         fig.align_ylabels()
         return fig_to_data_uri(fig)

@@ -363,14 +363,15 @@ def _validation(run: Mapping[str, Any]) -> str:
 
 
 def _course_keeping(run: Mapping[str, Any]) -> str:
-    out = ['<h2 id="course">Course keeping (PD vs PID)</h2>']
+    out = ['<h2 id="course">Course keeping: the paper\'s and designed PD/PID autopilots</h2>']
     cc = run.get("course_keeping")
     if not cc:
         return "".join(out) + _unavailable(run, "course_keeping", "Course-keeping simulation")
     if cc.get("description"):
         out.append(f"<p>{esc(cc['description'])}</p>")
     out.append(_figure(figures.course_keeping_figure(cc),
-                       "Course change 0 -> target under the seed 000 disturbance.",
+                       "Course change 0 -> target under the disturbance of Mu et al. 2018: "
+                       "heading, heading error (magnified), rudder angle, disturbance.",
                        "course keeping"))
     paper = cc.get("paper_itae", {})
     rows = []

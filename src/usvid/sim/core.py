@@ -289,9 +289,10 @@ def _lane(b, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_ever
         zzt[b, i] = np.nan
     status[b, 0] = 0.0
     status[b, 1] = np.nan
-    # noise stream (seed, b): a splitmix hash of the seed, hashed again with the lane index
+    # noise stream (seed, stream): a splitmix hash of the seed, hashed again with the lane's
+    # stream index (its lane index unless the caller shares streams between lanes)
     _, h0 = _splitmix(np.uint64(int(Dq[b, 1])))
-    _, rng = _splitmix(h0 ^ np.uint64(b))
+    _, rng = _splitmix(h0 ^ np.uint64(int(Dq[b, 2])))
     esd = math.sqrt(Dq[b, 0] / dt) if Dq[b, 0] > 0.0 else 0.0
     tpsi = (z[2], math.cos(z[2]), math.sin(z[2]))
     tde = (0.0, 1.0, 0.0)
@@ -539,7 +540,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     """Integrate all lanes of ``Z`` (in place) and fill the outputs.
 
     Arrays are lane-major (a lane's parameters, state and work values contiguous): ``P``
-    (B, n_params), ``S`` (B, SERVO_ROWS), ``L`` (B, 6), ``Dq`` (B, 2), ``Z`` (B, n_states),
+    (B, n_params), ``S`` (B, SERVO_ROWS), ``L`` (B, 6), ``Dq`` (B, 3) (spectral density, seed,
+    noise stream index), ``Z`` (B, n_states),
     ``acc`` (B, 3), ``zz`` (B, N_ZZ), ``zzt`` (B, N_ZZ + 1), ``status`` (B, 2); ``SER``
     (n_series, 1 or B, N) and ``rec`` (n_channels, B, N_rec). Lanes are integrated in chunks of
     ``chunk`` lanes that step together; chunks run in parallel on a thread pool (the kernel is

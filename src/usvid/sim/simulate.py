@@ -123,7 +123,8 @@ class Lanes:
     (6, B); ``Z0`` (n_states, B) initial joint states; ``nsteps`` (B,) steps per lane;
     ``series`` name -> (1 or B, max(nsteps) + 1) input samples at the step instants
     (``delta`` measured rudder angle [rad], ``n`` [rps], ``n_port``, ``n_stbd``, ``delta_cmd``
-    [rad]); ``Dq`` (2, B) disturbance spectral density [1/s] and seed.
+    [rad]); ``Dq`` (2 or 3, B) disturbance spectral density [1/s], seed and (optional) noise
+    stream index (default: the lane index; lanes with equal seed and stream see the same noise).
     """
 
     kind: ModelKind
@@ -177,7 +178,9 @@ class Lanes:
         if rows_ not in (1, B):
             raise SimulationError(f"input series have {rows_} rows for {B} lanes")
         L = np.zeros((6, B)) if self.L is None else self.L
-        Dq = np.zeros((2, B)) if self.Dq is None else self.Dq
+        Dq = np.zeros((2, B)) if self.Dq is None else np.asarray(self.Dq, dtype=float)
+        if Dq.shape[0] == 2:
+            Dq = np.vstack([Dq, np.arange(B, dtype=float)[None, :]])
         qlen = float(np.max(self.S[5], initial=0.0)) / self.dt
         if not qlen <= MAX_STEPS:
             raise SimulationError(
@@ -249,7 +252,8 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         Keep every k-th step (so large batches fit in memory).
     seed : int
         Offset added to the disturbance's own seed(s); run i draws from the stream
-        (seed sum, i). No effect without a disturbance.
+        (seed sum, i), or (seed sum, ``disturbance.stream[i]``) when the disturbance gives its
+        streams. No effect without a disturbance.
     psi0 : float or (B,) array
         Initial heading [rad].
     disturbance : Disturbance, optional
@@ -342,6 +346,8 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
             else 0.0
     if dist is not None:
         values.update(dist_q=dist.intensity, dist_seed=dist.seed)
+        if dist.stream is not None:
+            values["dist_stream"] = dist.stream
     try:
         B = batch_size({**values, **{k: v for k, v in model.dynamics.values().items()
                                      if not hasattr(v, "thrust")},
@@ -354,10 +360,13 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     P = np.broadcast_to(P, (P.shape[0], B))
     skind, S = servo_rows(model.servo, B)
     L = np.vstack([_col(v, B) for v in lrows])
-    Dq = np.zeros((2, B))
+    Dq = np.zeros((3, B))
+    Dq[2] = np.arange(B)
     if dist is not None:
         Dq[0] = _col(dist.spectral_density(), B)
         Dq[1] = _col(dist.seed, B) + seed
+        if dist.stream is not None:
+            Dq[2] = _col(dist.stream, B)
     init_vals = dict(initial)
     if not kind.constant_speed:
         init_vals["u"] = speed

@@ -6,20 +6,27 @@ That paper's equations are mostly lost in the extracted text; usvid uses the dia
     m11 u' = m22 v r - d11 u + tau_u
     m22 v' = -m11 u r - d22 v
     m33 r' = (m11 - m22) u v - d33 r + tau_r
-    tau_u = T_port + T_stbd,   tau_r = (T_port - T_stbd) b / 2
+    tau_u = T_port + T_stbd,   tau_r = (T_port - T_stbd) arm
 
-b [m] is the distance between the two thrusters (ARCHITECTURE.md sign convention: more port
-thrust turns the vessel to starboard, r > 0). Each thruster's thrust comes from its command c
-(control code 0..120, PWM [us] or shaft speed): ``thrust`` is a
+``arm`` [m] is each thruster's distance from the centreline: the catamaran paper's symbol in
+its yaw moment (eq. 27, "the distance from the two thrusters to the ship's central axis"), so
+the paper's value is entered as ``arm``. ``b`` [m] is the distance between the two thrusters
+(spacing; arm = b/2), the parameter usvid read before: model files with ``b`` keep loading
+and mean the same moment; give one of the two (both: they must agree). ARCHITECTURE.md sign
+convention: more port thrust turns the vessel to starboard, r > 0.
+
+Each thruster's thrust comes from its command c (control code 0..120, PWM [us] or shaft
+speed): ``thrust`` is a
 :class:`usvid.models.thrust.TwinThrust` (code -> voltage -> thrust, or PWM -> thrust) or a
 number k [N per command unit] (T = k c). Standard manoeuvres steer through a rudder-equivalent
 angle delta [rad]: ``c_port = cmd + steer_gain delta``, ``c_stbd = cmd - steer_gain delta``
 (positive delta -> more port thrust -> r > 0); measured commands ``n_port``/``n_stbd`` replace
 them when replayed.
 
-Particulars for identification (format spec ``vessel.extra`` or options): ``thruster_spacing``
-b [m] (required); ``thrust_per_command`` k [N per command unit] (default 1: thrust, masses and
-dampings then in command units, which is all the commands can determine); ``nominal_command``
+Particulars for identification (format spec ``vessel.extra`` or options): ``thruster_arm`` [m]
+(each thruster's distance from the centreline) or ``thruster_spacing`` b [m] (one required);
+``thrust_per_command`` k [N per command unit] (default 1: thrust, masses and dampings then in
+command units, which is all the commands can determine); ``nominal_command``
 (default: the median mean command of the training data); ``steer_gain`` [command per rad]
 (default: half the largest differential command of the data per 35 deg).
 """
@@ -34,7 +41,7 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 
-from usvid.errors import IdentificationError
+from usvid.errors import IdentificationError, UsvidError
 from usvid.models.kind import Dynamics, ModelKind, Regression, param, rows, submodel
 from usvid.models.kinds import _fossen
 from usvid.models.thrust import TwinThrust, thrust_nb, thrust_row
@@ -51,13 +58,37 @@ class Catamaran(Dynamics):
     d11: Any = param("kg/s", "surge damping")
     d22: Any = param("kg/s", "sway damping")
     d33: Any = param("kg m^2/s", "yaw damping")
-    b: Any = param("m", "distance between the two thrusters", fit=False, gt=0.0)
+    b: Any = param("m", "distance between the two thrusters (spacing, = 2 arm; or give arm)",
+                   fit=False, gt=0.0, default=None)
     thrust: Any = submodel("thrust", "thrust of one thruster: k [N per command unit] or "
                            "twin_thrust", default=1.0)
     cmd: Any = param("command", "nominal command of each thruster", fit=False, default=0.0)
     steer_gain: Any = param("command/rad", "differential command per radian of "
                             "rudder-equivalent steering", fit=False, default=0.0)
+    arm: Any = param("m", "each thruster's distance from the centreline (the catamaran "
+                     "paper's symbol, = b/2; or give b)", fit=False, gt=0.0, default=None)
     kind: ClassVar[str] = "catamaran"
+
+    @classmethod
+    def example(cls) -> Catamaran:
+        """A valid parameter set (every required parameter 1.0, arm 0.5 m)."""
+        return cls(m11=1.0, m22=1.0, m33=1.0, d11=1.0, d22=1.0, d33=1.0, arm=0.5)
+
+    def validate(self) -> None:
+        if self.arm is None and self.b is None:
+            raise UsvidError("parameters.arm (each thruster's distance from the centreline "
+                             "[m]) or parameters.b (the spacing between the thrusters [m]) is "
+                             "required")
+        if self.arm is not None and self.b is not None and not np.allclose(
+                np.asarray(self.arm, float), 0.5 * np.asarray(self.b, float), rtol=1e-9):
+            raise UsvidError(f"parameters.arm ({self.arm!r} m, from the centreline) and "
+                             f"parameters.b ({self.b!r} m, the spacing) disagree: arm must be "
+                             "b/2; give only one")
+
+    @property
+    def half_spacing(self) -> Any:
+        """Each thruster's distance from the centreline [m]: ``arm``, else ``b / 2``."""
+        return self.arm if self.arm is not None else 0.5 * np.asarray(self.b, float)
 
     def thruster_thrust(self, c: Any) -> np.ndarray:
         """Thrust [N] of one thruster at command c (TwinThrust, or k c)."""
@@ -66,9 +97,9 @@ class Catamaran(Dynamics):
         return np.asarray(self.thrust, dtype=float) * np.asarray(c, dtype=float)
 
     def tau(self, c_port: Any, c_stbd: Any) -> tuple[np.ndarray, np.ndarray]:
-        """(tau_u [N], tau_r [N m]) = (T_p + T_s, (T_p - T_s) b/2)."""
+        """(tau_u [N], tau_r [N m]) = (T_p + T_s, (T_p - T_s) arm), arm = b/2."""
         Tp, Ts = self.thruster_thrust(c_port), self.thruster_thrust(c_stbd)
-        return Tp + Ts, (Tp - Ts) * np.asarray(self.b) / 2.0
+        return Tp + Ts, (Tp - Ts) * np.asarray(self.half_spacing, float)
 
     def commands(self, delta: Any) -> tuple[np.ndarray, np.ndarray]:
         """(c_port, c_stbd) for a rudder-equivalent steering angle delta [rad]."""
@@ -77,7 +108,7 @@ class Catamaran(Dynamics):
         return np.asarray(self.cmd) + g * d, np.asarray(self.cmd) - g * d
 
 
-# P rows: 0-5 m11 m22 m33 d11 d22 d33, 6 b/2, 7 cmd, 8 steer_gain, 9-11 1/m11 1/m22 1/m33,
+# P rows: 0-5 m11 m22 m33 d11 d22 d33, 6 arm (= b/2), 7 cmd, 8 steer_gain, 9-11 1/m11 1/m22 1/m33,
 # 12.. thrust law
 _T0 = 12
 
@@ -113,7 +144,8 @@ def _law(thrust: Any) -> Any:
 
 def pack(d: Catamaran, speed: Any) -> np.ndarray:
     m11, m22, m33 = (np.asarray(getattr(d, k), float) for k in ("m11", "m22", "m33"))
-    return rows([d.m11, d.m22, d.m33, d.d11, d.d22, d.d33, 0.5 * np.asarray(d.b, float), d.cmd,
+    return rows([d.m11, d.m22, d.m33, d.d11, d.d22, d.d33, np.asarray(d.half_spacing, float),
+                 d.cmd,
                  d.steer_gain, 1.0 / m11, 1.0 / m22, 1.0 / m33, *thrust_row(_law(d.thrust))])
 
 
@@ -132,10 +164,16 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     """b, the thrust law, the nominal command and the steering gain (module docstring)."""
     num = _fossen.extra_number
     b = num(vessel, options, "thruster_spacing", "b")
-    if b is None:
+    arm = num(vessel, options, "thruster_arm", "arm")
+    if b is None and arm is None:
         raise IdentificationError(
-            "model 'catamaran' needs the distance b [m] between the two thrusters: give "
-            "vessel.extra.thruster_spacing in the format spec (or the option b)")
+            "model 'catamaran' needs each thruster's distance arm [m] from the centreline "
+            "(vessel.extra.thruster_arm, or the option arm) or the spacing b [m] between the "
+            "two thrusters (vessel.extra.thruster_spacing, or the option b) in the format spec")
+    if b is not None and arm is not None and abs(arm - 0.5 * b) > 1e-9 * b:
+        raise IdentificationError(
+            f"vessel.extra.thruster_arm ({arm:g} m, from the centreline) and "
+            f"thruster_spacing ({b:g} m) disagree: the arm is half the spacing; give one")
     k = num(vessel, options, "thrust_per_command")
     cp = [s["n_port"] for s in data if "n_port" in s and "n_stbd" in s]
     cs = [s["n_stbd"] for s in data if "n_port" in s and "n_stbd" in s]
@@ -149,14 +187,16 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     g = num(vessel, options, "steer_gain")
     if g is None:
         g = float(np.nanmax(np.abs(cp_all - cs_all))) / 2.0 / math.radians(35.0)
-    return {"b": b, "thrust": 1.0 if k is None else k, "cmd": cmd, "steer_gain": g}
+    out = {"b": b} if arm is None else {"arm": arm}
+    return {**out, "thrust": 1.0 if k is None else k, "cmd": cmd, "steer_gain": g}
 
 
 def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
-    """tau_u = T_p + T_s, tau_r = (T_p - T_s) b/2 from the thrust law at the commands."""
+    """tau_u = T_p + T_s, tau_r = (T_p - T_s) arm from the thrust law at the commands."""
     if "tau_u" in s and "tau_r" in s:
         return
-    model = Catamaran(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, b=fixed["b"], thrust=fixed["thrust"])
+    model = Catamaran(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, b=fixed.get("b"), arm=fixed.get("arm"),
+                      thrust=fixed["thrust"])
     if "T_port" in s and "T_stbd" in s:
         tp, ts = s["T_port"], s["T_stbd"]
     else:
@@ -164,7 +204,8 @@ def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
             raise IdentificationError("model 'catamaran' needs channels n_port and n_stbd")
         tp, ts = model.thruster_thrust(s["n_port"]), model.thruster_thrust(s["n_stbd"])
     s["tau_u"] = tp + ts
-    s["tau_r"] = (tp - ts) * 0.5 * float(fixed["b"])
+    arm = fixed.get("arm")
+    s["tau_r"] = (tp - ts) * (float(arm) if arm is not None else 0.5 * float(fixed["b"]))
 
 
 def channels(d: Catamaran, rec: dict[str, np.ndarray]) -> None:
@@ -180,7 +221,7 @@ def channels(d: Catamaran, rec: dict[str, np.ndarray]) -> None:
 KIND = ModelKind(
     name="catamaran",
     title="Twin-thruster catamaran",
-    equation="M nu' + C(nu) nu + D nu = tau; tau = (T_p + T_s, 0, (T_p - T_s) b/2)",
+    equation="M nu' + C(nu) nu + D nu = tau; tau = (T_p + T_s, 0, (T_p - T_s) arm), arm = b/2",
     reference="Mu et al. 2018 eq. 17 with twin thrusters (catamaran paper)",
     dynamics=Catamaran,
     states=("u", "v", "r"),
