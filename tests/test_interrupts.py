@@ -13,6 +13,7 @@ campaign with the analysis steps skipped: every kind of file it writes (logs mov
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import shutil
 import signal
@@ -23,6 +24,7 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
+import numba.np.ufunc.parallel as numba_parallel
 import numpy as np
 import pytest
 
@@ -53,6 +55,11 @@ def _fork_run(argv: list[str], setup=None) -> int:
         code = 1
         try:
             try:  # the harness, before the command: an interrupt here is not usvid's
+                # numba guards its threading-layer start with a multiprocessing lock created at
+                # import; forked siblings share the parent's, and a sibling killed while holding
+                # it would block the next ones forever. A separate process has its own: so
+                # does this child.
+                numba_parallel._backend_init_process_lock = multiprocessing.RLock()
                 signal.signal(signal.SIGINT, signal.default_int_handler)
                 devnull = os.open(os.devnull, os.O_WRONLY)
                 os.dup2(devnull, 1)
