@@ -14,6 +14,7 @@ import traceback
 import typer
 
 from usvid.errors import UsvidError
+from usvid.files import os_reason
 
 app = typer.Typer(
     name="usvid",
@@ -67,6 +68,19 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 _register_all()
 
 
+def _interrupted(exc: BaseException) -> bool:
+    """True when ``exc`` is, or was raised while handling, a KeyboardInterrupt (Ctrl-C inside a
+    compiled kernel can surface as another exception whose context is the interrupt)."""
+    seen = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns (and exits with) the process exit code."""
     import warnings
@@ -80,30 +94,39 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str] | None) -> int:
+
+    def done(code: int, message: str | None = None) -> int:
+        if message is not None:
+            print(message, file=sys.stderr)
+        if argv is not None:
+            return code
+        sys.exit(code)
+
     try:
         app(args=argv, prog_name="usvid", standalone_mode=True)
     except SystemExit as exc:  # typer/click end here in standalone mode
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        if code == 130:  # typer turns Ctrl-C into exit code 130, silently
+            print("usvid: interrupted", file=sys.stderr)
         if argv is not None:
             return code
         raise
     except UsvidError as exc:
-        msg = " ".join(str(exc).split())
-        print(f"usvid: error: {msg}", file=sys.stderr)
-        if argv is not None:
-            return 2
-        sys.exit(2)
+        return done(2, "usvid: error: " + " ".join(str(exc).split()))
     except KeyboardInterrupt:
-        print("usvid: interrupted", file=sys.stderr)
-        if argv is not None:
-            return 130
-        sys.exit(130)
-    except Exception:  # a bug: say so, with the traceback
+        return done(130, "usvid: interrupted")
+    except OSError as exc:  # the environment (a file vanished, permissions, disk): not a bug
+        if exc.filename is not None and not _interrupted(exc):
+            return done(2, f"usvid: error: {exc.filename}: {os_reason(exc)}")
+        if _interrupted(exc):
+            return done(130, "usvid: interrupted")
         traceback.print_exc()
-        print("usvid: internal error (please report with the traceback above)", file=sys.stderr)
-        if argv is not None:
-            return 1
-        sys.exit(1)
+        return done(1, "usvid: internal error (please report with the traceback above)")
+    except Exception as exc:  # a bug: say so, with the traceback
+        if _interrupted(exc):
+            return done(130, "usvid: interrupted")
+        traceback.print_exc()
+        return done(1, "usvid: internal error (please report with the traceback above)")
     return 0
 
 

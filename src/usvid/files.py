@@ -1,18 +1,60 @@
-"""Bottom-layer file helpers: JSON serialisation of results and atomic writes.
+"""Bottom-layer file helpers: JSON serialisation of results and the one output layer.
 
-Used by every layer that writes (io writers, model files, reports, the CLI); depends on nothing
-of usvid."""
+Used by every layer that writes (io writers, model files, reports, the demo, the CLI); depends on
+nothing of usvid but :mod:`usvid.errors`. Every file usvid writes goes through
+:func:`write_atomic`; a command checks its outputs against its inputs first with
+:func:`check_outputs`; a command that fills a folder claims it with :func:`claim_output_dir`.
+
+- :func:`check_outputs` ``(outputs, inputs)``: a :class:`OutputError` when an output is one of
+  the inputs (paths resolved, symlinks followed, hard links compared by inode) or is a folder.
+- :func:`write_atomic` ``(path, data, inputs=())``: temporary file in the same folder, ``fsync``,
+  rename; an OS error (permission, no space, read-only file system, name too long, a parent that
+  is not a folder, file size limit) becomes one :class:`OutputError` line naming the path and
+  the reason, and nothing is left under the final name nor a temporary file beside it.
+- :func:`claim_output_dir` ``(path, force)``: create a run folder, or accept one usvid created
+  (it holds the marker file ``.usvid-run``) or an empty one; a non-empty folder usvid did not
+  create is refused unless ``force``. usvid never deletes files in a claimed folder.
+- :func:`move_into` ``(src_dir, dst_dir)``: move the files of a temporary folder into place one by
+  one (each rename atomic), leaving every other file of ``dst_dir`` alone.
+"""
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from usvid.errors import UsvidError
+
+#: Marker file of a folder created (and so owned) by a usvid command.
+RUN_MARKER = ".usvid-run"
+
+_REASONS = {
+    errno.EACCES: "permission denied",
+    errno.EPERM: "operation not permitted",
+    errno.ENOSPC: "no space left on device",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "read-only file system",
+    errno.ENAMETOOLONG: "file name too long",
+    errno.ENOTDIR: "a parent is not a folder",
+    errno.EISDIR: "is a folder",
+    errno.EFBIG: "file too large (file size limit)",
+    errno.ENOENT: "no such folder",
+    errno.EEXIST: "a parent is not a folder",
+    errno.EXDEV: "cross-device rename",
+    errno.EINVAL: "invalid file name",
+}
+
+
+class OutputError(UsvidError):
+    """An output cannot be written (OS error, or it would overwrite an input of the command)."""
 
 
 def jsonable(obj: Any) -> Any:
@@ -38,29 +80,314 @@ def to_json(obj: Any) -> str:
     return json.dumps(jsonable(obj), indent=2, allow_nan=False)
 
 
-def write_atomic(path: str | Path, text: str | bytes) -> Path:
-    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then rename).
+def os_reason(exc: OSError) -> str:
+    """A short human reason for an OS error (``"permission denied"``, ``"no space left on
+    device"``, ...)."""
+    return _REASONS.get(exc.errno or -1) or (exc.strerror or type(exc).__name__).lower()
 
-    An interrupted write never leaves a half-written file under ``path``.
+
+def _resolved(p: str | Path) -> Path | None:
+    try:
+        return Path(os.path.realpath(os.fspath(p)))
+    except (OSError, ValueError):
+        return None
+
+
+def _same(a: Path, b: Path) -> bool:
+    ra, rb = _resolved(a), _resolved(b)
+    if ra is not None and ra == rb:
+        return True
+    try:
+        return os.path.samefile(a, b)  # hard links
+    except (OSError, ValueError):
+        return False
+
+
+def _is_dir(p: Path) -> bool:
+    try:
+        return p.is_dir()
+    except (OSError, ValueError):
+        return False
+
+
+def _probe(out: Path) -> None:
+    """Can a file be created next to ``out``? (one temporary file, removed at once)"""
+    if len(os.fsencode(out.name)) > 255 - 16:  # room for the temporary file's affixes
+        raise OutputError(f"{out}: cannot write (file name too long)")
+    anc = out.parent
+    while not anc.exists() and anc != anc.parent:
+        anc = anc.parent
+    if not _is_dir(anc):
+        raise OutputError(f"{out}: cannot write (a parent is not a folder)")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".usvid-probe.", dir=anc)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise _fail(out, exc) from None
+
+
+def check_outputs(outputs: Iterable[str | Path | None],
+                  inputs: Iterable[str | Path | None] = (), *, probe: bool = True) -> None:
+    """Refuse outputs that would overwrite an input of the same command, that are folders, or
+    that cannot be created.
+
+    ``outputs``, ``inputs``: file paths (``None`` entries are ignored; an input folder such as a
+    ROS 2 bag also protects every file inside it). ``probe``: also create and remove a
+    temporary file in the output's folder (or its nearest existing ancestor), so a read-only or
+    full file system, a missing permission or a too long name is reported before any work.
+    Raises :class:`OutputError` naming the path:
+    ``"in.dat: output would overwrite the input in.dat; choose another output path"``.
+    """
+    ins = [Path(p) for p in inputs if p is not None and str(p) != ""]
+    for out in outputs:
+        if out is None:
+            continue
+        o = Path(out)
+        if str(out) == "" or _is_dir(o):
+            raise OutputError(f"{str(out) or repr('')}: output is a folder or empty; give a "
+                              "file name")
+        ro = _resolved(o)
+        for i in ins:
+            ri = _resolved(i)
+            inside = ri is not None and ro is not None and _is_dir(ri) and ri in ro.parents
+            if _same(o, i) or inside:
+                raise OutputError(f"{o}: output would overwrite the input {i}; choose another "
+                                  "output path")
+        if probe:
+            _probe(o)
+
+
+def _fail(path: Path, exc: OSError) -> OutputError:
+    return OutputError(f"{path}: cannot write ({os_reason(exc)})")
+
+
+def _make_parent(path: Path) -> None:
+    parent = path.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:  # a component exists and is not a folder
+        raise OutputError(f"{path}: cannot write (a parent is not a folder)") from None
+    except OSError as exc:
+        raise _fail(path, exc) from None
+
+
+def write_atomic(path: str | Path, data: str | bytes, *,
+                 inputs: Iterable[str | Path | None] = ()) -> Path:
+    """Write ``data`` (text as UTF-8, or bytes) to ``path`` atomically; returns the path.
+
+    A temporary file in the same folder is written, flushed, ``fsync``-ed and renamed over
+    ``path``, so an interrupted or failed write (Ctrl-C, SIGKILL, full disk) never leaves a
+    half-written file under ``path``; concurrent writers leave one complete file. ``inputs``:
+    paths the output must not overwrite (see :func:`check_outputs`). Raises
+    :class:`OutputError` (one line naming the path and the reason) on any OS error.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    mode = "wb" if isinstance(text, bytes) else "w"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    check_outputs([path], inputs, probe=False)
+    _make_parent(path)
+    mode = "wb" if isinstance(data, bytes) else "w"
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:80]}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise _fail(path, exc) from None
     try:
         # mkstemp creates 0600; give the file the mode an ordinary open() would (0666 & ~umask)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         with os.fdopen(fd, mode, **({} if mode == "wb" else {"encoding": "utf-8"})) as fh:
-            fh.write(text)
+            fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
-        except FileNotFoundError:
+        except OSError:
             pass
+        if isinstance(exc, OSError):
+            raise _fail(path, exc) from None
         raise
+    _fsync_dir(path.parent)
     return path
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Make a rename durable (best effort: not every file system lets a folder be opened)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def claim_output_dir(path: str | Path, *, force: bool = False, command: str = "usvid") -> Path:
+    """Create the output folder ``path`` of a command, or accept an existing one it may fill.
+
+    Accepted: a new folder (created, with the marker file ``.usvid-run``), an empty folder, or a
+    folder holding the marker (a previous usvid run). A non-empty folder without the marker is
+    refused with :class:`OutputError` unless ``force`` (then usvid writes its own files there and
+    deletes nothing). Returns the folder.
+    """
+    p = Path(path)
+    if str(path) == "":
+        raise OutputError("'': output folder name is empty")
+    if p.exists() and not p.is_dir():
+        raise OutputError(f"{p}: output folder is an existing file; choose another")
+    if p.is_dir():
+        try:
+            entries = [e.name for e in os.scandir(p)]
+        except OSError as exc:
+            raise OutputError(f"{p}: cannot use as output folder ({os_reason(exc)})") from None
+        if entries and RUN_MARKER not in entries and not force:
+            raise OutputError(
+                f"{p}: output folder is not empty and was not created by usvid; choose a new "
+                "or empty folder, or give --force (usvid then deletes nothing there)")
+    else:
+        try:
+            p.mkdir(parents=True, exist_ok=True)
+        except FileExistsError:
+            raise OutputError(f"{p}: cannot create (a parent is not a folder)") from None
+        except OSError as exc:
+            raise OutputError(f"{p}: cannot create ({os_reason(exc)})") from None
+    if not (p / RUN_MARKER).exists():
+        write_atomic(p / RUN_MARKER, json.dumps({"created_by": command}) + "\n")
+    return p
+
+
+def move_into(src_dir: str | Path, dst_dir: str | Path) -> list[Path]:
+    """Move every file under ``src_dir`` to the same relative path under ``dst_dir`` (each one
+    an atomic rename on the same file system); files of ``dst_dir`` with other names are left
+    alone. Returns the destination paths. Raises :class:`OutputError` naming the path."""
+    src, dst = Path(src_dir), Path(dst_dir)
+    moved = []
+    for root, _dirs, files in os.walk(src):
+        for name in sorted(files):
+            s = Path(root) / name
+            d = dst / s.relative_to(src)
+            _make_parent(d)
+            if d.is_dir():
+                raise OutputError(f"{d}: cannot write (is a folder)")
+            try:
+                os.replace(s, d)
+            except OSError as exc:
+                raise _fail(d, exc) from None
+            moved.append(d)
+    return moved
+
+
+# ----------------------------------------------------------------------------------------------
+# untrusted text: JSON and YAML with bounds
+# ----------------------------------------------------------------------------------------------
+#: Deepest nesting of lists/mappings accepted in a spec, model file or run file.
+MAX_DEPTH = 64
+#: Most YAML nodes after expanding aliases (an alias bomb of a few hundred bytes expands to
+#: billions); specs hold a few hundred.
+MAX_YAML_NODES = 100_000
+#: Most decimal digits of a JSON integer (a float holds 308; anything longer is hostile).
+MAX_INT_DIGITS = 309
+
+
+class InputLimitError(UsvidError):
+    """An input file exceeds a bound (size, nesting, alias expansion, number magnitude)."""
+
+
+def _short(text: str, n: int = 80) -> str:
+    return text if len(text) <= n else text[:n] + "..."
+
+
+def _json_depth(text: str) -> int:
+    """Deepest bracket nesting of a JSON text (strings skipped)."""
+    import re
+
+    stripped = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text)
+    b = np.frombuffer(stripped.encode("utf-8", "replace"), dtype=np.uint8)
+    step = np.zeros(len(b), dtype=np.int32)
+    step[(b == ord("[")) | (b == ord("{"))] = 1
+    step[(b == ord("]")) | (b == ord("}"))] = -1
+    return int(np.cumsum(step).max(initial=0))
+
+
+def _parse_int(s: str) -> int:
+    if len(s.lstrip("-")) > MAX_INT_DIGITS:
+        raise InputLimitError(f"an integer of {len(s.lstrip('-'))} digits (at most "
+                              f"{MAX_INT_DIGITS})")
+    return int(s)
+
+
+def load_json_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
+                   parse_constant: Any = None) -> Any:
+    """Parse untrusted JSON ``text`` with bounds: nesting at most ``max_depth``, integers of at
+    most 309 digits. Raises :class:`InputLimitError` or :class:`UsvidError` (``"source line L
+    column C: not valid JSON (...)"``) naming ``source``."""
+    depth = _json_depth(text)
+    if depth > max_depth:
+        raise InputLimitError(f"{source}: nested {depth} levels deep (at most {max_depth})")
+    try:
+        return json.loads(text, parse_int=_parse_int, parse_constant=parse_constant)
+    except InputLimitError as exc:
+        raise InputLimitError(f"{source}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise UsvidError(f"{source} line {exc.lineno} column {exc.colno}: not valid JSON "
+                         f"({exc.msg})") from None
+    except (ValueError, RecursionError) as exc:
+        raise UsvidError(f"{source}: not valid JSON ({_short(str(exc))})") from None
+
+
+def load_yaml_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
+                   max_nodes: int = MAX_YAML_NODES) -> Any:
+    """Parse untrusted YAML ``text`` the safe way (``yaml.SafeLoader``: plain data only) with
+    bounds: nesting at most ``max_depth``, at most ``max_nodes`` nodes once aliases are expanded
+    (so an alias bomb is refused in milliseconds). Raises :class:`InputLimitError` or
+    :class:`UsvidError` naming ``source`` and the line."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        depth = 0
+
+        def compose_node(self, parent: Any, index: Any) -> Any:
+            self.depth += 1
+            if self.depth > max_depth:
+                mark = self.peek_event().start_mark
+                raise InputLimitError(f"{source} line {mark.line + 1}: nested more than "
+                                      f"{max_depth} levels deep")
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
+    try:
+        loader = Loader(text)  # the reader refuses control characters here
+    except yaml.YAMLError as exc:
+        raise UsvidError(f"{source}: not usable YAML ({_short(str(exc))})") from None
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        stack, n = [node], 0
+        while stack:
+            nd = stack.pop()
+            n += 1
+            if n > max_nodes:
+                raise InputLimitError(f"{source}: more than {max_nodes} YAML nodes once aliases "
+                                      "are expanded (an alias bomb?)")
+            if isinstance(nd, yaml.MappingNode):
+                for k, v in nd.value:
+                    stack.extend((k, v))
+            elif isinstance(nd, yaml.SequenceNode):
+                stack.extend(nd.value)
+        return loader.construct_document(node)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise UsvidError(f"{source}:{where} {_short(str(problem))}") from None
+    except (RecursionError, ValueError, OverflowError) as exc:
+        raise UsvidError(f"{source}: not usable YAML ({_short(str(exc))})") from None
+    finally:
+        loader.dispose()

@@ -1,8 +1,20 @@
-"""Helpers shared by the CLI commands: JSON on stdout."""
+"""Helpers shared by the CLI commands: JSON on stdout, option checks."""
 
 from __future__ import annotations
 
 from typing import Any
+
+from usvid.errors import UsvidError
+
+#: Seeds are 32-bit (numpy's SeedSequence accepts more, the CGA's legacy generator does not).
+SEED_MAX = 2**32 - 1
+
+
+def check_seed(seed: int, option: str = "--seed") -> int:
+    """``seed`` when 0 <= seed <= 2**32 - 1, else a one-line :class:`UsvidError`."""
+    if not 0 <= seed <= SEED_MAX:
+        raise UsvidError(f"{option} must be an integer in 0 .. {SEED_MAX} (got {seed})")
+    return seed
 
 
 def emit_json(obj: Any) -> None:

@@ -4,7 +4,9 @@ Generates the virtual Lanxin sea-trial campaign (seed 000) as NMEA 0183 / candum
 reads them back, audits them, identifies the servo, Nomoto, Norrbin (two-step) and 3-DOF models,
 validates them against the trials, compares PD and PID course keeping (ITAE), fits the seed 004
 turning-diameter model, and writes ``DIR/models/*.json``, ``DIR/run.json`` and the
-self-contained ``DIR/report.html`` (all atomically). The pipeline is
+self-contained ``DIR/report.html`` (all atomically). A non-empty ``--out`` folder that usvid
+did not create is refused (exit 2) unless ``--force``; the demo never deletes a file it did not
+create. The pipeline is
 :mod:`usvid.demo.pipeline`; ``usvid report DIR`` regenerates the report from ``run.json``.
 """
 
@@ -32,6 +34,10 @@ def register(app: typer.Typer) -> None:
             "--quick", help="Shorter trials and GA (for tests; the acceptance numbers are for "
                             "the full demo).")] = False,
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+        force: Annotated[bool, typer.Option(
+            "--force", help="Write into a non-empty folder that usvid did not create (usvid "
+                            "overwrites only its own file names there and deletes nothing).")
+        ] = False,
     ) -> None:
         """Virtual Lanxin sea trials -> identified, validated models -> report.html."""
         import warnings
@@ -44,7 +50,7 @@ def register(app: typer.Typer) -> None:
             # the estimators warn per trial about interpolated NaN samples of the multi-rate
             # logs; the audit table of the report lists the data issues instead
             warnings.simplefilter("ignore")
-            result = run_demo(out, seed=seed, quick=quick, progress=progress)
+            result = run_demo(out, seed=seed, quick=quick, progress=progress, force=force)
         if as_json:
             run = result.run
             emit_json({

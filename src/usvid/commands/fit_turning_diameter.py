@@ -14,7 +14,7 @@ from typing import Annotated
 
 import typer
 
-from usvid.commands._common import emit_json
+from usvid.commands._common import check_seed, emit_json
 
 
 def register(app: typer.Typer) -> None:
@@ -35,6 +35,7 @@ def register(app: typer.Typer) -> None:
         """Fit Ma et al.'s relative turning diameter D/L(Fr, delta) by CGA and least squares."""
         from usvid.identify.turning_diameter import fit_turning_diameter, load_turning_table
 
+        check_seed(seed)
         Fr, delta, DL = load_turning_table(table, length=length)
         fits = fit_turning_diameter(Fr, delta, DL, seed=seed)
         if json_out:

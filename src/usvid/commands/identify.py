@@ -88,6 +88,12 @@ def _load(paths: list[Path], fmt: str, t_start: float | None = None,
     return out
 
 
+def _spec_files(fmt: str) -> list[Path]:
+    """The format spec's file when ``fmt`` names one (an input the output must not overwrite)."""
+    p = Path(fmt) if fmt else None
+    return [p] if p is not None and p.is_file() else []
+
+
 def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in vessel or []:
@@ -117,6 +123,7 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
                   ) -> dict[str, Any]:
     """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``).
     Logs are ``LOG`` or ``LOG:T0:T1`` (:func:`usvid.commands._logs.parse_log_arg`)."""
+    from usvid.files import check_outputs
     from usvid.identify.estimator import ModelEstimator
     from usvid.identify.validate import validation_table
     from usvid.identify.validation import validate_model
@@ -124,6 +131,8 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
 
     if not logs:
         raise UsvidError("identify: give at least one LOG")
+    inputs = [*logs, *(validate or []), *(turning or []), *_spec_files(fmt)]
+    check_outputs([out], inputs)  # before any work: never overwrite an input
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
                          norrbin=norrbin, particulars=_particulars(x_l, vessel))
     trials = _load(logs, fmt, t_start, t_end)
@@ -159,7 +168,7 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
 
         if "validation" in summary:
             est.model_.identification["validation"] = json.loads(to_json(summary["validation"]))
-        save_model(est.model_, out)
+        save_model(est.model_, out, inputs=inputs)
     return summary
 
 

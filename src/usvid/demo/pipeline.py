@@ -45,7 +45,7 @@ from usvid.control.design import design_autopilot
 from usvid.demo.analysis import course_keeping, turning_diameter_fit, validate_against
 from usvid.demo.campaign import generate_campaign, read_campaign_trial
 from usvid.errors import UsvidError
-from usvid.files import to_json, write_atomic
+from usvid.files import claim_output_dir, move_into, to_json, write_atomic
 from usvid.identify.estimator import identify
 from usvid.identify.servo import identify_second_order_servo
 from usvid.io.modelfile import save_model
@@ -185,16 +185,14 @@ class DemoPipeline:
     # -- 1. campaign -------------------------------------------------------------------------
     def step_campaign(self) -> str:
         logs = self.out / "logs"
-        self.out.mkdir(parents=True, exist_ok=True)
+        # generated in a temporary folder of its own, then moved into logs/ file by file: files
+        # of logs/ with other names (the user's) are never deleted or modified
         tmp = Path(tempfile.mkdtemp(prefix=".logs.", suffix=".tmp", dir=self.out))
         try:
             camp = generate_campaign(tmp, seed=self.seed, quick=self.quick)
-            if logs.exists():
-                shutil.rmtree(logs)
-            os.replace(tmp, logs)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
+            move_into(tmp, logs)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)  # only the temporary folder it created
         camp.relocate(tmp, logs)
         self.state["campaign"] = camp
         self.run["vessel"] = camp.vessel
@@ -557,6 +555,16 @@ def print_summary(result: DemoResult) -> None:
 
 
 def run_demo(out: str | Path = "demo-out", seed: int = 1, quick: bool = False,
-             progress: bool = False) -> DemoResult:
-    """Run the whole demo into ``out``; returns a :class:`DemoResult` (see module docstring)."""
-    return DemoPipeline(Path(out), seed=seed, quick=quick, progress=progress).execute()
+             progress: bool = False, force: bool = False) -> DemoResult:
+    """Run the whole demo into ``out``; returns a :class:`DemoResult` (see module docstring).
+
+    ``seed``: 0 <= seed < 2**32. ``out`` is claimed with :func:`usvid.files.claim_output_dir`:
+    a non-empty folder that usvid did not create is refused unless ``force``; nothing the demo
+    did not create is ever deleted. Raises :class:`UsvidError` before writing anything when
+    ``seed`` or ``out`` is unusable.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not (
+            0 <= int(seed) < 2**32):
+        raise UsvidError(f"--seed must be an integer in 0 .. {2**32 - 1} (got {seed!r})")
+    out = claim_output_dir(out, force=force, command="usvid demo")
+    return DemoPipeline(Path(out), seed=int(seed), quick=quick, progress=progress).execute()

@@ -63,6 +63,7 @@ from usvid.models.registry import get as get_kind
 from usvid.models.registry import names as kind_names
 from usvid.models.servo import IdealServo
 from usvid.prep import prepare, resample
+from usvid.prep.segments import MIN_SEGMENT_S, split_at_breaks, time_breaks
 from usvid.sim.replay import Windows, make_windows, replay_windows
 from usvid.trial import Trial, Vessel
 
@@ -111,6 +112,33 @@ def pwm_commands(tr: Trial) -> Trial:
         data["n_stbd"] = data["pwm_stbd"]
         tr = tr.with_data(data, meta={**tr.meta, "commands_from": "pwm"})
     return tr
+
+
+def split_discontinuities(trials: Sequence[Trial]) -> list[Trial]:
+    """Trials cut at the time discontinuities their reader found (clock resets, forward jumps;
+    :func:`usvid.prep.segments.split_at_breaks`), so that no fit runs across one; says so in an
+    :class:`IdentificationWarning` per trial. Raises :class:`IdentificationError` when no
+    segment is long enough to identify from."""
+    out = []
+    for tr in trials:
+        segs, dropped = split_at_breaks(tr)
+        if len(segs) == 1 and not dropped:
+            out.append(tr)
+            continue
+        tb = time_breaks(tr)
+        desc = ", ".join(f"{b['kind'].replace('_', ' ')} {b['step_s']:+.3g} s at t = "
+                         f"{b['t']:.2f} s" for b in tb[:3]) + (", ..." if len(tb) > 3 else "")
+        if not segs:
+            raise IdentificationError(
+                f"trial {tr.name or '?'}: {len(tb)} time discontinuit(ies) ({desc}) leave no "
+                f"segment of at least {MIN_SEGMENT_S:g} s to identify from")
+        warnings.warn(
+            f"TIME DISCONTINUITY in trial {tr.name or '?'}: {desc}; identified on its "
+            f"{len(segs)} segment(s) separately, never across a break"
+            + (f" ({len(dropped)} segment(s) shorter than {MIN_SEGMENT_S:g} s left out)"
+               if dropped else ""), IdentificationWarning, stacklevel=3)
+        out.extend(segs)
+    return out
 
 
 def one_grid(trials: Sequence[Trial]) -> list[Trial]:
@@ -384,10 +412,11 @@ class ModelEstimator(FittedAttributes):
         """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list); returns
         self. ``turning``: extra turning trials for the two-step Norrbin fit."""
         kind = self.kind_
-        trials = one_grid(_as_list(trials))
+        trials = one_grid(split_discontinuities(_as_list(trials)))
         if not trials:
             raise IdentificationError("no trials given")
-        turning = one_grid(_as_list(turning)) if turning is not None else []
+        turning = (one_grid(split_discontinuities(_as_list(turning))) if turning is not None
+                   else [])
         fixed = self._fixed(trials)
         series = self._series(trials, fixed)
         tseries = self._series(turning, fixed) if turning else []

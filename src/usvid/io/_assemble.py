@@ -15,6 +15,7 @@ Shared by every reader, so that all of them treat bad records the same way:
 
 from __future__ import annotations
 
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,18 @@ import pandas as pd
 from usvid.errors import LogReadError
 from usvid.io.spec import FormatSpec
 from usvid.trial import Finding, Trial, Vessel
+
+#: Largest time stamp accepted [s]: epoch seconds up to the year 5138 (a larger prefix or stamp
+#: is no time, and would overflow a date).
+MAX_EPOCH_S = 1e11
+
+
+def utc_iso(t: float) -> str | None:
+    """ISO 8601 UTC date-time of epoch seconds ``t`` [s]; None when ``t`` is no date."""
+    try:
+        return datetime.fromtimestamp(t, tz=UTC).isoformat()
+    except (OverflowError, OSError, ValueError):
+        return None
 
 
 def read_log_bytes(path: Path, limit: int = -1) -> bytes:
@@ -48,6 +61,60 @@ def check_log_file(path: Path) -> None:
         raise LogReadError(f"{path}: no such file")
     if path.stat().st_size == 0:
         raise LogReadError(f"{path}: empty file")
+
+
+#: Excel's own limits: rows and columns of a worksheet.
+XLSX_MAX_ROW, XLSX_MAX_COL = 1_048_576, 16_384
+#: Largest uncompressed worksheet accepted [bytes] and largest compression ratio (zip bombs).
+XLSX_MAX_BYTES, XLSX_MAX_RATIO = 2_000_000_000, 1000
+
+
+def check_xlsx_bounds(path: Path) -> None:
+    """Refuse a workbook whose worksheets claim rows or columns beyond Excel's limits (a 5 kB
+    file with ``<row r="1e308">`` would make a reader allocate gigabytes) or that is a zip bomb.
+
+    Raises :class:`LogReadError` naming the file, the sheet part and the bad reference. Files
+    that are not zip archives are left to the reader (its own one-line error).
+    """
+    import re
+    import zipfile
+
+    try:
+        zf = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return
+    row_re = re.compile(rb'<(?:\w+:)?row\b[^>]*?\sr="([^"]*)"')
+    cell_re = re.compile(rb'<(?:\w+:)?c\b[^>]*?\sr="([A-Za-z]*)([^"]*)"')
+    with zf:
+        for info in zf.infolist():
+            if not info.filename.startswith("xl/worksheets/"):
+                continue
+            ratio = info.file_size / max(info.compress_size, 1)
+            if info.file_size > XLSX_MAX_BYTES or ratio > XLSX_MAX_RATIO:
+                raise LogReadError(f"{path}: {info.filename} unpacks to {info.file_size} bytes "
+                                   f"(ratio {ratio:.0f}); at most {XLSX_MAX_BYTES} bytes and "
+                                   f"ratio {XLSX_MAX_RATIO}")
+            try:
+                data = zf.read(info)
+            except Exception as exc:  # zipfile raises many kinds on a corrupt member
+                raise LogReadError(f"{path}: {info.filename} cannot be unpacked "
+                                   f"({type(exc).__name__})") from None
+            for m in row_re.finditer(data):
+                v = m.group(1)
+                if not v.isdigit() or not 1 <= int(v) <= XLSX_MAX_ROW:
+                    ref = v[:30].decode(errors="replace")
+                    raise LogReadError(f"{path}: {info.filename}: row r=\"{ref}\" is not a row "
+                                       f"number 1..{XLSX_MAX_ROW}")
+            for m in cell_re.finditer(data):
+                col, row = m.group(1), m.group(2)
+                ncol = 0
+                for ch in col.upper()[:4]:
+                    ncol = ncol * 26 + (ch - 64)
+                if (not row.isdigit() or not 1 <= int(row) <= XLSX_MAX_ROW or len(col) > 3
+                        or ncol > XLSX_MAX_COL):
+                    ref = (col + row)[:30].decode(errors="replace")
+                    raise LogReadError(f"{path}: {info.filename}: cell r=\"{ref}\" is beyond "
+                                       f"Excel's {XLSX_MAX_ROW} rows x {XLSX_MAX_COL} columns")
 
 
 def ignored_finding(path: Path, code: str, what: str, ignored: dict, *,
@@ -104,7 +171,12 @@ def assemble(
         detail = ", ".join(f"{k}: {n}" for k, n in rejected.items()) or "no data records"
         raise LogReadError(f"{path}: no usable records ({detail})")
 
-    # time going backwards
+    # isolated bad stamps, clock resets and forward jumps (time integrity)
+    t, chans, breaks = _time_integrity(path, t, chans, rejected, findings)
+    if breaks:
+        meta = {**(meta or {}), "time_breaks": breaks}
+
+    # time going backwards (small steps: jitter, records written slightly out of order)
     if len(t) > 1:
         runmax = np.maximum.accumulate(t)
         late = np.r_[False, t[1:] < runmax[:-1]]
@@ -157,6 +229,130 @@ def assemble(
         meta={"reader": spec.reader if spec else None, "spec": spec.source if spec else None,
               **(meta or {})},
     )
+
+
+#: A time step is a jump (clock reset backwards, or a jump forwards) when it exceeds
+#: ``max(JUMP_STEPS * median step, JUMP_MIN_S)``; smaller backward steps are jitter, left to the
+#: spec's ``non_monotonic`` policy.
+JUMP_STEPS, JUMP_MIN_S = 10.0, 1.0
+#: Records compared with their neighbours to find an isolated bad stamp (a running median of
+#: this many records; up to (BAD_STAMP_WINDOW - 1) / 2 consecutive bad stamps are found).
+BAD_STAMP_WINDOW = 5
+
+
+def jump_threshold(t: np.ndarray) -> float:
+    """The step [s] beyond which a time step of ``t`` [s] is a jump (see ``JUMP_STEPS``)."""
+    d = np.diff(t)
+    d = d[d > 0]
+    med = float(np.median(d)) if len(d) else 0.0
+    return max(JUMP_STEPS * med, JUMP_MIN_S)
+
+
+def bad_stamps(t: np.ndarray) -> np.ndarray:
+    """Mask of isolated bad time stamps in ``t`` [s] (records in log order): stamps farther
+    than the jump threshold from the running median of their ``BAD_STAMP_WINDOW`` neighbours,
+    while those neighbours agree with each other. A clock reset (a lasting step) is not a bad
+    stamp: on either side of it the running median follows the records.
+    """
+    n = len(t)
+    if n < BAD_STAMP_WINDOW:
+        return np.zeros(n, dtype=bool)
+    h = BAD_STAMP_WINDOW // 2
+    pad = np.r_[np.full(h, t[0]), t, np.full(h, t[-1])]
+    med = np.median(np.lib.stride_tricks.sliding_window_view(pad, BAD_STAMP_WINDOW), axis=1)
+    return np.abs(t - med) > jump_threshold(t)
+
+
+def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
+                    rejected: dict[str, int], findings: list[Finding]
+                    ) -> tuple[np.ndarray, dict[str, np.ndarray], list[dict]]:
+    """Isolated bad stamps -> re-timed between their neighbours (a warning finding counts
+    them; the log is not reordered); clock resets
+    (a step back beyond the jump threshold) -> the later records continue the clock one median
+    step after the last record before the reset; forward jumps kept as they are. Every reset
+    and jump is returned as a time break ``{"t", "t_before", "kind", "step_s", "record"}``
+    (``t`` [s]: the first time of the new segment, after the repair; ``t_before`` [s]: the last
+    time before the break) and named in a warning finding.
+    """
+    if len(t) < 3:
+        return t, chans, []
+    bad = bad_stamps(t)
+    rec = np.arange(len(t))
+    if bad.any():
+        # the record is good, its stamp is not: re-time it between its neighbours (by record
+        # position; within one sample step of the truth), so the log is not reordered
+        idx = np.flatnonzero(bad)
+        good = np.flatnonzero(~bad)
+        t0 = float(t[idx[0]])
+        t = t.copy()
+        t[idx] = np.interp(idx.astype(float), good.astype(float), t[good])
+        findings.append(Finding(
+            "warning", "bad_time_stamp",
+            f"{path.name}: {len(idx)} isolated record(s) with a time stamp out of line with "
+            f"their neighbours (first at record {int(idx[0])}, stamped {t0:.3f} s, re-timed "
+            f"{float(t[idx[0]]):.3f} s); each was re-timed between its neighbours",
+            count=len(idx), data={"records": [int(i) for i in idx[:20]]}))
+    thr = jump_threshold(t)
+    d = np.diff(t)
+    jumps = np.flatnonzero((d < -thr) | (d > thr))
+    if not len(jumps):
+        return t, chans, []
+    pos = d[d > 0]
+    med = float(np.median(pos)) if len(pos) else 0.0
+    t = t.copy()
+    breaks = []
+    repaired = []
+    for j in jumps:
+        step = float(t[j + 1] - t[j])  # after earlier repairs
+        kind = "clock_reset" if step < 0 else "forward_jump"
+        if step < 0:
+            t[j + 1:] += (t[j] + med) - t[j + 1]
+            if _continuous(chans, j):  # only the clock jumped: the repair is exact
+                repaired.append({"record": int(rec[j + 1]), "step_s": step})
+                continue
+        breaks.append({"t": float(t[j + 1]), "t_before": float(t[j]), "kind": kind,
+                       "step_s": step, "record": int(rec[j + 1])})
+    if repaired:
+        desc = "; ".join(f"{r['step_s']:+.3f} s at record {r['record']}" for r in repaired[:3])
+        more = ", ..." if len(repaired) > 3 else ""
+        findings.append(Finding(
+            "warning", "clock_reset_repaired",
+            f"{path.name}: {len(repaired)} clock reset(s) ({desc}{more})"
+            " with every channel continuous across them: the clock continues one sample step "
+            "later (no data lost)", count=len(repaired)))
+    if not breaks:
+        return t, chans, []
+    desc = "; ".join(f"{b['kind'].replace('_', ' ')} of {b['step_s']:+.3f} s at record "
+                     f"{b['record']}" for b in breaks[:3])
+    findings.append(Finding(
+        "warning", "time_discontinuity",
+        f"{path.name}: {len(breaks)} time discontinuit{'y' if len(breaks) == 1 else 'ies'} "
+        f"({desc}{', ...' if len(breaks) > 3 else ''}); the log is split into "
+        f"{len(breaks) + 1} segments there (meta['time_breaks']; clock resets continue the "
+        "clock one sample step later); identification fits each segment separately",
+        count=len(breaks)))
+    return t, chans, breaks
+
+
+def _continuous(chans: dict[str, np.ndarray], j: int, n: int = 3, factor: float = 4.0) -> bool:
+    """True when every channel with samples on both sides of the step between records ``j``
+    and ``j + 1`` changes across it by at most ``factor`` times its largest change between the
+    ``n`` samples on either side (a clock that jumped, no data lost). At least one channel
+    must show it."""
+    seen = False
+    for v in chans.values():
+        before = v[max(0, j - 4 * n):j + 1]
+        after = v[j + 1:j + 1 + 4 * n]
+        before = before[np.isfinite(before)][-n:]
+        after = after[np.isfinite(after)][:n]
+        if len(before) < 2 or len(after) < 2:
+            continue
+        typical = max(np.max(np.abs(np.diff(before))), np.max(np.abs(np.diff(after))))
+        scale = max(np.max(np.abs(before)), np.max(np.abs(after)), 1.0)
+        if abs(after[0] - before[-1]) > factor * typical + 1e-9 * scale:
+            return False
+        seen = True
+    return seen
 
 
 def apply_renames(chans: dict[str, np.ndarray], spec: FormatSpec | None) -> dict[str, np.ndarray]:

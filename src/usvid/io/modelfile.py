@@ -30,6 +30,7 @@ one-line message names the file and the field, e.g.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import typing
@@ -41,7 +42,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
 from usvid.errors import ModelFileError, UsvidError
-from usvid.files import jsonable, write_atomic
+from usvid.files import jsonable, load_json_text, write_atomic
 from usvid.models import registry
 from usvid.models.model import VesselModel
 from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo
@@ -78,6 +79,10 @@ class _Servo(BaseModel):
     max_rate_deg_s: Pos | None = None
 
 
+#: Longest servo dead time accepted [s].
+MAX_SERVO_DELAY_S = 3600.0
+
+
 class IdealServoSpec(_Servo):
     kind: Literal["ideal"]
 
@@ -92,7 +97,8 @@ class SecondOrderServoSpec(_Servo):
     omega_n: Pos
     zeta: NonNeg
     gain: Pos = 1.0
-    delay: NonNeg = 0.0
+    # a dead time beyond an hour is no servo (and would need an hour of samples per run)
+    delay: Annotated[float, Field(ge=0, le=MAX_SERVO_DELAY_S, allow_inf_nan=False)] = 0.0
 
 
 ServoSpec = Annotated[
@@ -261,9 +267,10 @@ def _snake(name: str) -> str:
     return "".join(out)
 
 
+@functools.cache
 def _dataclass_params_model(cls: type, name: str) -> type[BaseModel]:
     """A strict pydantic model with one field per dataclass init field (numbers, strings,
-    booleans, lists of numbers, or nested ``{"kind": ...}`` objects)."""
+    booleans, lists of numbers, or nested ``{"kind": ...}`` objects); built once per class."""
     fields: dict[str, Any] = {}
     for f in dataclasses.fields(cls):
         if not f.init or f.name.startswith("_"):
@@ -310,7 +317,7 @@ def _build_nested(obj: Any, where: str, source: str) -> Any:
         return obj
     classes = _nested_classes()
     kind = obj.get("kind")
-    if kind not in classes:
+    if not isinstance(kind, str) or kind not in classes:
         raise ModelFileError(f"{source}: {where}.kind must be one of "
                              f"{', '.join(sorted(classes))} (got {_show(kind)})")
     cls = classes[kind]
@@ -466,6 +473,10 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     return out
 
 
+#: Largest model file accepted [characters] (identification metadata included; ~10 kB usual).
+MAX_MODEL_CHARS = 50_000_000
+
+
 def load_model(path: str | Path) -> Any:
     """Read and validate a model file; returns a :class:`usvid.models.model.VesselModel`.
 
@@ -480,18 +491,23 @@ def load_model(path: str | Path) -> Any:
         raise ModelFileError(f"{path}: model file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelFileError(f"{path}: cannot read model file ({exc})") from None
+    if len(text) > MAX_MODEL_CHARS:
+        raise ModelFileError(f"{source}: {len(text)} characters; a model file has at most "
+                             f"{MAX_MODEL_CHARS}")
     try:
-        # NaN / Infinity literals are not JSON: report them as a bad value of their field below
-        d = json.loads(text, parse_constant=lambda c: float(c.replace("Infinity", "inf")))
-    except json.JSONDecodeError as exc:
-        raise ModelFileError(f"{source} line {exc.lineno} column {exc.colno}: not valid JSON "
-                             f"({exc.msg})") from None
+        # bounded nesting and integer size (usvid.files); NaN / Infinity literals are not JSON:
+        # report them as a bad value of their field below
+        d = load_json_text(text, source,
+                           parse_constant=lambda c: float(c.replace("Infinity", "inf")))
+    except UsvidError as exc:
+        raise ModelFileError(str(exc)) from None
     return model_from_dict(d, source=source)
 
 
-def save_model(model: Any, path: str | Path) -> Path:
+def save_model(model: Any, path: str | Path, *, inputs: Any = ()) -> Path:
     """Write ``model`` (a ``VesselModel``) as a model file, atomically. Returns the path.
-    The one writer of model files (the CLI and the estimator's ``to_dict`` use it)."""
+    The one writer of model files (the CLI and the estimator's ``to_dict`` use it).
+    ``inputs``: paths the model file must not overwrite (:func:`usvid.files.check_outputs`)."""
     d = model_to_dict(model)
     text = json.dumps(d, indent=2, allow_nan=False) + "\n"
-    return write_atomic(path, text)
+    return write_atomic(path, text, inputs=inputs)

@@ -35,14 +35,21 @@ from __future__ import annotations
 
 import math
 import re
-from datetime import UTC, datetime
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 
 from usvid.errors import LogReadError
 from usvid.files import write_atomic
-from usvid.io._assemble import apply_renames, assemble, ignored_finding, read_log_bytes
+from usvid.io._assemble import (
+    MAX_EPOCH_S,
+    apply_renames,
+    assemble,
+    ignored_finding,
+    read_log_bytes,
+    utc_iso,
+)
 from usvid.io.spec import FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
@@ -156,7 +163,7 @@ def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
             stamp = float(m.group(1))
         except ValueError:
             stamp = math.nan
-        if not math.isfinite(stamp):
+        if not (math.isfinite(stamp) and abs(stamp) <= MAX_EPOCH_S):
             rej("no_time", lineno)
             continue
         can_id = int(m.group(3), 16)
@@ -220,7 +227,7 @@ def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     chans = {k: v for k, v in chans.items() if np.isfinite(v).any()}
     t0 = float(np.nanmin(t_abs))
     meta["t0_epoch"] = t0
-    meta["t0_utc"] = datetime.fromtimestamp(t0, tz=UTC).isoformat()
+    meta["t0_utc"] = utc_iso(t0)
     chans = apply_renames(chans, spec)
     return assemble(
         path,

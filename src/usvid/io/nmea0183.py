@@ -49,7 +49,15 @@ import numpy as np
 
 from usvid.errors import LogReadError
 from usvid.files import write_atomic
-from usvid.io._assemble import apply_renames, assemble, ignored_finding, read_log_bytes
+from usvid.io._assemble import (
+    MAX_EPOCH_S,
+    apply_renames,
+    assemble,
+    bad_stamps,
+    ignored_finding,
+    read_log_bytes,
+    utc_iso,
+)
 from usvid.io.spec import FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
@@ -148,7 +156,7 @@ def _prefix_time(p: bytes) -> float:
         return math.nan
     try:
         v = float(s)
-        return v if math.isfinite(v) else math.nan
+        return v if math.isfinite(v) and abs(v) <= MAX_EPOCH_S else math.nan
     except ValueError:
         pass
     try:
@@ -622,6 +630,18 @@ def read_nmea0183(
             j = int(dated[0])
             base = float(day[j] - (tod_u[j] - tod[j]))
         # seconds of day (roll-overs unwrapped), interpolated by line position where absent
+        # an isolated GGA/RMC time out of line with its neighbours is a bad stamp: the record
+        # is timed by line position between the good ones, like the sentences without a time
+        order = np.argsort(line_no[have], kind="stable")
+        bad = np.zeros(n, dtype=bool)
+        bad[np.flatnonzero(have)[order[bad_stamps(tod_u[have][order])]]] = True
+        if bad.any():
+            findings.append(Finding(
+                "warning", "bad_time_stamp",
+                f"{path.name}: {int(bad.sum())} GGA/RMC time(s) out of line with their "
+                f"neighbours (first on line {int(line_no[bad][0]) + 1}); each was re-timed "
+                "between its neighbours", count=int(bad.sum())))
+            have &= ~bad
         tt = tod_u[have]
         ln = line_no[have]
         order = np.argsort(ln, kind="stable")
@@ -641,13 +661,13 @@ def read_nmea0183(
     notime = ~np.isfinite(t_rel)
     if notime.any():
         rejected["no_time"] = rejected.get("no_time", 0) + int(notime.sum())
-    ok = ~notime
+    ok = np.isfinite(t_rel)
     if not ok.any():
         raise LogReadError(f"{path}: no sentence with a usable time ({n} sentences)")
     rel0 = float(np.min(t_rel[ok]))
     t0 = base + rel0
     if has_date:
-        meta["t0_utc"] = datetime.fromtimestamp(t0, tz=UTC).isoformat()
+        meta["t0_utc"] = utc_iso(t0)
         meta["t0_epoch"] = t0
     else:
         meta["t0_time_of_day_s"] = t0

@@ -74,9 +74,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from usvid.errors import FormatSpecError
+from usvid.errors import FormatSpecError, UsvidError
+from usvid.files import load_yaml_text
 from usvid.io import units as _units
 from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Vessel
 
@@ -186,7 +185,15 @@ class FormatSpec:
         return any(isinstance(c.col, str) for c in self.columns.values())
 
 
+#: Codecs that are text codecs to Python but not encodings of a text file (IDNA host names,
+#: escape sequences, the codec that refuses everything).
+NOT_FILE_ENCODINGS = frozenset({"idna", "punycode", "undefined", "unicode-escape",
+                                "raw-unicode-escape", "unicode_escape", "raw_unicode_escape"})
+
+
 def _err(source: str, where: str, msg: str) -> FormatSpecError:
+    if len(msg) > 300:  # a value echoed in the message may be huge (hostile YAML)
+        msg = msg[:300] + "..."
     return FormatSpecError(f"{source}: {where}: {msg}" if where else f"{source}: {msg}")
 
 
@@ -366,7 +373,7 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
     only("n2k_format", ("nmea2000",))
 
     delim = d.get("delimiter", "whitespace")
-    if delim not in DELIMITERS:
+    if not isinstance(delim, str) or delim not in DELIMITERS:
         raise _err(
             source, "delimiter", f"expected whitespace, ',', ';' or '\\t', got {delim!r}"
         )
@@ -385,9 +392,12 @@ def parse_spec(d: Any, source: str = "<spec>") -> FormatSpec:
     import codecs
 
     try:
-        codecs.lookup(encoding)
-    except LookupError:
+        info = codecs.lookup(encoding)
+    except (LookupError, ValueError, TypeError):
         raise _err(source, "encoding", f"unknown text encoding {encoding!r}") from None
+    if not getattr(info, "_is_text_encoding", True) or info.name in NOT_FILE_ENCODINGS:
+        raise _err(source, "encoding", f"{encoding!r} is not a text encoding of files (e.g. "
+                                       "utf-8, cp1252, latin-1)")
     sheet = d.get("sheet", 0)
     if isinstance(sheet, bool) or not isinstance(sheet, int | str):
         raise _err(source, "sheet", f"expected a sheet name or 0-based index, got {sheet!r}")
@@ -483,8 +493,13 @@ def _variants(d: dict, reader: str, source: str) -> dict[str, FormatSpec]:
     return out
 
 
+#: Largest format spec file accepted [characters] (the shipped ones are about 2 kB).
+MAX_SPEC_BYTES = 1_000_000
+
+
 def load_spec(path: str | Path) -> FormatSpec:
-    """Read and validate a trial format spec (YAML, ``yaml.safe_load`` only).
+    """Read and validate a trial format spec (YAML, ``yaml.SafeLoader`` only, with bounds on
+    size, nesting and alias expansion: :func:`usvid.files.load_yaml_text`).
 
     Raises :class:`FormatSpecError` for an unreadable file, bad YAML or any schema violation.
     """
@@ -495,13 +510,14 @@ def load_spec(path: str | Path) -> FormatSpec:
         raise FormatSpecError(f"{p}: cannot read format spec ({exc.strerror or exc})") from None
     except UnicodeDecodeError:
         raise FormatSpecError(f"{p}: format spec is not UTF-8 text") from None
+    if len(text) > MAX_SPEC_BYTES:
+        raise FormatSpecError(f"{p}: {len(text)} characters; a format spec has at most "
+                              f"{MAX_SPEC_BYTES}")
     try:
-        d = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or "invalid YAML"
-        raise FormatSpecError(f"{p}:{where} {problem}") from None
+        # yaml.SafeLoader with bounds on nesting and alias expansion (usvid.files)
+        d = load_yaml_text(text, str(p))
+    except UsvidError as exc:
+        raise FormatSpecError(str(exc)) from None
     return parse_spec(d, source=p.name)
 
 

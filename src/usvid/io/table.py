@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import FormatSpecError, LogReadError
-from usvid.io._assemble import assemble, check_log_file, read_log_bytes
+from usvid.io._assemble import assemble, check_log_file, check_xlsx_bounds, read_log_bytes
 from usvid.io.spec import ColumnSpec, FormatSpec
 from usvid.io.units import DATETIME
 from usvid.trial import Finding, Trial
@@ -244,6 +244,7 @@ def read_excel(path: str | Path, spec: FormatSpec) -> Trial:
     path = Path(path)
     check_log_file(path)
     header = spec.header if spec.header is not None else True
+    check_xlsx_bounds(path)  # row/column references within Excel's limits, no zip bomb
     try:
         xl = pd.ExcelFile(path, engine="openpyxl")
     except Exception as exc:  # openpyxl raises many kinds on a non-workbook

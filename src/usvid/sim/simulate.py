@@ -31,6 +31,8 @@ _BASE_CHANNELS = ("x", "y", "psi", "u", "v", "r", "U", "delta", "delta_cmd")
 #: Largest number of (lanes x recorded samples) one call may allocate (about 4 GB of float64
 #: per recorded channel set would be far beyond a useful run).
 MAX_RECORD = 5e8
+#: Most integration steps of one run (t_end / dt): 2e7 steps are 4.6 days at 0.02 s.
+MAX_STEPS = 2e7
 
 
 def _arr(v: Any) -> np.ndarray:
@@ -179,7 +181,13 @@ class Lanes:
         Dq = np.zeros((2, B)) if self.Dq is None else np.asarray(self.Dq, dtype=float)
         if Dq.shape[0] == 2:
             Dq = np.vstack([Dq, np.arange(B, dtype=float)[None, :]])
-        qcap = int(np.ceil(float(np.max(self.S[5], initial=0.0)) / self.dt)) + 3
+        qlen = float(np.max(self.S[5], initial=0.0)) / self.dt
+        if not qlen <= MAX_STEPS:
+            raise SimulationError(
+                f"the servo dead time {float(np.max(self.S[5])):.4g} s at dt = {self.dt:.4g} s "
+                f"needs a queue of {qlen:.4g} samples per run ({B * qlen * 16 / 1e9:.3g} GB); "
+                "use a larger dt")
+        qcap = int(np.ceil(qlen)) + 3
         acc = np.zeros((B, 3))
         zz = np.empty((B, core.N_ZZ))
         zzt = np.empty((B, core.N_ZZ + 1))
@@ -276,7 +284,13 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         raise SimulationError(f"simulate: record_every must be an integer >= 1 "
                               f"(got {record_every!r})")
     record_every = int(record_every)
-    nsteps = int(round(t_end / dt))
+    steps = t_end / dt
+    if steps > MAX_STEPS:
+        raise SimulationError(
+            f"simulate: t_end / dt = {steps:.4g} steps (at most {MAX_STEPS:.0f}); the step grid "
+            f"and input series alone would need {steps * 8 * 8 / 1e9:.3g} GB; use a larger dt "
+            "or a shorter t_end")
+    nsteps = int(round(steps))
     if nsteps < 1:
         raise SimulationError(f"simulate: t_end={t_end} is shorter than one step dt={dt}")
     kind = kind_of(model.dynamics)

@@ -1,0 +1,279 @@
+"""Interrupted and concurrent runs: SIGINT and SIGKILL at random moments of ``usvid identify
+--out`` and ``usvid demo --quick`` never leave a file under a final name that does not parse;
+Ctrl-C exits 130; concurrent writers of one output leave one complete file; two processes
+compiling into a fresh numba cache both succeed.
+
+The kill tests fork the test process (modules imported, kernels compiled) and run the CLI's
+``main`` in the child, so each run costs the command, not an interpreter start; the signal and
+the files on disk are the same as for a separate process. The demo runs a one-manoeuvre
+campaign with the analysis steps skipped: every kind of file it writes (logs moved into
+``logs/``, format specs, ``run.json``, ``report.html``) is written as in the full demo.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numba.np.ufunc.parallel as numba_parallel
+import numpy as np
+import pytest
+
+import usvid.commands.demo  # noqa: F401  (imported before forking: children start fast)
+from usvid.cli import main
+from usvid.demo import campaign, pipeline
+from usvid.io.modelfile import load_model, model_to_dict
+from usvid.io.writers import write_csv
+from usvid.sim import run_zigzag
+
+REPO = Path(__file__).resolve().parents[1]
+EXAMPLES = REPO / "examples"
+N_KILLS = 10
+
+
+@pytest.fixture(scope="module")
+def log(tmp_path_factory) -> tuple[Path, Path]:
+    d = tmp_path_factory.mktemp("log")
+    res, _ = run_zigzag(load_model(EXAMPLES / "lanxin.json"), 10.0, 10.0, t_end=60.0, dt=0.02)
+    write_csv(res.to_trial(), d / "log.csv", spec_path=d / "spec.yaml")
+    return d / "log.csv", d / "spec.yaml"
+
+
+def _fork_run(argv: list[str], setup=None) -> int:
+    """Fork a child that runs ``usvid ARGV`` in process and exits with its code."""
+    pid = os.fork()
+    if pid == 0:  # child
+        code = 1
+        try:
+            try:  # the harness, before the command: an interrupt here is not usvid's
+                # numba guards its threading-layer start with a multiprocessing lock created at
+                # import; forked siblings share the parent's, and a sibling killed while holding
+                # it would block the next ones forever. A separate process has its own: so
+                # does this child.
+                numba_parallel._backend_init_process_lock = multiprocessing.RLock()
+                signal.signal(signal.SIGINT, signal.default_int_handler)
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, 1)
+                os.dup2(devnull, 2)
+                warnings.simplefilter("ignore")
+                if setup is not None:
+                    setup()
+            except KeyboardInterrupt:
+                code = 130
+                raise
+            code = main(argv)
+        finally:
+            os._exit(code)
+    return pid
+
+
+def _wait(pid: int, timeout: float = 120.0) -> int:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return os.waitstatus_to_exitcode(status)
+        time.sleep(0.01)
+    os.kill(pid, signal.SIGKILL)
+    os.waitpid(pid, 0)
+    raise AssertionError(f"child process {pid} hung")
+
+
+def _timed(argv: list[str], setup=None) -> float:
+    t0 = time.monotonic()
+    assert _wait(_fork_run(argv, setup)) == 0
+    return time.monotonic() - t0
+
+
+def _moments(seed: int, span: float) -> list[float]:
+    rng = np.random.default_rng(seed)
+    return list(rng.uniform(0.0, span, N_KILLS))
+
+
+# ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
+def test_identify_killed_at_random_moments(log, tmp_path, sig) -> None:
+    csv, spec = log
+    out = tmp_path / "m.json"
+    argv = ["identify", str(csv), "--format", str(spec), "--model", "nomoto1", "--method", "oe",
+            "--out", str(out)]
+    span = _timed(argv) * 1.2  # a full run, then kill moments over it (and a little after)
+    out.unlink()
+    codes = []
+    for k, when in enumerate(_moments(int(sig), span)):
+        if k % 2:  # half of the runs overwrite an existing (complete) file
+            out.write_text(json.dumps(model_to_dict(load_model(EXAMPLES / "lanxin.json"))))
+        pid = _fork_run(argv)
+        time.sleep(when)
+        os.kill(pid, sig)
+        code = _wait(pid)
+        codes.append(code)
+        if sig == signal.SIGINT:
+            assert code in (0, 130), code  # interrupted cleanly, or finished first
+        if out.exists():
+            load_model(out)  # complete, whatever the moment
+        assert [p.name for p in tmp_path.iterdir()] in ([], ["m.json"])  # no temporary file
+        if out.exists():
+            out.unlink()
+    assert any(c != 0 for c in codes)  # the signals did interrupt runs
+
+
+def _mini_demo():
+    """Child setup: a one-manoeuvre campaign of 15 s; the analysis steps skipped."""
+    full = campaign.programme
+
+    def one(quick: bool = False):
+        return [replace(m, duration_s=15.0) for m in full(quick) if m.name == "zigzag_10_10"]
+
+    campaign.programme = one
+
+    def skip(self):
+        raise pipeline.Skipped("skipped in the interrupt test")
+
+    for name in ("step_read", "step_audit", "step_identify", "step_validate",
+                 "step_course_keeping", "step_turning_diameter"):
+        setattr(pipeline.DemoPipeline, name, skip)
+
+
+def _check_demo_dir(out: Path, ref: Path) -> None:
+    """Every file under a final name is complete: logs and specs byte-identical to those of the
+    complete reference run (same seed, same bytes), ``run.json`` parses, ``report.html`` ends;
+    temporary names start with a dot."""
+    if not out.exists():
+        return
+    for p in out.rglob("*"):
+        rel = p.relative_to(out)
+        if any(part.startswith(".") for part in rel.parts) or p.is_dir():
+            continue
+        if p.suffix == ".json":
+            json.loads(p.read_text())
+        elif p.suffix == ".html":
+            assert p.read_text().rstrip().endswith("</html>"), p
+        else:
+            assert p.read_bytes() == (ref / rel).read_bytes(), p
+
+
+@pytest.fixture(scope="module")
+def demo_ref(tmp_path_factory) -> tuple[Path, float]:
+    """A complete mini demo run and its duration [s]."""
+    ref = tmp_path_factory.mktemp("demo") / "ref"
+    return ref, _timed(["demo", "--quick", "--out", str(ref)], _mini_demo)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["SIGINT", "SIGKILL"])
+def test_demo_killed_at_random_moments(demo_ref, tmp_path, sig) -> None:
+    ref, duration = demo_ref
+    codes = []
+    for k, when in enumerate(_moments(100 + int(sig), 1.2 * duration)):
+        run = tmp_path / f"run{k}"
+        if k % 2:  # half of the runs regenerate a complete earlier run
+            shutil.copytree(ref, run)
+        pid = _fork_run(["demo", "--quick", "--out", str(run)], _mini_demo)
+        time.sleep(when)
+        os.kill(pid, sig)
+        code = _wait(pid)
+        codes.append(code)
+        if sig == signal.SIGINT:
+            assert code in (0, 130), code
+        _check_demo_dir(run, ref)
+    assert any(c != 0 for c in codes)
+
+
+def test_concurrent_identify_to_one_output(log, tmp_path) -> None:
+    """Three processes write the same model file at once: one complete file remains, and no
+    temporary file."""
+    csv, spec = log
+    out = tmp_path / "m.json"
+    argv = ["identify", str(csv), "--format", str(spec), "--model", "nomoto1", "--out",
+            str(out)]
+    pids = [_fork_run(argv) for _ in range(3)]
+    assert [_wait(p) for p in pids] == [0, 0, 0]
+    load_model(out)
+    assert [p.name for p in tmp_path.iterdir()] == ["m.json"]
+
+
+def test_ctrl_c_exits_130(log, tmp_path) -> None:
+    """A real Ctrl-C (SIGINT to a separate ``usvid`` process) in the middle of a command: exit
+    code 130, one line, no traceback."""
+    csv, spec = log
+    code = ("import signal, sys, time\n"
+            "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+            "from usvid.cli import main\n"
+            "import usvid.identify.estimator as e\n"
+            "orig = e.ModelEstimator.fit\n"
+            "def slow(self, *a, **k):\n"
+            "    print('fitting', flush=True); time.sleep(60)\n"
+            "e.ModelEstimator.fit = slow\n"
+            f"sys.exit(main(['identify', {str(csv)!r}, '--format', {str(spec)!r}, '--model', "
+            f"'nomoto1', '--out', {str(tmp_path / 'm.json')!r}]))\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=REPO)
+    try:
+        assert proc.stdout.readline().strip() == b"fitting"
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130
+    assert err.decode().strip() == "usvid: interrupted"
+    assert not (tmp_path / "m.json").exists()
+
+
+NUMBA_MODULE = """
+import numba, sys
+
+@numba.njit(cache=True)
+def f(x):
+    s = 0.0
+    for i in range(x.shape[0]):
+        s += x[i] * x[i]
+    return s
+
+import numpy as np
+print(f(np.arange(10.0)))
+"""
+
+
+def test_two_processes_compile_into_a_fresh_numba_cache_small(tmp_path) -> None:
+    """The mechanism of the integration core's disk cache (``numba.njit(cache=True)``), on a
+    small function: two processes compiling into an empty cache at once both succeed, and the
+    index they leave is used by a third."""
+    (tmp_path / "mod.py").write_text(NUMBA_MODULE)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    argv = [sys.executable, str(tmp_path / "mod.py")]
+    procs = [subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+             for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], [o[1].decode()[-2000:] for o in outs]
+    assert [o[0].strip() for o in outs] == [b"285.0", b"285.0"]
+    assert any((tmp_path / "cache").rglob("*.nbi"))
+    third = subprocess.run(argv, capture_output=True, env=env, timeout=300)
+    assert third.returncode == 0 and third.stdout.strip() == b"285.0"
+
+
+@pytest.mark.skipif(not os.environ.get("USVID_HEAVY_TESTS"),
+                    reason="compiles the whole integration core twice (about a minute on 2 "
+                           "cores); set USVID_HEAVY_TESTS=1")
+def test_two_processes_compile_into_a_fresh_numba_cache(tmp_path) -> None:
+    """Two processes compile the integration core for the same kind into an empty numba cache
+    at the same time; both succeed with the same result."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONWARNINGS": "ignore"}
+    argv = [sys.executable, "-m", "usvid.cli", "simulate", "zigzag",
+            str(EXAMPLES / "lanxin.json"), "--t-end", "30", "--json"]
+    procs = [subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env,
+                              cwd=REPO) for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], [o[1].decode()[-2000:] for o in outs]
+    a, b = (json.loads(o[0]) for o in outs)
+    assert a == b
+    assert any((tmp_path / "cache").rglob("*.nbi"))  # the index files were written
