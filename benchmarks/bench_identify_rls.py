@@ -1,7 +1,7 @@
 """Benchmark: recursive least squares over 180k samples (target <= 0.5 s; printed, not asserted).
 
-180k samples = one hour of a 50 Hz log (seed 000 samples every 0.02 s). Regressors: a 4-parameter
-ARX servo model and the 8-parameter seed 000 eq. 37 3-DOF regression size.
+180k samples = one hour of a 50 Hz log (Mu et al. 2018 samples every 0.02 s). Regressors: a
+4-parameter ARX servo model and the 8-parameter Mu et al. 2018 eq. 37 3-DOF regression size.
 Run: .venv/bin/python benchmarks/bench_identify_rls.py
 """
 

@@ -1,6 +1,6 @@
 """Batch simulator benchmark: 10,000 zig-zag 10/10 runs of the seed-000 Lanxin 3-DOF model.
 
-Model: seed 000 eq. 37 (``seed000_threedof``, x_l = 3.5 m, thrust holding 10 kn = 5.144 m/s)
+Model: Mu et al. 2018 eq. 37 (``mu2018_threedof``, x_l = 3.5 m, thrust holding 10 kn = 5.144 m/s)
 with the identified second-order servo 1.95/(s^2 + 2.38125 s + 1.95) e^{-s} (+-35 deg);
 100 s at dt = 0.02 s (5,000 RK4 steps per run). Timed after a warm-up call, so numba
 compilation (or cache loading) is excluded. Heading is kept every 10 steps (0.2 s); the
@@ -27,7 +27,7 @@ import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from usvid.models import VesselModel, seed000_servo, seed000_threedof
+from usvid.models import VesselModel, mu2018_servo, mu2018_threedof
 from usvid.sim import ZigZag, simulate
 from usvid.trial import Vessel
 
@@ -38,7 +38,7 @@ U0 = 5.144
 
 
 def batch() -> tuple[float, float, np.ndarray, int]:
-    model = VesselModel(seed000_threedof(x_l=3.5), servo=seed000_servo(),
+    model = VesselModel(mu2018_threedof(x_l=3.5), servo=mu2018_servo(),
                         vessel=Vessel(length=7.02, speed=U0))
     simulate(model, ZigZag(AMP, AMP), t_end=1.0, dt=DT, channels=("psi",))  # compile / load
     logic = ZigZag(np.full(B, AMP), AMP)
@@ -53,8 +53,8 @@ def batch() -> tuple[float, float, np.ndarray, int]:
 
 def reference() -> tuple[float, float]:
     """One run through solve_ivp; returns (wall time [s], first overshoot [deg])."""
-    p = seed000_threedof(x_l=3.5)
-    s = seed000_servo()
+    p = mu2018_threedof(x_l=3.5)
+    s = mu2018_servo()
     T = p.d11 * U0
     wn, zeta, delay, lim = s.omega_n, s.zeta, s.delay, s.max_angle
     switches = [(0.0, AMP)]  # (time, command)

@@ -15,7 +15,7 @@ K, T = 0.2, 8.0  # Nomoto gain [1/s] and time constant [s] of a small vessel
 
 
 def nomoto_trial(seed: int = 0, dt: float = 0.1, t_end: float = 200.0) -> Trial:
-    """A Nomoto-1 vessel (T r' + r = K delta, seed 000) on a 20-deg square-wave rudder.
+    """A Nomoto-1 vessel (T r' + r = K delta, Mu et al. 2018) on a 20-deg square-wave rudder.
 
     Sensors: 2-cm positions, 0.1-deg heading, 0.2 deg/s gyro; v = -1.5 m x r (sway with yaw),
     plus a roll-rate-like channel 'p' that is not the yaw rate.

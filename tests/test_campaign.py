@@ -11,14 +11,14 @@ import pytest
 
 from usvid.demo import campaign as C
 from usvid.identify import identify
-from usvid.models import IdealServo, Nomoto1, VesselModel, get_kind, seed000_threedof
+from usvid.models import IdealServo, Nomoto1, VesselModel, get_kind, mu2018_threedof
 from usvid.sim import ZigZag, simulate
 from usvid.trial import Vessel
 
 
-def test_programme_is_seed000_plus_extras() -> None:
+def test_programme_is_mu2018_plus_extras() -> None:
     names = [m.name for m in C.programme()]
-    # seed 000 section 2.4: turning 10/15/25/35 deg and the 10/10 zig-zag; plus 15/15 and the
+    # Mu et al. 2018 section 2.4: turning 10/15/25/35 deg and the 10/10 zig-zag; plus 15/15 and the
     # propeller-speed steps that separate a_u from a_tau, and the held-out 20/20 zig-zag
     assert names == ["turning_10", "turning_15", "turning_25", "turning_35", "zigzag_10_10",
                      "zigzag_15_15", "speed_steps", "zigzag_20_20"]
@@ -35,7 +35,7 @@ def test_norrbin_alpha_by_hand() -> None:
 def test_nomoto_truth_criterion_recovers_a_nomoto_model() -> None:
     """The campaign's Nomoto truth is the estimator's own output-error fit to noise-free zig-zags
     (``usvid.identify``, "oe"): on the zig-zags of a Nomoto model it returns that model."""
-    K, T = 0.707, 0.332  # seed 000 eq. 38 (consistent reading)
+    K, T = 0.707, 0.332  # Mu et al. 2018 eq. 38 (consistent reading)
     model = VesselModel(Nomoto1(K=K, T=T), servo=IdealServo(max_rate=math.radians(10.0)),
                         vessel=Vessel(length=7.02, speed=10.0 * C.KNOT))
     amps = np.radians([10.0, 15.0])
@@ -53,7 +53,7 @@ def test_linearised_response_matches_numerical_jacobian() -> None:
     3-DOF right-hand side (the threedof kind) at straight running."""
     import control
 
-    dyn = seed000_threedof(x_l=3.5)
+    dyn = mu2018_threedof(x_l=3.5)
     u0 = 10.0 * C.KNOT
     T0 = float(dyn.d11) * u0
     held = dyn.replace(thrust=T0)  # tau = (T0 cos delta, 0, x_l T0 sin delta)
@@ -72,7 +72,7 @@ def test_linearised_response_matches_numerical_jacobian() -> None:
     poles = sorted(-1.0 / np.real(control.poles(tf)))
     assert sorted([lin["T1"], lin["T2"]]) == pytest.approx(poles, rel=1e-6)
     assert -1.0 / np.real(control.zeros(tf)[0]) == pytest.approx(lin["T3"], rel=1e-6)
-    # seed 000 eq. 38 identified K = 0.707 1/s from the real boat; eq. 37 linearised: ~0.71
+    # Mu et al. 2018 eq. 38 identified K = 0.707 1/s from the real boat; eq. 37 linearised: ~0.71
     assert lin["K"] == pytest.approx(0.707, rel=0.02)
 
 
@@ -102,8 +102,8 @@ def test_shaft_speed_balances_resistance() -> None:
     n = C.shaft_speed_for()
     u = 10.0 * C.KNOT
     thrust = float(C.lanxin_propeller().thrust(n, u))
-    assert thrust == pytest.approx(float(seed000_threedof().d11) * u, rel=1e-8)
-    # seed 000 section 2.4: the engine ran at about 2800 rpm at 10 kn
+    assert thrust == pytest.approx(float(mu2018_threedof().d11) * u, rel=1e-8)
+    # Mu et al. 2018 section 2.4: the engine ran at about 2800 rpm at 10 kn
     assert 1500.0 < n * 60.0 < 4500.0
 
 
@@ -122,7 +122,7 @@ def test_campaign_files_and_truth(quick_campaign) -> None:
             assert Path(f).is_file() and Path(f).stat().st_size > 1000
     assert sorted(p.name for p in out.glob("*.yaml")) == [
         "lanxin_logger_csv.yaml", "lanxin_nmea0183.yaml", "lanxin_nmea2000.yaml"]
-    # the threedof truth is the model file's Fossen masses and dampings; seed 000 eq. 37 is
+    # the threedof truth is the model file's Fossen masses and dampings; Mu et al. 2018 eq. 37 is
     # their regression form (a_tau = 1/m11)
     assert camp.truth["threedof"]["m11"] == pytest.approx(1 / 0.000377)
     assert camp.truth_extra["threedof_regression"]["a_tau"] == pytest.approx(0.000377)

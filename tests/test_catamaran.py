@@ -1,4 +1,4 @@
-"""Twin-thruster catamaran (seed 002): forces, right-hand side, simulation."""
+"""Twin-thruster catamaran (the catamaran paper): forces, right-hand side, simulation."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Chaotic genetic algorithm: logistic map by hand, determinism, convergence, seed 004 target."""
+"""Chaotic genetic algorithm: logistic map by hand, determinism, convergence, Ma et al. target."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 
 from usvid.errors import IdentificationError
 from usvid.identify.cga import _logistic_orbit, cga
-from usvid.models.turning_diameter import SEED004_BOUNDS, load_seed004_table2, rms_objective
+from usvid.models.turning_diameter import MA_BOUNDS, load_ma_table2, rms_objective
 
 
 def _sphere(x):
@@ -68,15 +68,15 @@ def test_bad_settings(kwargs, msg):
 
 
 @pytest.mark.parametrize("seed", [1])  # seeds 0 and 2: test_fit_turning_diameter.py
-def test_seed004_settings_reach_the_published_objective(seed):
-    t = load_seed004_table2()
+def test_ma_settings_reach_the_published_objective(seed):
+    t = load_ma_table2()
 
     def obj(A):
         return rms_objective(A, t.Fr, t.delta_rad, t.DL_test)
 
-    r = cga(obj, SEED004_BOUNDS, seed=seed)  # seed 004's settings are the defaults
+    r = cga(obj, MA_BOUNDS, seed=seed)  # Ma et al.'s settings are the defaults
     # acceptance: at least as good as the published eq. 3 (F = 0.4665 on Table 2)
     assert r.fun <= 0.4665
     assert r.history.shape == (1000,)
-    lo, hi = np.asarray(SEED004_BOUNDS).T
+    lo, hi = np.asarray(MA_BOUNDS).T
     assert np.all((r.x >= lo) & (r.x <= hi))

@@ -136,7 +136,7 @@ def test_course_keeping(capsys):
                            "--ki", "0.00095", "--kd", "1", "--target-deg", "100", "--seed", "1"])
     b = _run_json(capsys, ["simulate", "course-keeping", f, "--controller", "pid", "--seed", "1"])
     c = _run_json(capsys, ["simulate", "course-keeping", f, "--controller", "pid", "--seed", "2"])
-    assert a["itae"] == b["itae"]  # defaults are the seed 000 gains; seeded: reproducible
+    assert a["itae"] == b["itae"]  # defaults are the Mu et al. 2018 gains; seeded: reproducible
     assert a["itae"] != c["itae"]  # another disturbance realisation
     assert a["itae"] > calm["itae"]  # the disturbance adds error
 

@@ -11,13 +11,14 @@ from scipy import signal
 from usvid.errors import IdentificationError
 from usvid.models.d2c import d2c, d2c_ss, split_delay
 
-WN, ZETA = np.sqrt(1.95), 2.38125 / (2 * np.sqrt(1.95))  # seed 000 servo
+WN, ZETA = np.sqrt(1.95), 2.38125 / (2 * np.sqrt(1.95))  # Mu et al. 2018 servo
 
 SYSTEMS = {
-    "first_order": ([0.707], [0.332, 1.0]),  # seed 000 Nomoto K / (T s + 1)
+    "first_order": ([0.707], [0.332, 1.0]),  # Mu et al. 2018 Nomoto K / (T s + 1)
     "second_order_underdamped": ([1.95], [1.0, 2.38125, 1.95]),
     "third_order_with_zero": ([2.0, 1.0], [1.0, 3.0, 4.0, 2.0]),
-    "heading_with_integrator": ([0.707], [0.332, 1.0, 0.0]),  # psi/delta, seed 001 eq. 25 form
+    # psi/delta, Mu et al. 2016 eq. 25 form
+    "heading_with_integrator": ([0.707], [0.332, 1.0, 0.0]),
 }
 
 
@@ -79,7 +80,7 @@ def test_state_space_round_trip_two_inputs():
 
 
 def test_negative_real_pole_is_an_error():
-    # seed 001 eq. 23 has a discrete pole at z = -0.4133: no real ZOH continuous equivalent
+    # Mu et al. 2016 eq. 23 has a discrete pole at z = -0.4133: no real ZOH continuous equivalent
     with pytest.raises(IdentificationError, match="-0.4133.*no real continuous ZOH"):
         d2c([0.2743, 0.2122, -0.118], [1, -0.9537, -0.5476, 0.007182], 0.5)
     # Tustin does map it (to a fast real pole)
@@ -87,7 +88,7 @@ def test_negative_real_pole_is_an_error():
     assert np.all(np.isfinite(c.den))
 
 
-def test_seed001_eq26_is_not_the_zoh_of_eq27():
+def test_mu2016_eq26_is_not_the_zoh_of_eq27():
     # eq. 26 poles: z = -0.7765 +- 0.5604 j (|z| = 0.9576, angle 2.517 rad). Under ZOH
     # zeta = -ln|z| / sqrt(ln|z|^2 + angle^2) = 0.0172 for ANY dt, not the printed 0.811:
     # the printed pair is not self-consistent (as the seed README warns).

@@ -212,4 +212,4 @@ def test_norrbin_turns_everywhere_by_hand() -> None:
     assert not norrbin_turns_everywhere({"K": 0.7, "n1": 1.0, "n3": -1.0})
     # n3 = -0.4: r* = 0.9129, peak 0.6086 > 0.4276 -> every angle has a steady turn
     assert norrbin_turns_everywhere({"K": 0.7, "n1": 1.0, "n3": -0.4})
-    assert norrbin_turns_everywhere({"K": 0.7, "n1": 1.0, "n3": 1.1})  # seed 000 alpha
+    assert norrbin_turns_everywhere({"K": 0.7, "n1": 1.0, "n3": 1.1})  # Mu et al. 2018 alpha

@@ -1,4 +1,4 @@
-"""Seed 004 turning-diameter fits: published F, CGA and least-squares targets, LOO, CLI, tables."""
+"""Ma et al. turning-diameter fits: published F, CGA and least-squares targets, LOO, CLI, tables."""
 
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ from usvid.identify.turning_diameter import (
     load_turning_table,
 )
 from usvid.models.turning_diameter import (
-    SEED004_BOUNDS,
-    SEED004_EQ3,
+    MA_BOUNDS,
+    MA_EQ3,
     relative_turning_diameter,
 )
 
@@ -29,17 +29,17 @@ def table2_fits():
 
 def test_published_eq3_objective(table2_fits):
     f = table2_fits["published_eq3"]
-    # seed 004: eq. 3 on Table 2 gives F = 0.4665 (printed to 4 decimals)
+    # Ma et al.: eq. 3 on Table 2 gives F = 0.4665 (printed to 4 decimals)
     assert f.F == pytest.approx(0.4665, abs=5e-5)
     assert f.loo_rmse is None
-    assert f.coeffs == SEED004_EQ3
+    assert f.coeffs == MA_EQ3
 
 
 def test_cga_and_least_squares_meet_the_targets(table2_fits):
     cga_fit, ls_fit = table2_fits["cga"], table2_fits["least_squares"]
     assert cga_fit.F <= 0.4665  # at least as good as the paper's own CGA result
     assert ls_fit.F <= 0.432  # the bounded global optimum is F = 0.43152
-    lo, hi = np.asarray(SEED004_BOUNDS).T
+    lo, hi = np.asarray(MA_BOUNDS).T
     for f in (cga_fit, ls_fit):
         a = f.coeffs.as_array()
         assert np.all((a >= lo) & (a <= hi))
@@ -55,7 +55,7 @@ def test_recovery_on_synthetic_data():
     # data from eq. 3 itself on Table 2's (Fr, delta) grid, 1 % multiplicative noise
     Fr, delta, _ = load_turning_table()
     rng = np.random.default_rng(4)
-    truth = relative_turning_diameter(Fr, delta, SEED004_EQ3)
+    truth = relative_turning_diameter(Fr, delta, MA_EQ3)
     DL = truth * (1 + 0.01 * rng.normal(size=Fr.size))
     fit = fit_turning_diameter(Fr, delta, DL, methods=["least_squares"], seed=0,
                                loo=False)["least_squares"]
@@ -68,15 +68,15 @@ def test_recovery_on_synthetic_data():
 
 def test_leave_one_out_is_zero_on_exact_data():
     Fr, delta, _ = load_turning_table()
-    DL = relative_turning_diameter(Fr, delta, SEED004_EQ3)
+    DL = relative_turning_diameter(Fr, delta, MA_EQ3)
     # every refit from the true coefficients stays there (zero residual), so LOO error ~ 0
-    assert leave_one_out_rmse(Fr, delta, DL, SEED004_EQ3) < 1e-6
+    assert leave_one_out_rmse(Fr, delta, DL, MA_EQ3) < 1e-6
 
 
 def test_table1_form_matches_table2():
     from importlib import resources
 
-    path = resources.files("usvid").joinpath("data", "seed004_table1.csv")
+    path = resources.files("usvid").joinpath("data", "ma_table1.csv")
     Fr1, d1, DL1 = load_turning_table(str(path))
     Fr2, d2, DL2 = load_turning_table()
     # Table 2 prints Fr to 4 decimals, delta to 3 and DL to 3 (one borderline Fr rounding)

@@ -108,7 +108,7 @@ def test_clarke_and_zhou_agree_roughly_on_sway_added_mass_for_lanxin():
     assert abs(-c.Y_vdot - z.m_y) / z.m_y < 0.10
 
 
-def test_inertia_terms_seed000_eq15():
+def test_inertia_terms_mu2018_eq15():
     am = AddedMass(X_udot=-10.0, Y_vdot=-20.0, Y_rdot=-3.0, N_vdot=-4.0, N_rdot=-50.0)
     got = am.inertia_terms(m=100.0, Iz=400.0, x_g=0.5)
     assert got == {"m11": 110.0, "m22": 120.0, "m23": 53.0, "m32": 54.0, "m33": 450.0}

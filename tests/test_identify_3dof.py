@@ -1,5 +1,6 @@
-"""3-DOF (seed 000 eq. 37) and twin-thruster catamaran (seed 002) identification: recovery of the
-Fossen masses and dampings and of their regression coefficients on noisy virtual trials (servo
+"""3-DOF (Mu et al. 2018 eq. 37) and twin-thruster catamaran (the catamaran paper) identification:
+recovery of the Fossen masses and dampings and of their regression coefficients on noisy virtual
+trials (servo
 dead time, disturbance, seeded)."""
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ FOSSEN = ("m11", "m22", "m33", "d11", "d22", "d33")
 
 def _check_recovery(est: ModelEstimator, dyn, rel: float) -> None:
     """The identified Fossen parameters (the model file's) and the regression coefficients they
-    imply (seed 000 eq. 37), each within ``rel`` of the truth."""
+    imply (Mu et al. 2018 eq. 37), each within ``rel`` of the truth."""
     truth = {k: getattr(dyn, k) for k in FOSSEN}
     assert set(est.params_) == set(FOSSEN)
     for k, v in truth.items():
@@ -38,7 +39,7 @@ def _check_recovery(est: ModelEstimator, dyn, rel: float) -> None:
 @pytest.fixture(scope="module")
 def threedof_case():
     # a small vector-thruster USV with a sway motion large enough to be measured (|v| ~ 0.7 m/s);
-    # the Lanxin model of seed 000 has |v| < 1 cm/s, below any speed sensor's noise
+    # the Lanxin model of Mu et al. 2018 has |v| < 1 cm/s, below any speed sensor's noise
     dyn = ThreeDOF(m11=120.0, m22=180.0, m33=60.0, d11=30.0, d22=90.0, d33=50.0, x_l=1.0,
                    thrust=60.0)
     model = VesselModel(dyn, servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5),
@@ -61,7 +62,7 @@ def test_threedof_recovery_within_10_percent(threedof_case, method):
     # the logged thrust gives the forces; the model file needs the thrust law (a constant 60 N)
     est = ModelEstimator("threedof", method, x_l=1.0, thrust=60.0).fit(trials)
     _check_recovery(est, dyn, 0.10)  # task: within 10 %
-    # the model file holds the Fossen parameters of seed 000 eq. 13-17 and the thrust law
+    # the model file holds the Fossen parameters of Mu et al. 2018 eq. 13-17 and the thrust law
     p = est.to_dict()["parameters"]
     assert p["m11"] == pytest.approx(120.0, rel=0.10)
     assert p["d33"] == pytest.approx(50.0, rel=0.10)
@@ -88,7 +89,7 @@ def catamaran_case():
     seg = (t // 15).astype(int)  # commands held 15 s: steady runs and differential turns
     lev = rng.uniform(20, 100, seg.max() + 1)
     dif = rng.uniform(-40, 40, seg.max() + 1)
-    dif[::3] = 0.0  # every third segment a straight run (seed 002: speed/thrust runs)
+    dif[::3] = 0.0  # every third segment a straight run (the catamaran paper: speed/thrust runs)
     res = simulate(VesselModel(cat, vessel=Vessel(length=1.5)),
                    Commanded(t=t, n_port=lev[seg] + dif[seg], n_stbd=lev[seg] - dif[seg]),
                    t_end=300.0, dt=0.02, u0=0.0)
@@ -110,9 +111,10 @@ def test_catamaran_recovery_within_10_percent(catamaran_case, method):
 
 
 def test_catamaran_steady_runs_give_d11(catamaran_case):
-    # seed 002: on steady straight runs d11 u = tau_u; the commands are held 15 s, the surge time
-    # constant m11/d11 = 3.2 s, so the last 5 s after a 10 s settling are steady within ~4 %.
-    # (This model keeps turning on some runs of equal thrust: straight runs are those with
+    # the catamaran paper: on steady straight runs d11 u = tau_u; the commands are held 15 s,
+    # the surge time constant m11/d11 = 3.2 s, so the last 5 s after a 10 s settling are steady
+    # within ~4 %. (This model keeps turning on some runs of equal thrust: straight runs are those
+    # with
     # |r| < 3 deg/s.) The identified d11 agrees with the steady runs' (was: a "steady_runs"
     # diagnostic of the estimator, no longer computed, compared with -a_u/a_tau)
     _, trial, (lev, dif) = catamaran_case

@@ -22,14 +22,15 @@ from usvid.sim.virtual import SensorModel, virtual_trial, virtual_trial_uniform
 from usvid.trial import Vessel
 
 DEG = math.pi / 180
-# seed 000 section 5.1.3 servo: 2nd order, omega_n 1.4 rad/s, zeta 0.85, plus dead time (0.5 s)
+# Mu et al. 2018 section 5.1.3 servo: 2nd order, omega_n 1.4 rad/s, zeta 0.85, plus dead time (0.5
+# s)
 SERVO = SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5)
 
 
 def virtual_zigzags(dyn, amps_deg=(20.0,), t_end=300.0, seed=0, dist=0.0005, rate_hz=10.0,
                     switch_deg=None, first=1):
     """Noisy virtual zig-zag trials (default SensorModel: 0.5 deg compass, 0.2 deg/s gyro,
-    0.2 deg rudder noise) of ``dyn`` through the seed 000 servo, with disturbance."""
+    0.2 deg rudder noise) of ``dyn`` through the Mu et al. 2018 servo, with disturbance."""
     model = VesselModel(dyn, servo=SERVO, vessel=Vessel(length=7.0, speed=3.0))
     amps = np.radians(np.asarray(amps_deg, float))
     sw = amps if switch_deg is None else np.radians(np.asarray(switch_deg, float))
@@ -67,7 +68,7 @@ def test_norrbin_normalisation_by_hand():
     assert p == pytest.approx({"K": 0.2, "T": 20.0, "n1": -1.0, "n3": 400.0, "delta0": 0.01})
 
 
-def test_nomoto2_arx_inverts_zoh_of_seed000_eq29():
+def test_nomoto2_arx_inverts_zoh_of_mu2018_eq29():
     # K (1 + T3 s) / ((1 + T1 s)(1 + T2 s)) discretised by scipy (ZOH), then back
     K, T1, T2, T3, h = 0.4, 6.0, 1.5, 0.8, 0.1
     num = [K * T3, K]
@@ -114,7 +115,7 @@ def test_nomoto2_recovery(nomoto_trials):
 
 
 def test_norrbin_joint_recovers_alpha():
-    # seed 000 eq. 35 (n1 = 1) with a cubic strong enough to matter at 20-30 deg zig-zags
+    # Mu et al. 2018 eq. 35 (n1 = 1) with a cubic strong enough to matter at 20-30 deg zig-zags
     dyn = Norrbin(K=0.5, T=3.0, n1=1.0, n3=2.0)
     trials = virtual_zigzags(dyn, amps_deg=(30.0, 20.0), seed=5)
     est = ModelEstimator("norrbin", "oe").fit(trials)
@@ -138,7 +139,7 @@ def test_norrbin_joint_course_unstable():
     assert est.params_["n3"] == pytest.approx(60.0, rel=0.15)
 
 
-def test_norrbin_two_step_seed000():
+def test_norrbin_two_step_mu2018():
     dyn = Norrbin(K=0.5, T=3.0, n1=1.0, n3=2.0)
     zz = virtual_zigzags(dyn, amps_deg=(10.0,), seed=11)
     model = VesselModel(dyn, servo=SERVO, vessel=Vessel(length=7.0, speed=3.0))
@@ -148,7 +149,8 @@ def test_norrbin_two_step_seed000():
     turns = [virtual_trial_uniform(res, SensorModel(), seed=1, i=i, rate_hz=10.0)
              for i in range(4)]
     # the Nomoto step on a 10/10 zig-zag of a Norrbin vessel gives an effective (smaller) K; the
-    # two-step alpha then absorbs that. Check the seed 000 eq. 36 consistency instead of truth:
+    # two-step alpha then absorbs that. Check the Mu et al. 2018 eq. 36 consistency instead of
+    # truth:
     est = ModelEstimator("norrbin", "ls", norrbin="two_step").fit(zz, turning=turns)
     p = est.params_
     d = est.result_.diagnostics["two_step"]

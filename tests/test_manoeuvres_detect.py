@@ -229,7 +229,8 @@ def test_twin_circle_found_from_heading(twin_dir):
 
 
 def test_thruster_differential_zigzag(synthetic):
-    """No rudder: the same manoeuvres commanded by a twin-thruster differential (seed 002)."""
+    """No rudder: the same manoeuvres commanded by a twin-thruster differential (the catamaran
+    paper)."""
     trial, truth = synthetic
     rng = np.random.default_rng(5)
     d = trial.data.drop(columns=["delta"])

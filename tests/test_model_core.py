@@ -27,8 +27,8 @@ from usvid.models import (
     Nomoto2,
     Norrbin,
     VesselModel,
+    mu2018_threedof,
     registry,
-    seed000_threedof,
 )
 from usvid.models.thrust import Propeller
 from usvid.sim import Commanded, ZigZag, simulate
@@ -59,7 +59,7 @@ def _truth(kind: str) -> tuple[VesselModel, dict[str, float]]:
                            Vessel(length=20.0, speed=3.0)), {}
     if kind == "threedof":
         n0 = 52.88  # [rps] holds about 10 kn with this propeller (Lanxin USV)
-        dyn = seed000_threedof(x_l=3.5, thrust=_prop(), n=n0)
+        dyn = mu2018_threedof(x_l=3.5, thrust=_prop(), n=n0)
         extra = {"x_l": 3.5, "propeller_diameter": 0.46, "propeller_pitch_ratio": 0.3,
                  "propeller_disk_ratio": 0.516, "thrust_deduction": 0.05,
                  "wake_fraction": 0.04}

@@ -43,7 +43,7 @@ def test_nomoto1_replay_step_response_closed_form():
 
 
 def test_nomoto2_replay_matches_scipy_lsim():
-    # seed 000 eq. 29: K (1 + T3 s) / ((1 + T1 s)(1 + T2 s)); input a smooth rudder sweep
+    # Mu et al. 2018 eq. 29: K (1 + T3 s) / ((1 + T1 s)(1 + T2 s)); input a smooth rudder sweep
     K, T1, T2, T3, h = 0.5, 6.0, 1.2, 0.7, 0.02
     t = np.arange(0, 40.0, h)
     u = 0.2 * np.sin(0.3 * t) * (1 - np.exp(-t))
@@ -57,7 +57,7 @@ def test_nomoto2_replay_matches_scipy_lsim():
 
 
 def test_norrbin_replay_steady_turn_is_eq36():
-    # steady turn: n1 r + n3 r^3 = K (delta + delta0)  (seed 000 eq. 36)
+    # steady turn: n1 r + n3 r^3 = K (delta + delta0)  (Mu et al. 2018 eq. 36)
     K, T, n1, n3, d = 0.5, 2.0, 1.0, 3.0, 0.2
     win = _windows(0.05, {"delta": np.full((1, 2000), d)}, {"r": [0.0], "psi": [0.0]})
     sim = replay_windows(VesselModel(Norrbin(K=K, T=T, n1=n1, n3=n3), vessel=Vessel(speed=1.0)),

@@ -150,7 +150,7 @@ def test_to_transfer_function_nomoto_and_servo() -> None:
     from usvid.models.export import to_transfer_function
     from usvid.models.servo import SecondOrderServo
 
-    K, T = 0.707, 0.332  # seed 000 eq. 38 (consistent reading)
+    K, T = 0.707, 0.332  # Mu et al. 2018 eq. 38 (consistent reading)
     sys = to_transfer_function(Nomoto1(K=K, T=T))
     assert control.dcgain(sys) == pytest.approx(K, rel=1e-12)
     assert control.poles(sys)[0].real == pytest.approx(-1.0 / T, rel=1e-12)
@@ -201,7 +201,7 @@ def test_report_labels_units_of_vessel_fit_and_gains():
     }
     html = build_html(run)
     assert external_urls(html) == []
-    # displacement is 2.73 m^3 (seed 000 Table 1), not "SI" in general
+    # displacement is 2.73 m^3 (Mu et al. 2018 Table 1), not "SI" in general
     assert "<td>m^3</td>" in html and "value (SI)" not in html
     assert "r.rmse [rad/s] = " in html and "psi.max_error [rad] = " in html
     assert "rmse [rad] = " in html  # the servo's output is delta [rad]

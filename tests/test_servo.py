@@ -15,7 +15,7 @@ from usvid.models import (
     Nomoto1,
     SecondOrderServo,
     VesselModel,
-    seed000_servo,
+    mu2018_servo,
 )
 from usvid.sim import Commanded, Turning, simulate
 from usvid.trial import Vessel
@@ -26,8 +26,8 @@ def _run(servo, logic, t_end, dt=0.01, **kw):
     return simulate(m, logic, t_end=t_end, dt=dt, **kw)
 
 
-def test_seed000_servo_from_transfer_function():
-    s = seed000_servo()  # 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s}
+def test_mu2018_servo_from_transfer_function():
+    s = mu2018_servo()  # 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s}
     assert s.omega_n == pytest.approx(math.sqrt(1.95))
     assert 2 * s.zeta * s.omega_n == pytest.approx(2.38125)
     assert s.gain == pytest.approx(1.0)

@@ -1,4 +1,5 @@
-"""Servo identification: recovery of seed 000's servo from noisy simulated data, and errors."""
+"""Servo identification: recovery of Mu et al. 2018's servo from noisy simulated data, and
+errors."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from usvid.sim.virtual import SensorModel, virtual_trial_uniform
 from usvid.trial import Vessel
 
 DT = 0.02
-WN, ZETA, GAIN, DELAY = np.sqrt(1.95), 0.8526, 1.0, 1.0  # seed 000 sec. 5.1.3
+WN, ZETA, GAIN, DELAY = np.sqrt(1.95), 0.8526, 1.0, 1.0  # Mu et al. 2018 sec. 5.1.3
 
 
 def _command(seed: int, t_end: float = 120.0) -> tuple[np.ndarray, np.ndarray]:
@@ -39,7 +40,7 @@ def _measure(t, u, wn=WN, zeta=ZETA, gain=GAIN, delay=DELAY, noise_deg=0.3, seed
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_recovers_seed000_servo_from_noisy_data(seed):
+def test_recovers_mu2018_servo_from_noisy_data(seed):
     t, u = _command(seed)
     y = _measure(t, u, seed=seed)  # 0.3 deg white sensor noise (a typical potentiometer)
     r = identify_second_order_servo(u, y, DT, max_delay=2.0)

@@ -112,7 +112,7 @@ def test_simulate_turning_default_duration_covers_two_circles():
 
 
 def test_initial_state():
-    from usvid.models import Nomoto2, seed000_threedof
+    from usvid.models import Nomoto2, mu2018_threedof
 
     # steady turn from the start: r stays at K delta
     res = simulate(M, Turning(0.1), t_end=5.0, initial={"r": 0.0707, "delta": 0.1})
@@ -120,7 +120,7 @@ def test_initial_state():
     m2 = VesselModel(Nomoto2(K=0.5, T1=3.0, T2=0.5), vessel=M.vessel)
     res = simulate(m2, Turning(0.1), t_end=5.0, initial={"r": 0.05, "delta": 0.1})
     np.testing.assert_allclose(res["r"][0], 0.05, rtol=1e-12)
-    m3 = VesselModel(seed000_threedof(thrust=3000.0))
+    m3 = VesselModel(mu2018_threedof(thrust=3000.0))
     res = simulate(m3, Turning(0.0), t_end=1.0, initial={"v": np.array([0.1, -0.1])})
     assert res["v"][0, 0] == 0.1 and res["v"][1, 0] == -0.1
     with pytest.raises(SimulationError, match="initial"):

@@ -1,4 +1,4 @@
-"""Course change / course keeping: PID autopilot (seed 000 eq. 41), disturbance, ITAE/IAE."""
+"""Course change / course keeping: PID autopilot (Mu et al. 2018 eq. 41), disturbance, ITAE/IAE."""
 
 from __future__ import annotations
 
@@ -9,15 +9,15 @@ import pytest
 from scipy import signal
 
 from usvid.manoeuvres.logic import DISTURBANCE_TF
-from usvid.models import Nomoto1, Norrbin, VesselModel, seed000_servo
+from usvid.models import Nomoto1, Norrbin, VesselModel, mu2018_servo
 from usvid.sim import PID, CourseChange, Disturbance, Turning, simulate, simulate_course_change
 from usvid.trial import Vessel
 
-SEED_NORRBIN = Norrbin(K=0.707, T=0.332, n1=1.0, n3=1.102)  # seed 000 eq. 38-40 (T/K swapped)
+SEED_NORRBIN = Norrbin(K=0.707, T=0.332, n1=1.0, n3=1.102)  # Mu et al. 2018 eq. 38-40 (T/K swapped)
 
 
 def _model(dyn=SEED_NORRBIN, servo=None):
-    return VesselModel(dyn, servo=servo or seed000_servo(), vessel=Vessel(length=7.02,
+    return VesselModel(dyn, servo=servo or mu2018_servo(), vessel=Vessel(length=7.02,
                                                                           speed=5.144))
 
 
@@ -79,9 +79,9 @@ def test_disturbance_reproducible_and_per_run_streams():
     assert np.all(a.course["itae"] > 0)
 
 
-def test_seed000_pid_vs_pd_with_disturbance():
-    # seed 000 Table 3 setting: target 100 deg, PID (0.7, 0.00095, 1) vs PD (0.7, 1). Both keep
-    # the course; the tiny integral term changes ITAE by well under 10 % (seed: 37.98 vs 38.6).
+def test_mu2018_pid_vs_pd_with_disturbance():
+    # Mu et al. 2018 Table 3 setting: target 100 deg, PID (0.7, 0.00095, 1) vs PD (0.7, 1). Both
+    # keep the course; the tiny integral term changes ITAE by well under 10 % (seed: 37.98 vs 38.6).
     dist = Disturbance(math.radians(1.0), seed=3)
     out = {}
     for name, c in (("pid", PID(0.7, 0.00095, 1.0)), ("pd", PID(0.7, 0.0, 1.0))):

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from usvid.models import Catamaran, Nomoto1, Nomoto2, Norrbin, VesselModel, seed000_threedof
+from usvid.models import Catamaran, Nomoto1, Nomoto2, Norrbin, VesselModel, mu2018_threedof
 from usvid.sim import Turning, simulate, simulate_turning
 from usvid.trial import Vessel
 
@@ -44,7 +44,8 @@ def test_turning_batch_and_rudder_step_at_t_start():
 
 @pytest.mark.parametrize(("n1", "n3"), [(1.0, 1.102), (-0.19, 1.102), (0.5, 0.0)])
 def test_norrbin_steady_yaw_rate(n1, n3):
-    """Steady r solves n1 r + n3 r^3 = K delta (seed 000 eq. 36 generalised), n1 < 0 included."""
+    """Steady r solves n1 r + n3 r^3 = K delta (Mu et al. 2018 eq. 36 generalised), n1 < 0
+    included."""
     K, T, delta = 0.707, 0.332, math.radians(15)
     p = Norrbin(K=K, T=T, n1=n1, n3=n3)
     m = VesselModel(p, vessel=Vessel(speed=5.0))
@@ -87,7 +88,7 @@ def test_nomoto1_step_response_is_exponential():
 # --- sign conventions for every kind (ARCHITECTURE.md) ----------------------------------------
 def _models():
     v = Vessel(length=7.0, speed=2.0)
-    t3 = seed000_threedof(thrust=848.1 * 2.0)  # constant thrust holding 2 m/s
+    t3 = mu2018_threedof(thrust=848.1 * 2.0)  # constant thrust holding 2 m/s
     cat = Catamaran(m11=100.0, m22=120.0, m33=30.0, d11=50.0, d22=200.0, d33=60.0, b=1.0,
                     thrust=1.0, cmd=50.0, steer_gain=40.0)
     return [VesselModel(Nomoto1(K=0.5, T=2.0), vessel=v),

@@ -12,7 +12,7 @@ from usvid.models import IdealServo, Nomoto1, VesselModel
 from usvid.sim import ZigZag, simulate, simulate_zigzag
 from usvid.trial import Vessel
 
-K, T, U = 0.707, 0.332, 5.144  # seed 000 Nomoto (T/K read as in models.kinds.nomoto1), 10 kn
+K, T, U = 0.707, 0.332, 5.144  # Mu et al. 2018 Nomoto (T/K read as in models.kinds.nomoto1), 10 kn
 
 
 def reference_zigzag(amp: float, switch: float, first: int, t_end: float) -> list[float]:

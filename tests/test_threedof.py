@@ -1,4 +1,4 @@
-"""3-DOF vector-thruster model (seed 000 eq. 13-17, 37) and its simulation."""
+"""3-DOF vector-thruster model (Mu et al. 2018 eq. 13-17, 37) and its simulation."""
 
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ import pytest
 from reference import reference_run
 from usvid.errors import UsvidError
 from usvid.models import (
-    SEED000_EQ37,
+    MU2018_EQ37,
     IdealServo,
     ThreeDOF,
     VesselModel,
     get_kind,
-    seed000_servo,
-    seed000_threedof,
+    mu2018_servo,
+    mu2018_threedof,
 )
 from usvid.models.thrust import PodThrust, Propeller
 from usvid.sim import Commanded, Turning, simulate, simulate_zigzag
@@ -37,15 +37,15 @@ def _accelerations(p: ThreeDOF, nu, tau) -> np.ndarray:
     return KIND.derivatives(p.replace(thrust=T), nu, delta=delta)[3]
 
 
-def test_seed000_eq37_is_consistent_with_eq17():
+def test_mu2018_eq37_is_consistent_with_eq17():
     """Reading of the printed eq. 37 coefficients as the eq. 17 ratios (signs restored)."""
-    c = SEED000_EQ37
+    c = MU2018_EQ37
     m11 = 1 / c["a_tau"]
     m22 = c["a_vr"] * m11
     m33 = 1 / c["c_tau"]
     assert -m11 / m22 == pytest.approx(c["b_ur"], rel=1e-5)  # 0.938753 = m11/m22
     assert (m11 - m22) / m33 == pytest.approx(c["c_uv"], rel=1e-3)  # 0.041187 = (m22-m11)/m33
-    model = seed000_threedof()
+    model = mu2018_threedof()
     assert model.m11 == pytest.approx(2652.52, rel=1e-5)
     assert model.d11 / model.m11 == pytest.approx(0.3197455)
     assert model.d22 / model.m22 == pytest.approx(3.5)
@@ -56,11 +56,11 @@ def test_seed000_eq37_is_consistent_with_eq17():
 
 
 def test_from_regression_rejects_inconsistent_coefficients():
-    bad = dict(SEED000_EQ37, b_ur=-0.5)
+    bad = dict(MU2018_EQ37, b_ur=-0.5)
     with pytest.raises(UsvidError, match="b_ur"):
         ThreeDOF.from_regression(**bad, x_l=3.5)
     m = ThreeDOF.from_regression(**bad, x_l=3.5, strict=False)
-    assert m.regression_coefficients()["b_ur"] == pytest.approx(SEED000_EQ37["b_ur"], rel=1e-5)
+    assert m.regression_coefficients()["b_ur"] == pytest.approx(MU2018_EQ37["b_ur"], rel=1e-5)
 
 
 def test_rhs_reduces_to_eq17():
@@ -83,7 +83,7 @@ def test_rhs_general_coupling_solves_m_nu_dot():
     C = np.array([[0, 0, -(150 * v + 8 * r)], [0, 0, 100 * u], [150 * v + 8 * r, -100 * u, 0]])
     D = np.array([[20, 0, 0], [0, 60, 3], [0, -2, 30]], float)
     nu = np.array([u, v, r])
-    want = np.linalg.solve(M, tau - C @ nu - D @ nu)  # seed 000 eq. 13
+    want = np.linalg.solve(M, tau - C @ nu - D @ nu)  # Mu et al. 2018 eq. 13
     np.testing.assert_allclose(_accelerations(p, nu, tau), want, rtol=1e-12)
 
 
@@ -95,17 +95,17 @@ def test_vector_thrust_signs():
     out = KIND.derivatives(p, [0.0, 0.0, 0.0], delta=d30)[3]
     np.testing.assert_allclose(out * [100, 150, 40], [100 * math.cos(d30), -50.0, 150.0],
                                rtol=1e-12)
-    q = p.replace(sway_force=False)  # seed 000: tau_v neglected
+    q = p.replace(sway_force=False)  # Mu et al. 2018: tau_v neglected
     assert KIND.derivatives(q, [0.0, 0.0, 0.0], delta=0.1)[3][1] == 0.0
     # positive delta -> positive yaw acceleration -> turns to starboard
-    p = seed000_threedof(thrust=1000.0)
+    p = mu2018_threedof(thrust=1000.0)
     out = KIND.derivatives(p, [5.0, 0.0, 0.0], delta=0.1)[3]
     assert out[2] == pytest.approx((3.5 * 1000 * math.sin(0.1)) / p.m33 - 0.0)
     assert out[2] > 0
 
 
 def test_positive_delta_turns_to_starboard_and_straight_speed():
-    m = VesselModel(seed000_threedof(thrust=4000.0), vessel=Vessel(length=7.02))
+    m = VesselModel(mu2018_threedof(thrust=4000.0), vessel=Vessel(length=7.02))
     res = simulate(m, Turning(math.radians(10)), t_end=60.0)
     assert res["r"][0, -1] > 0 and res["psi"][0, -1] > 0
     # straight: u0 defaults to T/d11 and stays there
@@ -115,11 +115,11 @@ def test_positive_delta_turns_to_starboard_and_straight_speed():
 
 
 def test_thrust_none_holds_initial_speed():
-    m = VesselModel(seed000_threedof(), vessel=Vessel(speed=5.144))
+    m = VesselModel(mu2018_threedof(), vessel=Vessel(speed=5.144))
     res = simulate(m, Turning(0.0), t_end=10.0)
     np.testing.assert_allclose(res["u"][0], 5.144, rtol=1e-12)
     with pytest.raises(UsvidError, match="u0"):
-        simulate(VesselModel(seed000_threedof()), Turning(0.0), t_end=1.0)
+        simulate(VesselModel(mu2018_threedof()), Turning(0.0), t_end=1.0)
 
 
 def _compare_with_solve_ivp(p: ThreeDOF, u0: float, n_series=None):
@@ -151,18 +151,18 @@ def test_kernel_matches_solve_ivp_constant_thrust_with_coupling():
 
 def test_kernel_matches_solve_ivp_propeller_thrust():
     prop = Propeller(D=0.46, pitch_ratio=0.9, disk_ratio=0.55, t_P=0.05, w_P=0.04)
-    p = seed000_threedof(thrust=prop, n=20.0)
+    p = mu2018_threedof(thrust=prop, n=20.0)
     _compare_with_solve_ivp(p, 4.0, n_series=lambda t: 20.0 + 3.0 * np.sin(0.2 * t))
 
 
 def test_kernel_matches_solve_ivp_pod_thrust():
-    p = seed000_threedof(thrust=PodThrust(c=-5.0, d=12.0), n=20.0)
+    p = mu2018_threedof(thrust=PodThrust(c=-5.0, d=12.0), n=20.0)
     _compare_with_solve_ivp(p, 4.0)
 
 
 def test_default_speed_from_propeller_is_equilibrium():
     prop = Propeller(D=0.46, pitch_ratio=0.9, disk_ratio=0.55, t_P=0.05, w_P=0.04)
-    p = seed000_threedof(thrust=prop, n=20.0)
+    p = mu2018_threedof(thrust=prop, n=20.0)
     res = simulate(VesselModel(p), Turning(0.0), t_end=5.0)
     u = res["u"][0]
     assert u[0] > 0
@@ -170,8 +170,8 @@ def test_default_speed_from_propeller_is_equilibrium():
     np.testing.assert_allclose(res["n"][0], 20.0)
 
 
-def test_zigzag_with_seed000_servo_runs_and_is_sane():
-    m = VesselModel(seed000_threedof(), servo=seed000_servo(), vessel=Vessel(speed=5.144))
+def test_zigzag_with_mu2018_servo_runs_and_is_sane():
+    m = VesselModel(mu2018_threedof(), servo=mu2018_servo(), vessel=Vessel(speed=5.144))
     res = simulate_zigzag(m, math.radians(10), t_end=80.0)
     zm = res.zigzag_metrics()[0]
     assert len(zm.overshoot_deg) >= 3

@@ -1,4 +1,4 @@
-"""Tests of usvid.models.thrust by hand computations (seed 000 sec. 3.1, seeds 001, 002)."""
+"""Tests of usvid.models.thrust by hand computations (Mu et al. 2018 sec. 3.1, seeds 001, 002)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from usvid.errors import UsvidError
 from usvid.models.thrust import (
-    SEED000_TABLE2,
+    MU2018_TABLE2,
     PodThrust,
     Propeller,
     TwinThrust,
@@ -57,7 +57,7 @@ def test_lagrange_weights_between_nodes_by_hand():
     assert [float(x) for x in w] == pytest.approx([0.375, 0.75, -0.125], abs=EXACT)
     # K_T(J=0, P/D=1) per column = A00 + A10 + A20 + A30:
     #   0.5: -0.1677 + 0.8042 - 0.1437 = 0.4928; 0.8: -0.0517 + 0.5853 - 0.1026 = 0.4310;
-    #   1.1: -0.2191 + 0.8502 - 0.1080 = 0.5231 (A10 sign corrected, see SEED000_TABLE2)
+    #   1.1: -0.2191 + 0.8502 - 0.1080 = 0.5231 (A10 sign corrected, see MU2018_TABLE2)
     # K_T = 0.375*0.4928 + 0.75*0.4310 - 0.125*0.5231 = 0.1848 + 0.32325 - 0.0653875
     assert kt(0.0, 1.0, 0.65) == pytest.approx(0.4426625, abs=EXACT)
 
@@ -88,8 +88,8 @@ def test_kt_vectorised_broadcasts():
 
 
 def test_table2_has_ten_terms_per_disk_ratio():
-    assert set(SEED000_TABLE2) == {0.5, 0.8, 1.1}
-    assert all(len(row) == 10 for row in SEED000_TABLE2.values())
+    assert set(MU2018_TABLE2) == {0.5, 0.8, 1.1}
+    assert all(len(row) == 10 for row in MU2018_TABLE2.values())
 
 
 def test_propeller_thrust_by_hand():
@@ -151,7 +151,7 @@ def test_propeller_rejects_bad_parameters():
 
 
 def test_holtrop_thrust_deduction_lanxin_by_hand():
-    # Lanxin, seed 000 Table 1: L 7.02, B 2.6, T 0.32, D_P 0.46; assumed C_P 0.71, lcb 0.
+    # Lanxin, Mu et al. 2018 Table 1: L 7.02, B 2.6, T 0.32, D_P 0.46; assumed C_P 0.71, lcb 0.
     # B/L = 0.370370; L/B = 2.7 < 5.2 -> C10 = 0.25 - 0.003328402/(0.370370 - 0.134615385)
     #   = 0.25 - 0.003328402/0.235755 = 0.25 - 0.0141181 = 0.2358819
     # C_P1 = 1.45*0.71 - 0.315 = 0.7145
@@ -201,7 +201,8 @@ def test_twin_thrust_code_voltage_polynomial_by_hand():
     # code -3 clipped to 0 -> 0 N
     assert tt.level(60.0) == pytest.approx(2.5, abs=EXACT)
     assert np.allclose(tt.thrust([60.0, 150.0, -3.0]), [14.375, 47.5, 0.0], atol=EXACT)
-    # seed 002 eq. 26-27: tau_u = 47.5 + 14.375 = 61.875, tau_r = (47.5 - 14.375) 0.8/2 = 13.25
+    # the catamaran paper eq. 26-27: tau_u = 47.5 + 14.375 = 61.875, tau_r = (47.5 - 14.375) 0.8/2 =
+    # 13.25
     tau_u, tau_r = tt.combined(120.0, 60.0, b=0.8)
     assert tau_u == pytest.approx(61.875, abs=EXACT)
     assert tau_r == pytest.approx(13.25, abs=EXACT)

@@ -1,5 +1,5 @@
 """Validation: simulated zig-zag against usvid.sim, cross-validation, comparison of kinds, and the
-real-data result on the HSVA KVLCC2 zig-zags (seed 000 section 5.2 style: simulated versus
+real-data result on the HSVA KVLCC2 zig-zags (Mu et al. 2018 section 5.2 style: simulated versus
 measured overshoots)."""
 
 from __future__ import annotations

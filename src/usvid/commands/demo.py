@@ -1,8 +1,8 @@
 """CLI: ``usvid demo [--out DIR] [--seed N] [--quick] [--json]``: the main job end to end.
 
-Generates the virtual Lanxin sea-trial campaign (seed 000) as NMEA 0183 / candump / CSV logs,
+Generates the virtual Lanxin sea-trial campaign (Mu et al. 2018) as NMEA 0183 / candump / CSV logs,
 reads them back, audits them, identifies the servo, Nomoto, Norrbin (two-step) and 3-DOF models,
-validates them against the trials, compares PD and PID course keeping (ITAE), fits the seed 004
+validates them against the trials, compares PD and PID course keeping (ITAE), fits the Ma et al.
 turning-diameter model, and writes ``DIR/models/*.json``, ``DIR/run.json`` and the
 self-contained ``DIR/report.html`` (all atomically). A non-empty ``--out`` folder that usvid
 did not create is refused (exit 2) unless ``--force``; the demo never deletes a file it did not

@@ -1,6 +1,6 @@
-"""CLI command: ``usvid fit-turning-diameter [TABLE] [--json] [--seed N]`` (seed 004).
+"""CLI command: ``usvid fit-turning-diameter [TABLE] [--json] [--seed N]`` (Ma et al.).
 
-Fits seed 004 eq. 1 to a turning-diameter table (default: seed 004 Table 2, package data) by the
+Fits Ma et al. eq. 1 to a turning-diameter table (default: Ma et al. Table 2, package data) by the
 chaotic GA and by a deterministic global least-squares fit, and evaluates the published eq. 3.
 ``--json`` prints one object ``{"cga": {...}, "least_squares": {...}, "published_eq3": {...}}``,
 each with a1..a5, F (eq. 2), loo_rmse (leave-one-out error; null for the published fit),

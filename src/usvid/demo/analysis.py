@@ -1,6 +1,7 @@
 """Demo analysis steps that produce report sections: validation of identified models against
-measured trials (seed 000 figures 7-10), PD vs PID course keeping (seed 000 section 6.1, Table 3)
-and the seed 004 turning-diameter fit. Each returns the JSON-able dict stored in ``run.json``.
+measured trials (Mu et al. 2018 figures 7-10), PD vs PID course keeping (Mu et al. 2018 section 6.1,
+Table 3) and the Ma et al. turning-diameter fit. Each returns the JSON-able dict stored in
+``run.json``.
 
 Units: SI and radians inside; the returned dicts carry degrees where the key says ``_deg``.
 """
@@ -150,7 +151,7 @@ def validate_against(model: Any, trial: Any, manoeuvre: Any, model_kind: str,
 def course_keeping(model: Any, camp: Any, *, seed: int,
                    gains: dict[str, tuple[float, float, float]], target_deg: float = 100.0,
                    dist_deg: float = 2.0, t_end: float = 100.0) -> dict[str, Any]:
-    """PD vs PID course change 0 -> ``target_deg`` on the identified model under the seed 000
+    """PD vs PID course change 0 -> ``target_deg`` on the identified model under the Mu et al. 2018
     disturbance (white noise through 0.42 s/(s^2 + 0.36 s + 0.37), std ``dist_deg``
     rudder-equivalent), the same disturbance realisation for every controller.
 
@@ -190,7 +191,7 @@ def course_keeping(model: Any, camp: Any, *, seed: int,
 
 
 def turning_diameter_fit(seed: int = 0, quick: bool = False) -> dict[str, Any]:
-    """Seed 004 eq. 1 fitted to seed 004 Table 2 by the chaotic GA (seed 004's settings; fewer
+    """Ma et al. eq. 1 fitted to Ma et al. Table 2 by the chaotic GA (Ma et al.'s settings; fewer
     generations when ``quick``), next to the published eq. 3. Returns the ``run.json`` entry."""
 
     Fr, delta, DL = load_turning_table(None)
@@ -206,8 +207,8 @@ def turning_diameter_fit(seed: int = 0, quick: bool = False) -> dict[str, Any]:
     return {
         "description": (
             "Relative turning diameter D/L = a1 (Fr + a2 Fr^2 + a3 Fr^3)/(delta^a4 + a5 delta) "
-            f"(seed 004 eq. 1) fitted to the {Fr.size} turning tests of seed 004 Table 2 by the "
-            "chaotic genetic algorithm (seed 004 settings), RMS objective eq. 2. The figure "
+            f"(Ma et al. eq. 1) fitted to the {Fr.size} turning tests of Ma et al. Table 2 by the "
+            "chaotic genetic algorithm (Ma et al. settings), RMS objective eq. 2. The figure "
             f"shows the tests with Fr within 5 % of {Fr_mid:.3f} and the fitted curve there."),
         "points_delta_deg": np.degrees(delta[sel]).tolist(),
         "points_D_over_L": DL[sel].tolist(),

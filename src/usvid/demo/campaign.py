@@ -1,13 +1,14 @@
-"""The virtual Lanxin sea-trial campaign (seed 000): the bundled default data of ``usvid demo``.
+"""The virtual Lanxin sea-trial campaign (Mu et al. 2018): the bundled default data of
+``usvid demo``.
 
-The Lanxin USV (seed 000 Table 1: 7.02 m x 2.6 m, one vector thruster +-35 deg, about 10 kn) is
-simulated with the full 3-DOF model of seed 000 eq. 37 (:func:`usvid.models.threedof.
-seed000_threedof`, thruster arm x_l = 3.5 m, not printed in the seed), the propeller thrust of
-seed 000 eq. 1 (D = 0.46 m, P/D = 0.3, disk ratio 0.516, t_P = 0.05, w_P = 0.04 as the seed
+The Lanxin USV (Mu et al. 2018 Table 1: 7.02 m x 2.6 m, one vector thruster +-35 deg, about 10 kn)
+is simulated with the full 3-DOF model of Mu et al. 2018 eq. 37 (:func:`usvid.models.threedof.
+mu2018_threedof`, thruster arm x_l = 3.5 m, not printed in the seed), the propeller thrust of
+Mu et al. 2018 eq. 1 (D = 0.46 m, P/D = 0.3, disk ratio 0.516, t_P = 0.05, w_P = 0.04 as the seed
 states) at the shaft speed that holds 10 kn (about 48 rps = 2880 rpm; the seed says the engine
-ran at about 2800 rpm), the identified second-order servo with 1 s dead time (seed 000 section
-5.1.3), and a calm-sea disturbance. It runs the seed 000 test programme -- turning tests at 10,
-15, 25, 35 deg and a 10/10 zig-zag -- plus a 15/15 zig-zag, and writes each trial as real log
+ran at about 2800 rpm), the identified second-order servo with 1 s dead time (Mu et al. 2018 section
+5.1.3), and a calm-sea disturbance. It runs the Mu et al. 2018 test programme -- turning tests at
+10, 15, 25, 35 deg and a 10/10 zig-zag -- plus a 15/15 zig-zag, and writes each trial as real log
 files: NMEA 0183 (GNSS position/speed/course, heading, rate of turn, rudder), candump (NMEA 2000
 engine speed and heading/rate), and the logger's CSV export; seeded and deterministic.
 
@@ -18,7 +19,7 @@ The "truth" the identification is judged against (see :func:`response_truth`):
   angle of the noise-free, disturbance-free 3-DOF 10/10 zig-zag, matches the 3-DOF yaw rate best
   in the least-squares sense (output error). The 3-DOF model is not exactly first order, so this
   is the best first-order description of it on that manoeuvre. The small-signal linearisation at
-  10 kn (a Nomoto 2nd-order transfer function, seed 000 eq. 29) is reported next to it.
+  10 kn (a Nomoto 2nd-order transfer function, Mu et al. 2018 eq. 29) is reported next to it.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
 from usvid.io.spec import load_spec
 from usvid.io.table import read_table
 from usvid.manoeuvres.detect import steady_turn
-from usvid.models import seed000_threedof
+from usvid.models import mu2018_threedof
 from usvid.models.model import VesselModel
 from usvid.models.servo import SecondOrderServo
 from usvid.models.thrust import Propeller
@@ -53,14 +54,14 @@ from usvid.trial import Trial, Vessel
 
 KNOT = 1852.0 / 3600.0  # [m/s]
 
-#: Lanxin particulars (seed 000 Table 1), SI.
+#: Lanxin particulars (Mu et al. 2018 Table 1), SI.
 LANXIN = {
     "length": 7.02, "beam": 2.6, "draft": 0.32, "block_coefficient": 0.6976,
     "displacement": 2.73, "speed": 10.0 * KNOT,
 }
-#: Propeller (seed 000 Table 1 and section 3.1: t_P ~ 0.05, w_P ~ 0.04).
+#: Propeller (Mu et al. 2018 Table 1 and section 3.1: t_P ~ 0.05, w_P ~ 0.04).
 LANXIN_PROPELLER = {"D": 0.46, "pitch_ratio": 0.3, "disk_ratio": 0.516, "t_P": 0.05, "w_P": 0.04}
-#: Thruster arm behind the pivot [m] (not printed in seed 000; about half the length).
+#: Thruster arm behind the pivot [m] (not printed in Mu et al. 2018; about half the length).
 LANXIN_X_L = 3.5
 #: The particulars a 3-DOF model needs besides the data, as the format specs carry them
 #: (``vessel.extra``; see :mod:`usvid.models.kinds.threedof`).
@@ -70,10 +71,10 @@ LANXIN_PARTICULARS = {
     "propeller_disk_ratio": LANXIN_PROPELLER["disk_ratio"],
     "thrust_deduction": LANXIN_PROPELLER["t_P"], "wake_fraction": LANXIN_PROPELLER["w_P"],
 }
-#: Identified servo of seed 000 section 5.1.3: 1.95 / (s^2 + 2.38125 s + 1.95), 1 s dead time.
+#: Identified servo of Mu et al. 2018 section 5.1.3: 1.95 / (s^2 + 2.38125 s + 1.95), 1 s dead time.
 LANXIN_SERVO = {"omega_n": math.sqrt(1.95), "zeta": 2.38125 / (2.0 * math.sqrt(1.95)),
                 "gain": 1.0, "delay": 1.0}
-#: Origin of the local NED frame: the seed 000 trial area (lat 38.8612 N, lon 121.5548 E).
+#: Origin of the local NED frame: the Mu et al. 2018 trial area (lat 38.8612 N, lon 121.5548 E).
 ORIGIN_LAT_DEG, ORIGIN_LON_DEG = 38.8612, 121.5548
 
 
@@ -89,11 +90,11 @@ class Manoeuvre:
 
 
 def programme(quick: bool = False) -> list[Manoeuvre]:
-    """The seed 000 test programme (section 2.4): turning 10/15/25/35 deg, zig-zag 10/10, plus
+    """The Mu et al. 2018 test programme (section 2.4): turning 10/15/25/35 deg, zig-zag 10/10, plus
     a 15/15 zig-zag, a straight run with propeller-speed steps (``speed_steps``) and a 20/20
     zig-zag that no model is identified from (the held-out validation trial).
 
-    The speed steps are an addition to seed 000's programme: at one constant shaft speed the
+    The speed steps are an addition to Mu et al. 2018's programme: at one constant shaft speed the
     surge equation's ``a_u u`` and ``a_tau tau_u`` terms are collinear (thrust and resistance
     balance at the one speed), so eq. 37's a_u and a_tau cannot be separated without a change
     of propeller speed. During the speed steps the helmsman weaves gently
@@ -146,10 +147,10 @@ def lanxin_propeller() -> Any:
 
 def shaft_speed_for(speed: float = LANXIN["speed"], x_l: float = LANXIN_X_L) -> float:
     """Shaft speed n [rps] at which the eq. 37 model holds ``speed`` [m/s] straight ahead:
-    solves ``d11 u = T(n, u)`` (seed 000 eq. 1 and eq. 17 with u' = 0, v = r = 0)."""
+    solves ``d11 u = T(n, u)`` (Mu et al. 2018 eq. 1 and eq. 17 with u' = 0, v = r = 0)."""
 
 
-    d11 = float(seed000_threedof(x_l=x_l).d11)
+    d11 = float(mu2018_threedof(x_l=x_l).d11)
     prop = lanxin_propeller()
     return float(brentq(lambda n: float(prop.thrust(n, speed)) - d11 * speed, 5.0, 200.0,
                         xtol=1e-10))
@@ -157,10 +158,10 @@ def shaft_speed_for(speed: float = LANXIN["speed"], x_l: float = LANXIN_X_L) -> 
 
 def lanxin_model(x_l: float = LANXIN_X_L, speed: float = LANXIN["speed"]) -> Any:
     """The truth :class:`~usvid.models.model.VesselModel`: eq. 37 3-DOF + propeller at the
-    10 kn shaft speed + the seed 000 servo (second order, 1 s dead time, +-35 deg)."""
+    10 kn shaft speed + the Mu et al. 2018 servo (second order, 1 s dead time, +-35 deg)."""
 
     n0 = shaft_speed_for(speed, x_l)
-    dyn = seed000_threedof(x_l=x_l, thrust=lanxin_propeller(), n=n0)
+    dyn = mu2018_threedof(x_l=x_l, thrust=lanxin_propeller(), n=n0)
     vessel = Vessel(length=LANXIN["length"], speed=speed, beam=LANXIN["beam"],
                     draft=LANXIN["draft"], displacement=LANXIN["displacement"],
                     block_coefficient=LANXIN["block_coefficient"])
@@ -170,11 +171,12 @@ def lanxin_model(x_l: float = LANXIN_X_L, speed: float = LANXIN["speed"]) -> Any
 def linearised_response(model: Any, speed: float | None = None) -> dict[str, float]:
     """Small-signal r/delta of the 3-DOF model at straight running ``speed`` [m/s].
 
-    Linearising seed 000 eq. 17 at (u0, v = r = delta = 0) with T0 = d11 u0:
+    Linearising Mu et al. 2018 eq. 17 at (u0, v = r = delta = 0) with T0 = d11 u0:
     ``[v', r'] = A [v, r] + b delta`` with ``A = [[-d22/m22, -(m11/m22) u0], [((m11 - m22)/m33)
-    u0, -d33/m33]]``, ``b = [0, x_l T0 / m33]``, giving the Nomoto 2nd-order form (seed 000 eq.
-    29) ``K (1 + T3 s) / ((1 + T1 s)(1 + T2 s))``. Returns K [1/s], T1, T2, T3 [s] and the
-    equivalent first-order ``T = T1 + T2 - T3`` [s].
+    u0, -d33/m33]]``, ``b = [0, x_l T0 /
+    m33]``, giving the Nomoto 2nd-order form (Mu et al. 2018 eq. 29) ``K (1 + T3 s) / ((1 + T1
+    s)(1 + T2 s))``. Returns K [1/s], T1, T2, T3 [s] and the equivalent first-order ``T = T1 + T2 -
+    T3`` [s].
     """
     dyn = getattr(model, "dynamics", model)
     u0 = float(speed if speed is not None else model.vessel.speed)
@@ -203,7 +205,8 @@ class CampaignTrial:
     truth: dict[str, Any] = field(default_factory=dict)
 
 
-#: The calm-sea sensor suite (seed 000 section 2.3): 10 Hz GNSS with metre-level noise, heading
+#: The calm-sea sensor suite (Mu et al. 2018 section 2.3): 10 Hz GNSS with metre-level noise,
+# heading
 #: and gyro at 50 Hz, rudder feedback at 50 Hz, the logger's body velocities at the GNSS rate,
 #: propeller speed over NMEA 2000 (10 rpm noise), 2 ms time-stamp jitter.
 SENSORS = {
@@ -219,8 +222,8 @@ SENSORS = {
 GNSS_WANDER_M, GNSS_WANDER_TAU_S = 1.0, 60.0
 #: Course-over-ground noise [deg] (receiver Doppler course).
 COG_SIGMA_DEG = 0.5
-#: Calm sea (seed 000 section 2.4: sea state 1, waves 0-0.1 m): rudder-equivalent disturbance
-#: std [deg] through the seed 000 filter 0.42 s/(s^2 + 0.36 s + 0.37).
+#: Calm sea (Mu et al. 2018 section 2.4: sea state 1, waves 0-0.1 m): rudder-equivalent disturbance
+#: std [deg] through the Mu et al. 2018 filter 0.42 s/(s^2 + 0.36 s + 0.37).
 CALM_SEA_DIST_DEG = 0.15
 #: Straight run before the rudder is put over [s].
 APPROACH_S = 5.0
@@ -228,8 +231,8 @@ APPROACH_S = 5.0
 T0_UTC = "2018-04-10T02:00:00+00:00"
 #: How the simulation truth of the identified models is defined (shown in the report).
 TRUTH_DEFINITION = (
-    "3-DOF: the seed 000 eq. 37 coefficients the campaign was simulated with (x_l = 3.5 m, "
-    "propeller of eq. 1 at the 10 kn shaft speed). Servo: the seed 000 servo (omega_n = "
+    "3-DOF: the Mu et al. 2018 eq. 37 coefficients the campaign was simulated with (x_l = 3.5 m, "
+    "propeller of eq. 1 at the 10 kn shaft speed). Servo: the Mu et al. 2018 servo (omega_n = "
     "sqrt(1.95) rad/s, zeta = 0.853, gain 1, 1 s dead time). Nomoto K, T: the 3-DOF model is "
     "not first order, so its Nomoto 'truth' is the best first-order fit: the output-error "
     "estimator of usvid.identify (the same criterion and manoeuvres as the identification) "
@@ -239,7 +242,7 @@ TRUTH_DEFINITION = (
     "(10/10 zig-zag) and the small-signal "
     "linearisation at 10 kn (Nomoto 2nd order) are listed with it in run.json. Norrbin: K, T "
     "as Nomoto, n1 = 1, n3 = alpha fitted by least squares to r + alpha r^3 = K delta over "
-    "the steady part of noise-free turning tests (seed 000 eq. 36)."
+    "the steady part of noise-free turning tests (Mu et al. 2018 eq. 36)."
 )
 
 SPEC_FILES = {
@@ -310,7 +313,7 @@ class Campaign:
 
         return {
             "description": (
-                "Virtual sea trials of the Lanxin USV (seed 000): 3-DOF model of eq. 37, "
+                "Virtual sea trials of the Lanxin USV (Mu et al. 2018): 3-DOF model of eq. 37, "
                 "propeller thrust of eq. 1, second-order servo with 1 s dead time, calm-sea "
                 f"disturbance ({CALM_SEA_DIST_DEG} deg rudder-equivalent), sensors: GNSS "
                 f"{SENSORS['gps_rate_hz']:g} Hz with {GNSS_WANDER_M:g} m 2nd-order "
@@ -337,7 +340,7 @@ def _steady_turns(res: Any, t_execute: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def norrbin_alpha(K: float, delta: np.ndarray, r: np.ndarray) -> float:
-    """Least-squares alpha of ``r + alpha r^3 = K delta`` (seed 000 eq. 36) [s^2/rad^2]."""
+    """Least-squares alpha of ``r + alpha r^3 = K delta`` (Mu et al. 2018 eq. 36) [s^2/rad^2]."""
     r = np.asarray(r, float)
     y = K * np.asarray(delta, float) - r
     return float(np.sum(y * r ** 3) / np.sum(r ** 6))

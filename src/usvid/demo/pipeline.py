@@ -6,14 +6,14 @@ Steps (each timed, each recorded in ``run.json`` with its status):
                   (:mod:`usvid.demo.campaign`) under ``OUT/logs`` (moved in place when complete);
 2. ``read``       read them back with :mod:`usvid.io` (the logs are the only input from here on);
 3. ``audit``      channel audit (:func:`usvid.prep.audit`) and preparation to a uniform grid;
-4. ``identify``   servo (second order + dead time), Nomoto 1st order, Norrbin in seed 000's two
-                  steps (Nomoto on the 10/10 zig-zag, alpha from the turning tests, eq. 36) and
-                  the 3-DOF model (seed 000 eq. 37) with :mod:`usvid.identify`;
+4. ``identify``   servo (second order + dead time), Nomoto 1st order, Norrbin in Mu et al. 2018's
+                  two steps (Nomoto on the 10/10 zig-zag, alpha from the turning tests, eq. 36) and
+                  the 3-DOF model (Mu et al. 2018 eq. 37) with :mod:`usvid.identify`;
 5. ``validate``   identified models simulated through the same manoeuvres, against the logs
-                  (seed 000 figures 7-10), manoeuvre metrics and IMO criteria;
-6. ``course_keeping``  PD vs PID course change 0 -> 100 deg under the seed 000 disturbance, ITAE
-                  (seed 000 section 6.1, Table 3);
-7. ``turning_diameter``  the seed 004 relative turning-diameter model fitted by the chaotic GA;
+                  (Mu et al. 2018 figures 7-10), manoeuvre metrics and IMO criteria;
+6. ``course_keeping``  PD vs PID course change 0 -> 100 deg under the Mu et al. 2018 disturbance,
+                  ITAE (Mu et al. 2018 section 6.1, Table 3);
+7. ``turning_diameter``  the Ma et al. relative turning-diameter model fitted by the chaotic GA;
 8. ``write``      model files (``OUT/models/*.json``), ``run.json`` and ``report.html``.
 
 A step whose input is missing because an earlier step failed is recorded as ``skipped``; an
@@ -54,7 +54,7 @@ from usvid.models.registry import get as get_kind
 from usvid.prep import audit, prepare
 from usvid.report.run import save_run, write_report
 
-#: seed 000 section 6.1 controller gains and Table 3 ITAE.
+#: Mu et al. 2018 section 6.1 controller gains and Table 3 ITAE.
 PID_GAINS = {"PD": (0.7, 0.0, 1.0), "PID": (0.7, 0.00095, 1.0)}
 PAPER_ITAE = {"PID": 37.98, "PD": 38.6}
 COURSE_TARGET_DEG = 100.0
@@ -145,7 +145,7 @@ class DemoPipeline:
         self.progress = _Progress(progress)
         self.run: dict[str, Any] = {
             "usvid_run": 1,
-            "title": "usvid demo: virtual Lanxin USV sea trials (seed 000)",
+            "title": "usvid demo: virtual Lanxin USV sea trials (Mu et al. 2018)",
             "created_by": "usvid demo",
             "usvid_version": __version__,
             "settings": {"seed": self.seed, "quick": self.quick},
@@ -361,7 +361,7 @@ class DemoPipeline:
             self.step("validate", "Validate: simulated vs measured", self.step_validate)
             self.step("course_keeping", "Course keeping: paper and designed PD/PID (ITAE)",
                       self.step_course_keeping)
-            self.step("turning_diameter", "Turning-diameter fit (seed 004, CGA)",
+            self.step("turning_diameter", "Turning-diameter fit (Ma et al., CGA)",
                       self.step_turning_diameter)
         self.run["timing"] = {"total_s": round(time.perf_counter() - t_start, 3)}
         self.run["acceptance"] = acceptance(self.run)
@@ -477,7 +477,7 @@ def _model_entry(kind: str, label: str, equation: str, params: dict, ci95: dict,
 def _norrbin_curve(nor: Any, turns: list) -> dict[str, Any] | None:
     """Steady turns (mean delta and r over the steady part of each turning trial,
     :func:`usvid.manoeuvres.detect.steady_turn` from the rudder execute) and the fitted curve
-    ``r + alpha r^3 = K delta`` (seed 000 eq. 36) for the report."""
+    ``r + alpha r^3 = K delta`` (Mu et al. 2018 eq. 36) for the report."""
     p = nor.params
     K, n1, n3 = p.get("K"), p.get("n1", 1.0), p.get("n3")
     if K is None or n3 is None:
@@ -531,7 +531,7 @@ def print_summary(result: DemoResult) -> None:
     cc = result.run.get("course_keeping")
     if cc:
         t2 = Table(title="Course change 0 -> 100 deg under disturbance")
-        for col in ("controller", "ITAE", "IAE", "max |delta| [deg]", "seed 000 Table 3"):
+        for col in ("controller", "ITAE", "IAE", "max |delta| [deg]", "Mu et al. 2018 Table 3"):
             t2.add_column(col, justify="right")
         def num(v: Any, f: str = ".4g") -> str:
             return "-" if v is None or not math.isfinite(v) else format(v, f)

@@ -1,6 +1,6 @@
-"""Chaotic genetic algorithm (CGA) for bounded global minimisation (seed 004).
+"""Chaotic genetic algorithm (CGA) for bounded global minimisation (Ma et al.).
 
-Seed 004 ("Identification process" and "Identification results") identifies the turning-diameter
+Ma et al. ("Identification process" and "Identification results") identifies the turning-diameter
 model with a chaotic genetic algorithm configured as: population 100, 1000 generations, crossover
 probability 0.8, mutation probability 0.02, coding precision 4 (decimal places), 100 chaotic
 iterations, chaotic population 10 % of the genetic population, roulette selection, single-point
@@ -82,17 +82,17 @@ def cga(objective: Callable[[np.ndarray], np.ndarray], bounds: Sequence[tuple[fl
         p_mutation: float = 0.02, chaos_iterations: int = 100, chaos_share: float = 0.10,
         precision: int | None = 4, rho_start: float = 0.1, rho_end: float = 1e-4,
         seed: int = 0) -> CGAResult:
-    """Minimise ``objective`` within ``bounds`` by the chaotic genetic algorithm (seed 004).
+    """Minimise ``objective`` within ``bounds`` by the chaotic genetic algorithm (Ma et al.).
 
     Parameters
     ----------
     objective : callable
         Vectorised objective: takes an (M, p) array of candidates, returns (M,) values.
     bounds : sequence of (lo, hi)
-        One pair per parameter (seed 004's bounds for the turning-diameter model are
-        :data:`usvid.identify.turning_diameter.SEED004_BOUNDS`).
+        One pair per parameter (Ma et al.'s bounds for the turning-diameter model are
+        :data:`usvid.identify.turning_diameter.MA_BOUNDS`).
     pop_size, generations, p_crossover, p_mutation, chaos_iterations, chaos_share, precision
-        Seed 004's settings by default (see the module docstring for how each is used).
+        Ma et al.'s settings by default (see the module docstring for how each is used).
     rho_start, rho_end : float
         Chaotic-search radius (fraction of the bound width) at the first and last generation.
     seed : int

@@ -4,8 +4,8 @@ The estimator follows the usvid estimator contract (scikit-learn style): hyper-p
 ``__init__``, :meth:`LeastSquares.fit` returns ``self``, learned attributes end in ``_`` and
 reading them before fitting raises :class:`NotFittedError`.
 
-Theory (ordinary least squares, e.g. Ljung, *System Identification*, 2nd ed., sec. 7.3; seed 000
-sec. 5.1 uses its recursive form, see :mod:`usvid.identify.rls`):
+Theory (ordinary least squares, e.g. Ljung, *System Identification*, 2nd ed., sec. 7.3;
+Mu et al. 2018 sec. 5.1 uses its recursive form, see :mod:`usvid.identify.rls`):
 
 .. math::
 
@@ -176,7 +176,7 @@ def check_collinearity(X: np.ndarray, names: Sequence[str], cond_max: float) -> 
 
 def arx_regressors(u: Any, y: Any, na: int, nb: int, nk: int = 1, *, start: int | None = None
                    ) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Regressors of the ARX model (seed 001 eq. 23 and 26 are ARX models identified by RLS).
+    """Regressors of the ARX model (Mu et al. 2016 eq. 23 and 26 are ARX models identified by RLS).
 
     ``y_k = -a_1 y_{k-1} - ... - a_na y_{k-na} + b_1 u_{k-nk} + ... + b_nb u_{k-nk-nb+1} + e_k``,
     i.e. the discrete transfer function ``z^-nk (b_1 + b_2 z^-1 + ...) / (1 + a_1 z^-1 + ...)``.

@@ -1,7 +1,7 @@
 """Recursive least squares with exponential forgetting and covariance resetting.
 
-Seed 000 sec. 5.1 (and seed 001 sec. 3.2) identify every model with "the recursive least squares
-method"; the papers do not print the recursion, so the standard form is implemented
+Mu et al. 2018 sec. 5.1 (and Mu et al. 2016 sec. 3.2) identify every model with "the recursive least
+squares method"; the papers do not print the recursion, so the standard form is implemented
 (Ljung, *System Identification*, 2nd ed., eq. 11.16; Astrom & Wittenmark, *Adaptive Control*,
 sec. 2.2). For each sample k with regressor row ``x_k`` (p,) and output ``y_k``:
 

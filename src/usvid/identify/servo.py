@@ -1,22 +1,22 @@
 """Second-order under-damped steering-servo identification with a dead-time search.
 
-Model (seed 000 eq. 12 and sec. 5.1.3; seed 001 eq. 22, 26-27): commanded angle ``delta_cmd``
-[rad] to actual angle ``delta`` [rad],
+Model (Mu et al. 2018 eq. 12 and sec. 5.1.3; Mu et al. 2016 eq. 22, 26-27): commanded angle
+``delta_cmd`` [rad] to actual angle ``delta`` [rad],
 
 .. math::
 
     \\frac{\\delta(s)}{\\delta_{cmd}(s)} = \\frac{K \\omega_n^2}{s^2 + 2\\zeta\\omega_n s
     + \\omega_n^2} e^{-\\tau s}
 
-(seed 000 found 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s}: omega_n = 1.396 rad/s, zeta = 0.853,
+(Mu et al. 2018 found 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s}: omega_n = 1.396 rad/s, zeta = 0.853,
 K = 1, tau = 1 s).
 
 Method (documented choices; the seeds only say "recursive least squares"):
 
-1. **ARX delay scan** (seed 001 eq. 26 form). For every candidate delay d (samples) fit by least
-   squares ``delta_k = -a1 delta_{k-1} - a2 delta_{k-2} + b1 u_{k-1-d} + b2 u_{k-2-d}`` on a common
-   sample range; the d with the smallest residual RMS is the first estimate. The discrete model
-   ``(b1 z + b2) / (z^2 + a1 z + a2) z^-d`` is converted to continuous time by ZOH
+1. **ARX delay scan** (Mu et al. 2016 eq. 26 form). For every candidate delay d (samples) fit by
+   least squares ``delta_k = -a1 delta_{k-1} - a2 delta_{k-2} + b1 u_{k-1-d} + b2 u_{k-2-d}`` on a
+   common sample range; the d with the smallest residual RMS is the first estimate. The discrete
+   model ``(b1 z + b2) / (z^2 + a1 z + a2) z^-d`` is converted to continuous time by ZOH
    (:func:`usvid.identify.d2c.d2c`) and read as omega_n = sqrt(den[2]), zeta = den[1] /
    (2 omega_n), K = G(0).
 2. **Output-error refinement** (``refine=True``, default). Equation-error ARX is biased by sensor

@@ -1,18 +1,18 @@
-"""Fitting seed 004's relative turning-diameter model (eq. 1) by CGA and by least squares.
+"""Fitting Ma et al.'s relative turning-diameter model (eq. 1) by CGA and by least squares.
 
 The model, the RMS objective F (eq. 2), the published coefficients (eq. 3), the GA bounds and
 the Tables live in :mod:`usvid.models.turning_diameter` (package data
-``usvid/data/seed004_table*.csv``); this module only estimates. Methods (each returns a
+``usvid/data/ma_table*.csv``); this module only estimates. Methods (each returns a
 :class:`TurningDiameterFit`):
 
-* ``"cga"`` -- the chaotic genetic algorithm exactly as seed 004 configures it
+* ``"cga"`` -- the chaotic genetic algorithm exactly as Ma et al. configures it
   (:func:`usvid.identify.cga.cga`, population 100, 1000 generations, ..., seeded), minimising F
-  within :data:`~usvid.models.turning_diameter.SEED004_BOUNDS`.
+  within :data:`~usvid.models.turning_diameter.MA_BOUNDS`.
 * ``"least_squares"`` -- a deterministic global fit: ``scipy.optimize.differential_evolution``
   (seeded, vectorised over its population) within the same bounds, polished by
   ``scipy.optimize.least_squares`` (trust-region reflective, bounded). Minimising the sum of
   squares minimises F.
-* ``"published_eq3"`` -- seed 004 eq. 3 evaluated on the data (no fitting).
+* ``"published_eq3"`` -- Ma et al. eq. 3 evaluated on the data (no fitting).
 
 Leave-one-out error (``loo_rmse``): for each data point i the coefficients are re-fitted on the
 other N - 1 points by bounded ``least_squares`` *started from the method's full-data optimum* (a
@@ -41,12 +41,12 @@ from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.cga import cga
 from usvid.models.turning_diameter import (
     KNOT,
-    SEED004_BOUNDS,
-    SEED004_EQ3,
-    SEED004_LENGTH,
+    MA_BOUNDS,
+    MA_EQ3,
+    MA_LENGTH,
     TurningDiameterCoeffs,
     froude_number,
-    load_seed004_table2,
+    load_ma_table2,
     relative_turning_diameter,
     rms_objective,
 )
@@ -57,7 +57,7 @@ PARAMS = ("a1", "a2", "a3", "a4", "a5")
 
 @dataclass
 class TurningDiameterFit:
-    """One method's result: ``coeffs`` (a1..a5), ``F`` (seed 004 eq. 2 on the data) [-],
+    """One method's result: ``coeffs`` (a1..a5), ``F`` (Ma et al. eq. 2 on the data) [-],
     ``loo_rmse`` [-] (None when not applicable), ``max_rel_error`` max |pred/DL - 1| [-],
     ``at_bounds`` (names of coefficients on a bound), ``details`` (method specifics)."""
 
@@ -128,7 +128,7 @@ def _local_fit(Fr, delta, DL, x0, lo, hi) -> np.ndarray:
 
 
 def leave_one_out_rmse(Fr: Any, delta: Any, DL: Any, a: Any,
-                       bounds: Sequence[tuple[float, float]] = SEED004_BOUNDS) -> float:
+                       bounds: Sequence[tuple[float, float]] = MA_BOUNDS) -> float:
     """Leave-one-out prediction RMS [-] by warm-started bounded least-squares refits from ``a``."""
     Fr, delta, DL = _check_data(Fr, delta, DL)
     b = np.asarray(bounds, dtype=float)
@@ -160,14 +160,14 @@ def _make(method, a, Fr, delta, DL, bounds, loo, details) -> TurningDiameterFit:
 
 def fit_turning_diameter(Fr: Any, delta: Any, DL: Any, *,
                          methods: Sequence[str] = METHODS, seed: int = 0,
-                         bounds: Sequence[tuple[float, float]] = SEED004_BOUNDS,
+                         bounds: Sequence[tuple[float, float]] = MA_BOUNDS,
                          loo: bool = True, cga_options: dict[str, Any] | None = None,
                          ) -> dict[str, TurningDiameterFit]:
-    """Fit seed 004 eq. 1 to data by each of ``methods`` (see the module docstring).
+    """Fit Ma et al. eq. 1 to data by each of ``methods`` (see the module docstring).
 
     Fr [-] Froude numbers, delta [rad] rudder angles, DL [-] measured relative turning diameters
     (1-D, equal length). ``seed`` seeds the CGA and differential evolution; ``cga_options``
-    overrides :func:`~usvid.identify.cga.cga` settings (seed 004's by default). Returns
+    overrides :func:`~usvid.identify.cga.cga` settings (Ma et al.'s by default). Returns
     ``{method: TurningDiameterFit}`` in the order given.
     """
     Fr, delta, DL = _check_data(Fr, delta, DL)
@@ -198,8 +198,8 @@ def fit_turning_diameter(Fr: Any, delta: Any, DL: Any, *,
                            {"seed": seed, "global": "differential_evolution",
                             "local": "least_squares (trf, bounded)"})
         else:
-            out[m] = _make(m, SEED004_EQ3.as_array(), Fr, delta, DL, b, False,
-                           {"source": "seed 004 eq. 3"})
+            out[m] = _make(m, MA_EQ3.as_array(), Fr, delta, DL, b, False,
+                           {"source": "Ma et al. eq. 3"})
     return out
 
 
@@ -237,23 +237,23 @@ def _parse_table(text: str, name: str, length: float) -> tuple[np.ndarray, ...]:
         return Fr, de, DL
     V, rud, D = col(["speed_kn"]), col(["rudder_deg"]), col(["turning_diameter_m"])
     if V is not None and rud is not None and D is not None:
-        # Table 1 form; g = 9.8 m/s^2 as the paper evidently used (see Seed004Table1.fit_inputs)
+        # Table 1 form; g = 9.8 m/s^2 as the paper evidently used (see MaTable1.fit_inputs)
         return froude_number(V * KNOT, length, 9.8), np.deg2rad(rud), D / length
     raise UsvidError(
         f"{name}: expected columns Fr, delta_rad (or delta), DL_test (or DL) -- or Table 1's "
         f"speed_kn, rudder_deg, turning_diameter_m; found {header}")
 
 
-def load_turning_table(path: str | Path | None = None, *, length: float = SEED004_LENGTH
+def load_turning_table(path: str | Path | None = None, *, length: float = MA_LENGTH
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Fr [-], delta [rad], DL [-]) from a CSV table, or seed 004 Table 2 when ``path`` is None.
+    """(Fr [-], delta [rad], DL [-]) from a CSV table, or Ma et al. Table 2 when ``path`` is None.
 
     Accepted columns: ``Fr, delta_rad|delta, DL_test|DL`` (Table 2 form) or ``speed_kn,
     rudder_deg, turning_diameter_m`` (Table 1 form, converted with ``length`` [m]). Lines starting
     with ``#`` are comments. Errors name the file, line and column.
     """
     if path is None:
-        t = load_seed004_table2()
+        t = load_ma_table2()
         return t.Fr, t.delta_rad, t.DL_test
     p = Path(path)
     try:

@@ -1,7 +1,7 @@
 """Validation of identified models: held-out metrics, leave-one-trial-out cross-validation,
-comparison of model kinds, and simulated-vs-measured manoeuvre metrics (seed 000 section 5.2).
+comparison of model kinds, and simulated-vs-measured manoeuvre metrics (Mu et al. 2018 section 5.2).
 
-Seed 000 validates its identified models by simulating the manoeuvres of the trials (zig-zag,
+Mu et al. 2018 validates its identified models by simulating the manoeuvres of the trials (zig-zag,
 turning) and comparing with the measured ones. :func:`zigzag_check` does that for a zig-zag
 trial: it reads the trial's rudder amplitude, switching angle and first side from the record,
 simulates the same zig-zag on the model with :mod:`usvid.sim` (its ``ZigZag`` logic, closed
@@ -58,7 +58,7 @@ def zigzag_response(model: VesselModel, delta_amp: float, psi_switch: float, *,
 def zigzag_check(est: ModelEstimator, trial: Any, *, rate: float | None = None,
                  t_end: float | None = None, psi_switch: float | None = None
                  ) -> dict[str, Any]:
-    """Simulated versus measured zig-zag metrics of one zig-zag trial (seed 000 sec. 5.2).
+    """Simulated versus measured zig-zag metrics of one zig-zag trial (Mu et al. 2018 sec. 5.2).
 
     The trial's amplitude [rad], first side (sign of the first large rudder) and
     switching angle define the simulated zig-zag; the switching angle is ``psi_switch`` [rad], else

@@ -28,8 +28,8 @@ log's manoeuvres are read from the rudder order when it is logged, else from the
   the 180 deg instant; its mean yaw rate, speed and rudder.
 
 Finding manoeuvres (:func:`find_manoeuvres`). The rudder (or, without a rudder, the thruster
-differential port - starboard, seed 002: tau_r = (T_port - T_stbd) b/2) is cut into *pulses*:
-runs where the smoothed command keeps one sign beyond ``min_level``. Then
+differential port - starboard, the catamaran paper: tau_r = (T_port - T_stbd) b/2) is cut into
+*pulses*: runs where the smoothed command keeps one sign beyond ``min_level``. Then
 
 * a **zig-zag** is a chain of at least three pulses of alternating sign and similar level, joined
   by short transitions, whose reversals all happen at about the same heading deviation from the

@@ -9,7 +9,7 @@ constant over the step, as a digital controller at the step rate would).
   flips to ``-delta_amp`` when ``psi - psi0 >= +psi_switch`` and back to ``+delta_amp`` when
   ``psi - psi0 <= -psi_switch`` (any delta/psi pair, e.g. 10/10, 20/20, 20/10; ``first=-1``
   starts to port). Positive delta turns to starboard (r > 0, ARCHITECTURE.md).
-- :class:`CourseChange`: a heading autopilot with :class:`PID` (seed 000 eq. 41) towards
+- :class:`CourseChange`: a heading autopilot with :class:`PID` (Mu et al. 2018 eq. 41) towards
   ``target``, optionally with a :class:`Disturbance`.
 - :class:`Commanded`: time series of commands (rudder and/or thruster commands).
 """
@@ -25,7 +25,7 @@ from usvid.errors import SimulationError
 
 ArrayLike = float | np.ndarray
 
-#: Seed 000 section 6.1: disturbance filter 0.42 s / (s^2 + 0.36 s + 0.37).
+#: Mu et al. 2018 section 6.1: disturbance filter 0.42 s / (s^2 + 0.36 s + 0.37).
 DISTURBANCE_TF = (0.42, 0.36, 0.37)
 
 
@@ -85,13 +85,13 @@ class ZigZag:
 
 @dataclass
 class PID:
-    """Heading controller (seed 000 eq. 41, signs for our convention), gains may be arrays.
+    """Heading controller (Mu et al. 2018 eq. 41, signs for our convention), gains may be arrays.
 
     ``delta_cmd = kp e + ki int(e dt) - kd r`` with ``e = wrap(target - psi)`` [rad] and r [rad/s]
-    (the derivative of -e for a constant target). Seed 000 prints
+    (the derivative of -e for a constant target). Mu et al. 2018 prints
     ``delta = -Kp (psi - psi_d) - Ki int(psi - psi_d) - Kd d(psi - psi_d)/dt`` with three positive
     gains; with positive delta giving positive r this is the stable sign (negative feedback).
-    kp [-], ki [1/s], kd [s]; PD when ki = 0. Seed 000: PID kp = 0.7, ki = 0.00095, kd = 1;
+    kp [-], ki [1/s], kd [s]; PD when ki = 0. Mu et al. 2018: PID kp = 0.7, ki = 0.00095, kd = 1;
     PD kp = 0.7, kd = 1. ``anti_windup``: the integrator stops while the command is saturated at
     the servo angle limit and the error would drive it further (conditional integration).
     """
@@ -108,7 +108,7 @@ class PID:
 @dataclass
 class Disturbance:
     """Rudder-equivalent disturbance: white noise through ``0.42 s / (s^2 + 0.36 s + 0.37)``
-    (seed 000 section 6.1), added to the servo angle seen by the hull (delta_eff = delta + d).
+    (Mu et al. 2018 section 6.1), added to the servo angle seen by the hull (delta_eff = delta + d).
 
     ``intensity`` [rad]: the stationary standard deviation of d. For this filter driven by white
     noise of two-sided spectral density q, var(d) = 0.42^2 q / (2 * 0.36); the simulator uses
@@ -151,7 +151,7 @@ class Disturbance:
 class CourseChange:
     """Course change / course keeping to ``target`` [rad] with a :class:`PID` autopilot.
 
-    Seed 000 section 6.1: initial course 0, target 100 deg, with the disturbance. The heading
+    Mu et al. 2018 section 6.1: initial course 0, target 100 deg, with the disturbance. The heading
     error metrics (ITAE = int t |e| dt [rad s^2], IAE = int |e| dt [rad s], max |delta|) are
     accumulated by the simulator at every step.
     """

@@ -11,19 +11,19 @@ from usvid.models.kinds.catamaran import Catamaran
 from usvid.models.kinds.nomoto1 import Nomoto1
 from usvid.models.kinds.nomoto2 import Nomoto2
 from usvid.models.kinds.norrbin import Norrbin
-from usvid.models.kinds.threedof import SEED000_EQ37, ThreeDOF
+from usvid.models.kinds.threedof import MU2018_EQ37, ThreeDOF
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
 from usvid.models.registry import names as kind_names
-from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo, seed000_servo
+from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo, mu2018_servo
 
 __all__ = [
-    "SEED000_EQ37", "Catamaran", "FirstOrderServo", "IdealServo", "Nomoto1", "Nomoto2",
+    "MU2018_EQ37", "Catamaran", "FirstOrderServo", "IdealServo", "Nomoto1", "Nomoto2",
     "Norrbin", "SecondOrderServo", "ThreeDOF", "VesselModel", "get_kind", "kind_names",
-    "registry", "seed000_servo", "seed000_threedof",
+    "registry", "mu2018_servo", "mu2018_threedof",
 ]
 
 
-def seed000_threedof(x_l: float = 3.5, **kw: object) -> ThreeDOF:
+def mu2018_threedof(x_l: float = 3.5, **kw: object) -> ThreeDOF:
     """The Lanxin model of Mu et al. 2018, eq. 37 (x_l [m] is not printed; ~half the length)."""
-    return ThreeDOF.from_regression(**SEED000_EQ37, x_l=x_l, **kw)
+    return ThreeDOF.from_regression(**MU2018_EQ37, x_l=x_l, **kw)

@@ -1,7 +1,7 @@
-"""Discrete-to-continuous conversion of identified models (seed 001, eq. 23-27).
+"""Discrete-to-continuous conversion of identified models (Mu et al. 2016, eq. 23-27).
 
-Seed 001 identifies discrete transfer functions by RLS (eq. 23, 26) and converts them to continuous
-ones (eq. 24, 27). Its printed pairs are not self-consistent (eq. 26 has complex poles at
+Mu et al. 2016 identifies discrete transfer functions by RLS (eq. 23, 26) and converts them to
+continuous ones (eq. 24, 27). Its printed pairs are not self-consistent (eq. 26 has complex poles at
 z = -0.78 +- 0.56 j, i.e. near the Nyquist frequency, which no ZOH conversion maps to the printed
 omega_n = 0.985 rad/s), so usvid implements the conversions from their definitions:
 
@@ -181,8 +181,8 @@ def d2c(num: Any, den: Any, dt: float, method: str = "zoh", *, variable: str = "
         ) -> ContinuousTF:
     """Continuous transfer function (and dead time) of a discrete one sampled every ``dt`` [s].
 
-    Implements seed 001 eq. 23 -> 24 and 26 -> 27 (see the module docstring for the method and the
-    dead-time rule). ``num``/``den`` in descending powers of z (``variable="z"``) or ascending
+    Implements Mu et al. 2016 eq. 23 -> 24 and 26 -> 27 (see the module docstring for the method and
+    the dead-time rule). ``num``/``den`` in descending powers of z (``variable="z"``) or ascending
     powers of z^-1 (``variable="z^-1"``). Raises :class:`IdentificationError` for a negative real
     pole under ZOH, poles at z = 0 that are not a pure delay, or an improper model.
     """

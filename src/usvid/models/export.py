@@ -4,13 +4,13 @@
 into a ``control.TransferFunction`` from the propulsion angle delta [rad] to the yaw rate r [rad/s]
 (or to the heading psi [rad] with ``output="psi"``), optionally in series with the steering servo.
 
-- Nomoto 1st order (seed 000 eq. 35 with alpha = 0): ``r/delta = K / (T s + 1)``.
-- Nomoto 2nd order (seed 000 eq. 29): ``r/delta = K (1 + T3 s) / ((1 + T1 s)(1 + T2 s))``.
+- Nomoto 1st order (Mu et al. 2018 eq. 35 with alpha = 0): ``r/delta = K / (T s + 1)``.
+- Nomoto 2nd order (Mu et al. 2018 eq. 29): ``r/delta = K (1 + T3 s) / ((1 + T1 s)(1 + T2 s))``.
 - Norrbin (``T r' + n1 r + n3 r^3 = K delta``), linearised about r = 0: ``K / (T s + n1)``
   (the cubic term has zero slope there).
-- Servo (seed 000 eq. 11, eq. 12 and section 5.1.3): first order ``1 / (T s + 1)``; second order
-  ``gain omega_n^2 / (s^2 + 2 zeta omega_n s + omega_n^2)``; the dead time ``e^{-s delay}`` as a
-  Pade approximant of order ``pade_order`` (0 leaves the delay out). Angle and rate limits are
+- Servo (Mu et al. 2018 eq. 11, eq. 12 and section 5.1.3): first order ``1 / (T s + 1)``; second
+  order ``gain omega_n^2 / (s^2 + 2 zeta omega_n s + omega_n^2)``; the dead time ``e^{-s delay}`` as
+  a Pade approximant of order ``pade_order`` (0 leaves the delay out). Angle and rate limits are
   nonlinear and are not represented.
 """
 

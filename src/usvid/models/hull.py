@@ -1,8 +1,8 @@
 """Hull regressions: added mass and linear manoeuvring derivatives from main particulars.
 
-Seed 002 (section 2.1, eq. 17) names two regressions for the added masses and added moment of
-inertia: Zhou et al.'s multiple regression of Motora's charts and Clarke et al. (1983). The
-extracted seed lost the formulas; the published forms are implemented here, every coefficient
+the catamaran paper (section 2.1, eq. 17) names two regressions for the added masses and added
+moment of inertia: Zhou et al.'s multiple regression of Motora's charts and Clarke et al. (1983).
+The extracted seed lost the formulas; the published forms are implemented here, every coefficient
 with its source:
 
 * Clarke, D., Gedling, P. and Hine, G. (1983). "The application of manoeuvring criteria in hull
@@ -67,7 +67,8 @@ class HullParticulars:
                      else self.Cb * self.L * self.B * self.T)
 
 
-#: Lanxin USV, seed 000 Table 1 (draft full load 0.32 m, Cb 0.6976, displacement 2.73 m^3). Note
+#: Lanxin USV, Mu et al. 2018 Table 1 (draft full load 0.32 m, Cb 0.6976, displacement 2.73 m^3).
+# Note
 #: the table is not self-consistent: Cb L B T = 4.07 m^3, not 2.73 m^3.
 LANXIN = HullParticulars(L=7.02, B=2.60, T=0.32, Cb=0.6976, volume=2.73)
 
@@ -92,7 +93,7 @@ class AddedMass:
                           [0.0, self.N_vdot, self.N_rdot]], dtype=float)
 
     def inertia_terms(self, m: ArrayLike, Iz: ArrayLike, x_g: ArrayLike = 0.0) -> dict:
-        """Seed 000 eq. 15 inertia terms: m11 = m - X_udot, m22 = m - Y_vdot,
+        """Mu et al. 2018 eq. 15 inertia terms: m11 = m - X_udot, m22 = m - Y_vdot,
         m23 = m x_g - Y_rdot, m32 = m x_g - N_vdot, m33 = Iz - N_rdot.
 
         m [kg], Iz [kg m^2] about the body origin, x_g [m]; returns a dict of the five terms
@@ -217,7 +218,7 @@ class ZhouAddedMass:
 
 def zhou_added_mass(L: ArrayLike, B: ArrayLike, d: ArrayLike, Cb: ArrayLike,
                     m: ArrayLike) -> ZhouAddedMass:
-    """Added masses by Zhou et al.'s regression of Motora's charts (seed 002 eq. 17)::
+    """Added masses by Zhou et al.'s regression of Motora's charts (the catamaran paper eq. 17)::
 
         m_x / m = [0.398 + 11.97 Cb (1 + 3.73 d/B) - 2.89 Cb L/B (1 + 1.13 d/B)
                    + 0.175 Cb (L/B)^2 (1 + 0.541 d/B) - 1.107 (L/B)(d/B)] / 100

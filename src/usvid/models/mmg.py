@@ -73,12 +73,12 @@ Actuator variants (issue 9 item 1), each a scalar numba kernel with the same
 * ``pod`` (:func:`mmg_pod_accelerations`): a vector/pod thruster at ``x_P`` turned by delta
   (no rudder): ``(X, Y, N)_P = (T_e cos delta, -T_e sin delta, -x_P L T_e sin delta)``
   (ARCHITECTURE.md: positive delta makes r positive since x_P < 0). ``T_e`` is ``(1 - t_P) T``
-  with the K_T law above, or the pod law ``T_e = c u n + d |n| n`` (Mu et al. 2016, seed 001
+  with the K_T law above, or the pod law ``T_e = c u n + d |n| n`` (Mu et al. 2016, Mu et al. 2016
   eq. 3; ``thrust_law='pod'``; the law's identified c, d already include hull interaction).
 * ``twin`` (:func:`mmg_twin_accelerations`): two thrusters at ``(x_P, -+y_P) L``, shaft speeds
   n_port, n_stbd: ``X_P = T_e,port + T_e,stbd``, ``N_P = (T_port - T_stbd) y_P L`` (more port
-  thrust turns to starboard; the catamaran paper, seed 002 eq. 26-27; gross thrust for the
-  moment since the thrust deduction is a hull-suction force near the centre line).
+  thrust turns to starboard; the catamaran paper, the catamaran paper eq. 26-27; gross thrust for
+  the moment since the thrust deduction is a hull-suction force near the centre line).
 
 Pod and twin share the hull, the masses and the wake model; they have no rudder forces.
 """
@@ -821,7 +821,7 @@ def mmg_twin_accelerations(p: Any, u: float, v: float, r: float, n_port: float,
     Hull and masses as Y&Y 2015; thrusters at (x_P, -y_P) L (port) and (x_P, +y_P) L
     (starboard), shaft speeds n_port, n_stbd [rps or the thrust law's command unit]:
     ``X_P = T_e,port + T_e,stbd``, ``N_P = (T_port - T_stbd) y_P L`` (more port thrust turns
-    to starboard, r > 0; seed 002 eq. 26-27, ARCHITECTURE.md).
+    to starboard, r > 0; the catamaran paper eq. 26-27, ARCHITECTURE.md).
     """
     XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u, v, r)
     uP = (1.0 - _wake_nb(p, beta, rp)) * u

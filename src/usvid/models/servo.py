@@ -1,7 +1,7 @@
 """Steering servo (rudder / vector-thruster angle) models with angle and rate limits.
 
 Angles [rad], rates [rad/s], time constants [s], natural frequency [rad/s]. Default limits are
-+-35 deg (the Lanxin vector thruster, seed 000 section 2.2) and no rate limit.
++-35 deg (the Lanxin vector thruster, Mu et al. 2018 section 2.2) and no rate limit.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ class IdealServo:
 
 @dataclass
 class FirstOrderServo:
-    """First order: ``T delta' = delta_cmd - delta`` (seed 000 eq. 11), then the limits.
+    """First order: ``T delta' = delta_cmd - delta`` (Mu et al. 2018 eq. 11), then the limits.
 
     T [s] >= 0 (T = 0 is the ideal servo).
     """
@@ -64,11 +64,12 @@ class FirstOrderServo:
 
 @dataclass
 class SecondOrderServo:
-    """Second order with gain and dead time (seed 000 eq. 12 and section 5.1.3; seed 001 eq. 22).
+    """Second order with gain and dead time (Mu et al. 2018 eq. 12 and section 5.1.3; Mu et al. 2016
+    eq. 22).
 
     ``delta'' + 2 zeta omega_n delta' + omega_n^2 delta = gain omega_n^2 delta_cmd(t - delay)``.
-    Seed 000 identified 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s}: omega_n = sqrt(1.95) = 1.3964 rad/s,
-    zeta = 2.38125 / (2 omega_n) = 0.8526, gain = 1, delay = 1 s.
+    Mu et al. 2018 identified 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s}: omega_n = sqrt(1.95) = 1.3964
+    rad/s, zeta = 2.38125 / (2 omega_n) = 0.8526, gain = 1, delay = 1 s.
     omega_n [rad/s] > 0, zeta >= 0, gain [-], delay [s] >= 0.
     """
 
@@ -94,7 +95,7 @@ class SecondOrderServo:
     @classmethod
     def from_transfer_function(cls, b0: float, a1: float, a0: float, delay: float = 0.0,
                                **limits: float) -> SecondOrderServo:
-        """From ``b0 / (s^2 + a1 s + a0) e^{-delay s}`` (seed 000 section 5.1.3 form).
+        """From ``b0 / (s^2 + a1 s + a0) e^{-delay s}`` (Mu et al. 2018 section 5.1.3 form).
 
         omega_n = sqrt(a0), zeta = a1 / (2 omega_n), gain = b0 / a0.
         """
@@ -116,9 +117,9 @@ class SecondOrderServo:
         return math.pi / (float(self.omega_n) * math.sqrt(1.0 - z * z)) if z < 1.0 else math.inf
 
 
-#: Seed 000 section 5.1.3: 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s} (Lanxin vector thruster).
-def seed000_servo() -> SecondOrderServo:
-    """The identified Lanxin servo of seed 000 (section 5.1.3, +-35 deg, 1 s dead time)."""
+#: Mu et al. 2018 section 5.1.3: 1.95 / (s^2 + 2.38125 s + 1.95) e^{-s} (Lanxin vector thruster).
+def mu2018_servo() -> SecondOrderServo:
+    """The identified Lanxin servo of Mu et al. 2018 (section 5.1.3, +-35 deg, 1 s dead time)."""
     return SecondOrderServo.from_transfer_function(1.95, 2.38125, 1.95, delay=1.0)
 
 

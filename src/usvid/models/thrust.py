@@ -1,5 +1,6 @@
-"""Thruster models: open propeller (seed 000 section 3.1), POD (seed 001 eq. 3), twin thrusters
-(seed 002), plus the hull-propeller interaction factors (thrust deduction, wake fraction).
+"""Thruster models: open propeller (Mu et al. 2018 section 3.1), POD (Mu et al. 2016 eq. 3), twin
+thrusters (the catamaran paper), plus the hull-propeller interaction factors (thrust deduction, wake
+fraction).
 
 Units everywhere: thrust [N], shaft speed n [rps = rev/s], speed [m/s], lengths [m], density
 [kg/m^3]; advance ratio J, K_T and the interaction factors are dimensionless.
@@ -11,7 +12,7 @@ For the integration core (numba) each thrust law has a scalar twin taking plain 
 (:func:`kt_nb`, :func:`propeller_thrust_nb`, :func:`pod_thrust_nb`); :func:`thrust_nb` evaluates
 any law from its packed form (:func:`thrust_row`), which is how the model kinds read them.
 
-Seed 000 equation numbers as counted in the paper (the extracted text drops them): (1) thrust,
+Mu et al. 2018 equation numbers as counted in the paper (the extracted text drops them): (1) thrust,
 (2) t_P = (P - R)/P, (3) Hollo/Holtrop t_P, (4) C_10, (5) C_stern, (6) K_T double sum (J_P defined
 inline), (7) wake fraction, (8) Delta_w, (9) Lagrange interpolation over the disk ratio,
 (10) the first-quadrant regression whose coefficients are Table 2; (11)-(12) are the servo models.
@@ -30,19 +31,20 @@ from usvid.models._validate import check_params
 
 ArrayLike = float | np.ndarray
 
-G = 9.81  # [m/s^2] gravity used for Froude numbers (seed 000 eq. 8, seed 004)
+G = 9.81  # [m/s^2] gravity used for Froude numbers (Mu et al. 2018 eq. 8, Ma et al.)
 
 # ---------------------------------------------------------------------------------------------
-# K_T regression (seed 000 eq. 6, 9, 10 and Table 2)
+# K_T regression (Mu et al. 2018 eq. 6, 9, 10 and Table 2)
 # ---------------------------------------------------------------------------------------------
 
-#: Disk (blade area) ratios of the three regressions of seed 000 Table 2.
+#: Disk (blade area) ratios of the three regressions of Mu et al. 2018 Table 2.
 KT_DISK_RATIOS: tuple[float, float, float] = (0.5, 0.8, 1.1)
 
-#: Order of the coefficients in each row of :data:`SEED000_TABLE2`.
+#: Order of the coefficients in each row of :data:`MU2018_TABLE2`.
 KT_TERMS: tuple[str, ...] = ("A00", "A01", "A02", "A10", "A20", "A30", "A11", "A12", "A21", "A22")
 
-#: Seed 000 Table 2 (signs as printed except one): disk ratio theta -> (A00, A01, A02, A10, A20,
+#: Mu et al. 2018 Table 2 (signs as printed except one): disk ratio theta -> (A00, A01, A02, A10,
+# A20,
 #: A30, A11, A12, A21, A22). Index i is the power of the pitch ratio P/D, j the power of J.
 #: Correction: A10 for theta = 1.1 is printed -0.8502, while it is positive (0.8042, 0.5853) for
 #: the two other disk ratios. As printed, K_T(J=0, P/D=1, theta=1.1) = -1.18 (a propeller that
@@ -50,17 +52,17 @@ KT_TERMS: tuple[str, ...] = ("A00", "A01", "A02", "A10", "A20", "A30", "A11", "A
 #: 0.4928, 0.4310, 0.5231 for theta = 0.5, 0.8, 1.1, the order of magnitude of every B-series
 #: chart. We read the minus sign as a typesetting error and use +0.8502 (tested in
 #: tests/test_thrust.py). It matters little for the Lanxin (theta = 0.516: weight -0.025).
-SEED000_TABLE2: dict[float, tuple[float, ...]] = {
+MU2018_TABLE2: dict[float, tuple[float, ...]] = {
     0.5: (-0.1677, 0.1747, -0.6720, 0.8042, -0.1437, 0.0, -0.8853, 0.9130, 0.3422, -0.3276),
     0.8: (-0.0517, -0.0315, -0.5822, 0.5853, -0.1026, 0.0, -0.3381, 0.6654, 0.1417, -0.2215),
     1.1: (-0.2191, 0.3013, -0.7309, 0.8502, -0.1080, 0.0, -1.0738, 0.9908, 0.3481, -0.3322),
 }
 
-_KT = np.array([SEED000_TABLE2[th] for th in KT_DISK_RATIOS], dtype=float)  # (3, 10)
+_KT = np.array([MU2018_TABLE2[th] for th in KT_DISK_RATIOS], dtype=float)  # (3, 10)
 
 
 def kt_regression(J: ArrayLike, pitch_ratio: ArrayLike, coeffs: np.ndarray) -> np.ndarray:
-    """One K_T regression of seed 000 eq. 10 for one disk ratio (dimensionless).
+    """One K_T regression of Mu et al. 2018 eq. 10 for one disk ratio (dimensionless).
 
     ``K_T = A00 + A01 J + A02 J^2 + A10 P + A20 P^2 + A30 P^3 + A11 J P + A12 J^2 P
     + A21 J P^2 + A22 J^2 P^2`` with P = pitch ratio P/D [-], J = advance ratio [-] and
@@ -75,7 +77,8 @@ def kt_regression(J: ArrayLike, pitch_ratio: ArrayLike, coeffs: np.ndarray) -> n
 
 
 def lagrange_weights(disk_ratio: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Quadratic Lagrange weights over the disk ratios 0.5, 0.8, 1.1 (seed 000 eq. 9, read as).
+    """Quadratic Lagrange weights over the disk ratios 0.5, 0.8, 1.1 (Mu et al. 2018 eq. 9, read
+    as).
 
     The extracted text lost the minus signs: ``w_0.5 = (theta - 0.8)(theta - 1.1) / 0.18``,
     ``w_0.8 = (theta - 0.5)(theta - 1.1) / (-0.09)``, ``w_1.1 = (theta - 0.5)(theta - 0.8) / 0.18``,
@@ -91,7 +94,7 @@ def lagrange_weights(disk_ratio: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.
 
 
 def kt(J: ArrayLike, pitch_ratio: ArrayLike, disk_ratio: ArrayLike) -> np.ndarray:
-    """Thrust coefficient K_T(J, P/D, theta) [-] of seed 000 eq. 9 and 10 with Table 2.
+    """Thrust coefficient K_T(J, P/D, theta) [-] of Mu et al. 2018 eq. 9 and 10 with Table 2.
 
     ``K_T = w_0.5(theta) K_T0.5(J, P/D) + w_0.8(theta) K_T0.8 + w_1.1(theta) K_T1.1``
     (:func:`lagrange_weights`, :func:`kt_regression`). J = advance ratio [-], pitch_ratio = P/D
@@ -106,7 +109,7 @@ def kt(J: ArrayLike, pitch_ratio: ArrayLike, disk_ratio: ArrayLike) -> np.ndarra
 
 
 def advance_ratio(n: ArrayLike, u: ArrayLike, D: ArrayLike, w_P: ArrayLike = 0.0) -> np.ndarray:
-    """Advance ratio ``J = (1 - w_P) u / (|n| D)`` [-] (seed 000, after eq. 6).
+    """Advance ratio ``J = (1 - w_P) u / (|n| D)`` [-] (Mu et al. 2018, after eq. 6).
 
     n [rps], u [m/s] (surge speed), D [m], w_P wake fraction [-]. For n = 0 the ratio is
     undefined; 0 is returned there (the thrust is 0 anyway, see :meth:`Propeller.thrust`).
@@ -122,13 +125,13 @@ def advance_ratio(n: ArrayLike, u: ArrayLike, D: ArrayLike, w_P: ArrayLike = 0.0
 
 @dataclass
 class Propeller:
-    """Open propeller behind the hull: ``T = (1 - t_P) rho n^2 D^4 K_T(J)`` (seed 000 eq. 1).
+    """Open propeller behind the hull: ``T = (1 - t_P) rho n^2 D^4 K_T(J)`` (Mu et al. 2018 eq. 1).
 
-    ``J = (1 - w_P) u / (n D)``; K_T from :func:`kt` (seed 000 eq. 9, 10, Table 2).
+    ``J = (1 - w_P) u / (n D)``; K_T from :func:`kt` (Mu et al. 2018 eq. 9, 10, Table 2).
 
     Parameters
     ----------
-    D : propeller diameter [m] (> 0). Lanxin: 0.46 m (seed 000 Table 1).
+    D : propeller diameter [m] (> 0). Lanxin: 0.46 m (Mu et al. 2018 Table 1).
     pitch_ratio : P/D [-] (> 0). Lanxin: 0.3.
     disk_ratio : expanded blade-area ratio theta [-] (> 0). Lanxin: 0.516.
     t_P : thrust deduction factor [-] in [0, 1) (see :func:`hollo_thrust_deduction`).
@@ -158,14 +161,14 @@ class Propeller:
         return advance_ratio(n, u, self.D, self.w_P)
 
     def kt(self, J: ArrayLike) -> np.ndarray:
-        """K_T(J) [-] for this propeller's pitch and disk ratio (seed 000 eq. 9, 10)."""
+        """K_T(J) [-] for this propeller's pitch and disk ratio (Mu et al. 2018 eq. 9, 10)."""
         return kt(J, self.pitch_ratio, self.disk_ratio)
 
     def thrust(self, n: ArrayLike, u: ArrayLike) -> np.ndarray:
-        """Effective thrust ``T = (1 - t_P) rho n |n| D^4 K_T(J)`` [N] (seed 000 eq. 1).
+        """Effective thrust ``T = (1 - t_P) rho n |n| D^4 K_T(J)`` [N] (Mu et al. 2018 eq. 1).
 
         n [rps] shaft speed, u [m/s] surge speed. n = 0 gives T = 0 exactly (J is not evaluated).
-        The regression is a first-quadrant one (n > 0, u >= 0, seed 000 Remark 2 excludes
+        The regression is a first-quadrant one (n > 0, u >= 0, Mu et al. 2018 Remark 2 excludes
         reversing). Outside it: u < 0 with n > 0 evaluates the polynomial at J < 0; n < 0 is
         treated as the mirrored propeller (J from |n|, thrust sign of n) -- an extrapolation
         only. K_T(J) < 0 at large J (windmilling) gives a negative thrust (a drag), as the
@@ -179,11 +182,11 @@ class Propeller:
 
 
 # ---------------------------------------------------------------------------------------------
-# Thrust deduction (Holtrop & Mennen, seed 000 eq. 3-5) and wake fraction (Papmel, eq. 7-8)
+# Thrust deduction (Holtrop & Mennen, Mu et al. 2018 eq. 3-5) and wake fraction (Papmel, eq. 7-8)
 # ---------------------------------------------------------------------------------------------
 
 def holtrop_c10(L: ArrayLike, B: ArrayLike) -> np.ndarray:
-    """C_10 of seed 000 eq. 4 (Holtrop & Mennen 1982) [-].
+    """C_10 of Mu et al. 2018 eq. 4 (Holtrop & Mennen 1982) [-].
 
     ``C_10 = B/L`` for L/B > 5.2, else ``0.25 - 0.003328402 / (B/L - 0.134615385)``.
     L, B [m]. (Same piecewise form in Holtrop & Mennen 1982, Int. Shipbuilding Progress 29.)
@@ -195,13 +198,15 @@ def holtrop_c10(L: ArrayLike, B: ArrayLike) -> np.ndarray:
 
 
 C_STERN = {"V": -10.0, "conventional": 0.0, "U": 10.0}
-"""Stern-shape coefficient of seed 000 eq. 5: V sections -10, conventional 0, U sections +10."""
+"""Stern-shape coefficient of Mu et al. 2018 eq. 5: V sections -10, conventional 0, U
+sections +10."""
 
 
 def hollo_thrust_deduction(L: ArrayLike, B: ArrayLike, T: ArrayLike, D_P: ArrayLike,
                            C_P: ArrayLike, lcb: ArrayLike = 0.0,
                            C_stern: ArrayLike = 0.0) -> np.ndarray:
-    """Thrust deduction factor t_P [-] by "Hollo's formula" for a single screw (seed 000 eq. 3-5).
+    """Thrust deduction factor t_P [-] by "Hollo's formula" for a single screw (Mu et al. 2018
+    eq. 3-5).
 
     "Hollo" is Holtrop & Mennen (1982, "An approximate power prediction method", Int.
     Shipbuilding Progress 29, 166-170), single-screw conventional stern, which the extracted text
@@ -216,7 +221,7 @@ def hollo_thrust_deduction(L: ArrayLike, B: ArrayLike, T: ArrayLike, D_P: ArrayL
 
     L [m] length, B [m] breadth, T [m] mean draught (the seed's d), D_P [m] propeller diameter,
     C_P [-] prismatic coefficient, lcb [% of L, + forward of midship], C_stern [-] (-10 V, 0
-    conventional, +10 U; :data:`C_STERN`). C_P and lcb are not in seed 000 Table 1: they are
+    conventional, +10 U; :data:`C_STERN`). C_P and lcb are not in Mu et al. 2018 Table 1: they are
     parameters. For the Lanxin (L 7.02, B 2.6, T 0.32, D_P 0.46) this gives about 0.22 for
     C_P = 0.71, lcb = 0, while the paper states t_P ~ 0.05 (not reproducible from its formula).
     """
@@ -236,7 +241,7 @@ def froude_number(V: ArrayLike, L: ArrayLike, g: float = G) -> np.ndarray:
 
 def wake_fraction(C_b: ArrayLike, volume: ArrayLike, D_P: ArrayLike, Fn: ArrayLike,
                   x: ArrayLike = 1) -> np.ndarray:
-    """Propeller wake fraction w_P [-] by the "Bamier" (Papmel) formula (seed 000 eq. 7-8).
+    """Propeller wake fraction w_P [-] by the "Bamier" (Papmel) formula (Mu et al. 2018 eq. 7-8).
 
     Read as ``w_P = 0.165 C_b^x (volume^(1/3) / D_P) - Delta_w`` with
     ``Delta_w = 0.1 (Fn - 0.2)`` for Fn > 0.2 and 0 otherwise. C_b [-] block coefficient,
@@ -253,16 +258,16 @@ def wake_fraction(C_b: ArrayLike, volume: ArrayLike, D_P: ArrayLike, Fn: ArrayLi
 
 
 # ---------------------------------------------------------------------------------------------
-# POD thruster (seed 001 eq. 3-4)
+# POD thruster (Mu et al. 2016 eq. 3-4)
 # ---------------------------------------------------------------------------------------------
 
 @dataclass
 class PodThrust:
-    """POD propulsor thrust ``T = c V n + d |n| n`` (seed 001 eq. 3).
+    """POD propulsor thrust ``T = c V n + d |n| n`` (Mu et al. 2016 eq. 3).
 
-    c [N s^2/m] (per m/s of ship speed and per rps), d [N s^2] (per rps^2). Seed 001 states
+    c [N s^2/m] (per m/s of ship speed and per rps), d [N s^2] (per rps^2). Mu et al. 2016 states
     c, d > 0; they are not constrained here (a conventional propeller has c < 0: thrust falls
-    with speed), only required to be finite. The force components are seed 001 eq. 4, applied
+    with speed), only required to be finite. The force components are Mu et al. 2016 eq. 4, applied
     by the dynamics with the usvid sign convention (ARCHITECTURE.md).
     """
 
@@ -273,27 +278,29 @@ class PodThrust:
         check_params("pod", {"c": self.c, "d": self.d})
 
     def thrust(self, V: ArrayLike, n: ArrayLike) -> np.ndarray:
-        """Thrust [N] at ship speed V [m/s] and propeller speed n [rps] (seed 001 eq. 3)."""
+        """Thrust [N] at ship speed V [m/s] and propeller speed n [rps] (Mu et al. 2016 eq. 3)."""
         V = np.asarray(V, dtype=float)
         n = np.asarray(n, dtype=float)
         return np.asarray(self.c * V * n + self.d * np.abs(n) * n)[()]
 
 
 # ---------------------------------------------------------------------------------------------
-# Twin thrusters (seed 002): control code -> voltage -> thrust, or PWM -> thrust
+# Twin thrusters (the catamaran paper): control code -> voltage -> thrust, or PWM -> thrust
 # ---------------------------------------------------------------------------------------------
 
 @dataclass
 class TwinThrust:
-    """Thrust of one thruster of a twin-thruster catamaran as a function of its command (seed 002).
+    """Thrust of one thruster of a twin-thruster catamaran as a function of its command
+    (the catamaran paper).
 
     Two command kinds:
 
-    * ``command="code"`` (seed 002, section 2.2): control code n in [0, code_max] (120) maps
-      linearly to the control voltage ``U = voltage_max n / code_max`` in [0, voltage_max] (5 V)
-      (seed 002 eq. 31), then ``T = sum_k coeffs[k] U^k`` (seed 002 eq. 32, "from the thruster
-      data sheet"; the extracted text lost the formula and its numbers, so the polynomial
-      coefficients are parameters, in N/V^k, lowest power first). The code is clipped to its range.
+    * ``command="code"`` (the catamaran paper, section 2.2): control code n in [0, code_max] (120)
+      maps linearly to the control voltage ``U = voltage_max n / code_max`` in [0, voltage_max] (5
+      V) (the catamaran paper eq. 31), then ``T = sum_k coeffs[k] U^k`` (the catamaran paper eq. 32,
+      "from the thruster data sheet"; the extracted text lost the formula and its numbers, so
+      the polynomial coefficients are parameters, in N/V^k, lowest power first). The code is clipped
+      to its range.
     * ``command="pwm"``: a hobby ESC pulse width [us] with neutral ``pwm_neutral`` (1500),
       level ``s = (pwm - pwm_neutral) / pwm_span`` clipped to [-1, 1] and 0 within
       ``pwm_deadband`` [us] of neutral; ``T = P_fwd(s)`` for s >= 0 and ``T = -P_rev(-s)`` for
@@ -301,8 +308,8 @@ class TwinThrust:
       N per unit level^k. This is the mapping for the real twin-thruster logs (PWM_L/PWM_R).
 
     The catamaran dynamics combine the two: tau_u = T_port + T_stbd, tau_r = (T_port - T_stbd)
-    b/2 (seed 002 eq. 26-27; ARCHITECTURE.md sign convention). :meth:`quadratic` builds the common
-    choice T proportional to the square of the level (thrust ~ rpm^2 ~ voltage^2).
+    b/2 (the catamaran paper eq. 26-27; ARCHITECTURE.md sign convention). :meth:`quadratic` builds
+    the common choice T proportional to the square of the level (thrust ~ rpm^2 ~ voltage^2).
     """
 
     coeffs: tuple[float, ...]
@@ -350,7 +357,8 @@ class TwinThrust:
         return cls(coeffs=(0.0, 0.0, T_max / vmax ** 2), command=command, **kwargs)
 
     def level(self, cmd: ArrayLike) -> np.ndarray:
-        """Control level: voltage [V] (code mode, seed 002 eq. 31) or s in [-1, 1] (PWM mode)."""
+        """Control level: voltage [V] (code mode, the catamaran paper eq. 31) or s in [-1, 1] (PWM
+        mode)."""
         cmd = np.asarray(cmd, dtype=float)
         if self.command == "code":
             out = self.voltage_max * np.clip(cmd, 0.0, self.code_max) / self.code_max
@@ -369,7 +377,8 @@ class TwinThrust:
 
     def combined(self, cmd_port: ArrayLike, cmd_stbd: ArrayLike,
                  b: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        """(tau_u [N], tau_r [N m]) = (T_p + T_s, (T_p - T_s) b / 2) (seed 002 eq. 26-27).
+        """(tau_u [N], tau_r [N m]) = (T_p + T_s, (T_p - T_s) b / 2) (the catamaran paper
+        eq. 26-27).
 
         b [m] is the distance between the two thrusters (b/2 from the centre line each).
         """
@@ -402,7 +411,7 @@ def _kt_row_nb(k: int, J: float, P: float) -> float:
 
 @numba.njit(cache=True, inline="always")
 def kt_nb(J: float, P_D: float, theta: float) -> float:
-    """Scalar numba twin of :func:`kt` (seed 000 eq. 9, 10, Table 2) [-]."""
+    """Scalar numba twin of :func:`kt` (Mu et al. 2018 eq. 9, 10, Table 2) [-]."""
     w0 = (theta - 0.8) * (theta - 1.1) / 0.18
     w1 = (theta - 0.5) * (theta - 1.1) / -0.09
     w2 = (theta - 0.5) * (theta - 0.8) / 0.18
@@ -426,7 +435,8 @@ def propeller_thrust_nb(n: float, u: float, D: float, P_D: float, theta: float, 
 
 @numba.njit(cache=True)
 def pod_thrust_nb(V: float, n: float, c: float, d: float) -> float:
-    """Scalar numba twin of :meth:`PodThrust.thrust` [N]: ``c V n + d |n| n`` (seed 001 eq. 3)."""
+    """Scalar numba twin of :meth:`PodThrust.thrust` [N]: ``c V n + d |n| n`` (Mu et al. 2016
+    eq. 3)."""
     return c * V * n + d * abs(n) * n
 
 
@@ -500,7 +510,7 @@ def thrust_nb(t: tuple, u: float, n: float) -> float:
 
 
 __all__ = [
-    "C_STERN", "KT_DISK_RATIOS", "KT_TERMS", "SEED000_TABLE2", "PodThrust", "Propeller",
+    "C_STERN", "KT_DISK_RATIOS", "KT_TERMS", "MU2018_TABLE2", "PodThrust", "Propeller",
     "TwinThrust", "advance_ratio", "froude_number", "hollo_thrust_deduction", "holtrop_c10",
     "kt", "kt_nb", "kt_regression", "lagrange_weights", "pod_thrust_nb", "propeller_thrust_nb",
     "wake_fraction", "THRUST_ROW", "THRUST_LAWS", "thrust_row",

@@ -1,4 +1,4 @@
-"""Empirical relative turning diameter of seed 004 (Ma et al., 1.5 m planing USV model).
+"""Empirical relative turning diameter of Ma et al. (a 1.5 m planing USV model).
 
 Eq. 1:  ``D/L = a1 (Fr + a2 Fr^2 + a3 Fr^3) / (delta^a4 + a5 delta)``,
 Eq. 2:  ``F = sqrt( sum_i [D_Li - D/L(Fr_i, delta_i)]^2 / N )`` (RMS objective of the fit),
@@ -9,9 +9,9 @@ Units: Fr = V / sqrt(g L) [-] (V [m/s], L [m], g = 9.81 m/s^2), delta = rudder a
 20...35 deg); D/L [-]. The reading is confirmed numerically: eq. 3 on Table 2 gives
 F = 0.46650 (paper: 0.4665); the same with delta in degrees would give nonsense (D/L < 0.4).
 
-The package data ``usvid/data/seed004_table1.csv`` (Table 1, the 36 turning tests) and
-``seed004_table2.csv`` (Table 2: Fr, delta [rad], measured and identified D/L) are read by
-:func:`load_seed004_table1` / :func:`load_seed004_table2`.
+The package data ``usvid/data/ma_table1.csv`` (Table 1, the 36 turning tests) and
+``ma_table2.csv`` (Table 2: Fr, delta [rad], measured and identified D/L) are read by
+:func:`load_ma_table1` / :func:`load_ma_table2`.
 """
 
 from __future__ import annotations
@@ -30,13 +30,13 @@ ArrayLike = float | np.ndarray
 G = 9.81  # [m/s^2]
 KNOT = 1852.0 / 3600.0  # [m/s]
 
-#: Length of the seed 004 model [m].
-SEED004_LENGTH = 1.5
+#: Length of the Ma et al. model [m].
+MA_LENGTH = 1.5
 
 
 @dataclass(frozen=True)
 class TurningDiameterCoeffs:
-    """Coefficients a1..a5 of seed 004 eq. 1 (all dimensionless)."""
+    """Coefficients a1..a5 of Ma et al. eq. 1 (all dimensionless)."""
 
     a1: float
     a2: float
@@ -58,11 +58,11 @@ class TurningDiameterCoeffs:
         return cls(*(float(x) for x in arr))
 
 
-#: Seed 004 eq. 3, the published chaotic-GA fit.
-SEED004_EQ3 = TurningDiameterCoeffs(a1=297.4084, a2=-3.7937, a3=2.1316, a4=0.9707, a5=5.1594)
+#: Ma et al. eq. 3, the published chaotic-GA fit.
+MA_EQ3 = TurningDiameterCoeffs(a1=297.4084, a2=-3.7937, a3=2.1316, a4=0.9707, a5=5.1594)
 
-#: Seed 004 search bounds of the GA, (low, high) per a1..a5.
-SEED004_BOUNDS: tuple[tuple[float, float], ...] = (
+#: Ma et al. search bounds of the GA, (low, high) per a1..a5.
+MA_BOUNDS: tuple[tuple[float, float], ...] = (
     (-20.0, 700.0), (-5.0, 5.0), (0.0, 5.0), (-5.0, 5.0), (-5.0, 30.0))
 
 
@@ -75,8 +75,8 @@ def _coeff_columns(a: TurningDiameterCoeffs | ArrayLike) -> tuple[np.ndarray, ..
 
 
 def relative_turning_diameter(Fr: ArrayLike, delta: ArrayLike,
-                              a: TurningDiameterCoeffs | ArrayLike = SEED004_EQ3) -> np.ndarray:
-    """Relative steady turning diameter D/L [-] of seed 004 eq. 1.
+                              a: TurningDiameterCoeffs | ArrayLike = MA_EQ3) -> np.ndarray:
+    """Relative steady turning diameter D/L [-] of Ma et al. eq. 1.
 
     ``D/L = a1 (Fr + a2 Fr^2 + a3 Fr^3) / (|delta|^a4 + a5 |delta|)``.
 
@@ -99,7 +99,7 @@ def relative_turning_diameter(Fr: ArrayLike, delta: ArrayLike,
 
 def rms_objective(a: TurningDiameterCoeffs | ArrayLike, Fr: ArrayLike, delta: ArrayLike,
                   DL: ArrayLike) -> np.ndarray:
-    """RMS objective F of seed 004 eq. 2 [-].
+    """RMS objective F of Ma et al. eq. 2 [-].
 
     ``F = sqrt(mean_i (DL_i - D/L(Fr_i, delta_i; a))^2)`` over the N data points (Fr [-],
     delta [rad], DL [-], 1-D of equal length). ``a`` as in :func:`relative_turning_diameter`;
@@ -116,14 +116,14 @@ def rms_objective(a: TurningDiameterCoeffs | ArrayLike, Fr: ArrayLike, delta: Ar
 
 
 def froude_number(V: ArrayLike, L: ArrayLike, g: float = G) -> np.ndarray:
-    """``Fr = V / sqrt(g L)`` [-]; V [m/s], L [m], g [m/s^2] (seed 004, after eq. 1)."""
+    """``Fr = V / sqrt(g L)`` [-]; V [m/s], L [m], g [m/s^2] (Ma et al., after eq. 1)."""
     return np.asarray(np.asarray(V, dtype=float) / np.sqrt(g * np.asarray(L, dtype=float)))[()]
 
 
 def turning_diameter(V: ArrayLike, delta: ArrayLike, L: ArrayLike,
-                     a: TurningDiameterCoeffs | ArrayLike = SEED004_EQ3,
+                     a: TurningDiameterCoeffs | ArrayLike = MA_EQ3,
                      g: float = G) -> np.ndarray:
-    """Steady turning diameter D [m] = L * D/L(V / sqrt(g L), delta) (seed 004 eq. 1).
+    """Steady turning diameter D [m] = L * D/L(V / sqrt(g L), delta) (Ma et al. eq. 1).
 
     V [m/s] approach speed, delta [rad], L [m] vessel length.
     """
@@ -132,12 +132,12 @@ def turning_diameter(V: ArrayLike, delta: ArrayLike, L: ArrayLike,
 
 
 # ---------------------------------------------------------------------------------------------
-# Seed 004 tables (package data)
+# Ma et al. tables (package data)
 # ---------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class Seed004Table1:
-    """Seed 004 Table 1, one entry per turning test (36): voltage_V [V], draft_m [m],
+class MaTable1:
+    """Ma et al. Table 1, one entry per turning test (36): voltage_V [V], draft_m [m],
     displacement_kg [kg], speed_kn [kn], rudder_deg [deg], turning_diameter_m [m]."""
 
     voltage_V: np.ndarray
@@ -147,7 +147,7 @@ class Seed004Table1:
     rudder_deg: np.ndarray
     turning_diameter_m: np.ndarray
 
-    def fit_inputs(self, L: float = SEED004_LENGTH,
+    def fit_inputs(self, L: float = MA_LENGTH,
                    g: float = 9.8) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(Fr [-], delta [rad], D/L [-]) for eq. 1-2: Fr = speed / sqrt(g L), L = 1.5 m.
 
@@ -161,8 +161,8 @@ class Seed004Table1:
 
 
 @dataclass(frozen=True)
-class Seed004Table2:
-    """Seed 004 Table 2 (36 rows): Fr [-], delta_rad [rad], DL_test [-] measured D/L,
+class MaTable2:
+    """Ma et al. Table 2 (36 rows): Fr [-], delta_rad [rad], DL_test [-] measured D/L,
     DL_identified [-] the paper's eq. 3 output, relative_error_pct [%] as printed."""
 
     Fr: np.ndarray
@@ -181,18 +181,18 @@ def _read_csv(name: str) -> dict[str, np.ndarray]:
     return cols
 
 
-def load_seed004_table1() -> Seed004Table1:
-    """Seed 004 Table 1 from the package data ``usvid/data/seed004_table1.csv``."""
-    return Seed004Table1(**_read_csv("seed004_table1.csv"))
+def load_ma_table1() -> MaTable1:
+    """Ma et al. Table 1 from the package data ``usvid/data/ma_table1.csv``."""
+    return MaTable1(**_read_csv("ma_table1.csv"))
 
 
-def load_seed004_table2() -> Seed004Table2:
-    """Seed 004 Table 2 from the package data ``usvid/data/seed004_table2.csv``."""
-    return Seed004Table2(**_read_csv("seed004_table2.csv"))
+def load_ma_table2() -> MaTable2:
+    """Ma et al. Table 2 from the package data ``usvid/data/ma_table2.csv``."""
+    return MaTable2(**_read_csv("ma_table2.csv"))
 
 
 __all__ = [
-    "SEED004_BOUNDS", "SEED004_EQ3", "SEED004_LENGTH", "Seed004Table1", "Seed004Table2",
-    "TurningDiameterCoeffs", "froude_number", "load_seed004_table1", "load_seed004_table2",
+    "MA_BOUNDS", "MA_EQ3", "MA_LENGTH", "MaTable1", "MaTable2",
+    "TurningDiameterCoeffs", "froude_number", "load_ma_table1", "load_ma_table2",
     "relative_turning_diameter", "rms_objective", "turning_diameter",
 ]

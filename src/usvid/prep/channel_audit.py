@@ -11,12 +11,13 @@ The checks:
 * yaw rate: every numeric channel (whatever its name, e.g. ``p``) is compared with d(psi)/dt by
   correlation and least-squares gain; says which channel is the yaw rate, a wrong sign, or an
   angle-unit factor 57.3 (deg vs rad);
-* u, v against d(x, y)/dt rotated into the body frame (kinematics of seed 000, eq. 13), and a
+* u, v against d(x, y)/dt rotated into the body frame (kinematics of Mu et al. 2018, eq. 13), and a
   measured speed (U, SOG) against |d(x, y)/dt| (a constant factor: wrong time base or scale);
 * rudder sign against the turning direction: the first-order Nomoto equation
-  T r' + r = K delta (seed 000, Nomoto model) gives r' = (K/T) delta - r/T; the least-squares
+  T r' + r = K delta (Mu et al. 2018, Nomoto model) gives r' = (K/T) delta - r/T; the least-squares
   sign of K/T must be positive (usvid convention: positive delta makes r positive);
-* a thruster differential (port minus starboard) the same way (seed 002: tau_r ~ T_port - T_stbd);
+* a thruster differential (port minus starboard) the same way (the catamaran paper:
+  tau_r ~ T_port - T_stbd);
 * a constant scale factor between two position sources (lat/lon vs a file's own x/y).
 """
 
@@ -539,8 +540,8 @@ def _check_rudder_sign(prep: Trial, dt: float, window_s: float) -> list[Finding]
                 "error", "thruster_sign",
                 f"thruster differential '{port}' - '{stbd}' turns the vessel to port (fit "
                 f"r' = a ({port} - {stbd}) + b r + c gives a = {fit['a']:.3g}, t = "
-                f"{fit['t_value']:.1f}); more port thrust should turn it to starboard (seed 002, "
-                f"tau_r = (T_port - T_stbd) b/2): port and starboard are probably swapped",
+                f"{fit['t_value']:.1f}); more port thrust should turn it to starboard "
+                f"(tau_r = (T_port - T_stbd) b/2): port and starboard are probably swapped",
                 count=fit["n"], t_start=float(t[0]), t_end=float(t[-1]), channel=port,
                 data=fit))
         break

@@ -1,8 +1,8 @@
 """Body-frame velocities from positions or from course/speed over ground, and heading.
 
 NED earth frame (x north, y east), body frame (x forward, y starboard), psi clockwise positive
-(ARCHITECTURE.md). The rotation is the planar part of Fossen's R(psi) (seed 000, eq. 13 kinematics
-eta' = R(psi) nu read for 3 DOF):
+(ARCHITECTURE.md). The rotation is the planar part of Fossen's R(psi) (Mu et al. 2018, eq. 13
+kinematics eta' = R(psi) nu read for 3 DOF):
 
     x' = u cos psi - v sin psi,   y' = u sin psi + v cos psi
     u  = x' cos psi + y' sin psi, v  = -x' sin psi + y' cos psi

@@ -2,7 +2,7 @@
 
 A USV typically records the same run in several files: NMEA 0183 from the GNSS and compass,
 NMEA 2000 (candump) from the engine and rudder network, and a CSV export of the control
-computer (seed 000 section 2.3). Each reader returns seconds since its own first record and,
+computer (Mu et al. 2018 section 2.3). Each reader returns seconds since its own first record and,
 where the format carries absolute time, ``meta["t0_utc"]`` (ISO 8601). :func:`merge_trials`
 puts them on one clock and returns the union of their time stamps with NaN where a channel has
 no sample (the Trial contract for multi-rate data); :func:`usvid.prep.resample` then makes it

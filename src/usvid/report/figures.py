@@ -3,9 +3,9 @@ pyplot state and no change of the user's backend, no network) rendered to base64
 
 Every function takes plain data (lists/arrays in the units named in the argument names, as stored
 in a run's ``run.json``) and returns a ``data:image/png;base64,...`` URI that the HTML embeds, so
-the report is one self-contained file. The figures mirror seed 000: trajectories measured vs
+the report is one self-contained file. The figures mirror Mu et al. 2018: trajectories measured vs
 simulated (figures 7a, 8a, 10), time series of u, v, r, psi and delta (figures 7b-c, 8b-c, 9),
-course keeping under disturbance (figures 11-12), plus the seed 004 turning-diameter fit.
+course keeping under disturbance (figures 11-12), plus the Ma et al. turning-diameter fit.
 """
 
 from __future__ import annotations

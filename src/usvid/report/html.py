@@ -296,7 +296,7 @@ def _models(run: Mapping[str, Any]) -> str:
                 nb.get("delta_deg", []), nb.get("r_deg_s", []), nb.get("curve_delta_deg"),
                 nb.get("curve_r_deg_s"), "delta [deg]", "steady r [deg/s]",
                 point_label="turning tests (mean r)", curve_label="r + alpha r^3 = K delta"),
-            "Norrbin step 2 (seed 000 eq. 36): steady yaw rate of the turning tests and the "
+            "Norrbin step 2 (Mu et al. 2018 eq. 36): steady yaw rate of the turning tests and the "
             "fitted curve.", "Norrbin steady-turn fit"))
     return "".join(out)
 
@@ -418,12 +418,12 @@ def _course_keeping(run: Mapping[str, Any]) -> str:
                      fmt(r.get("max_rudder_deg")), fmt(paper.get(r.get("label", "")))])
     # gains on the heading error in rad giving delta in rad (usvid.sim course keeping)
     out.append(_table(["controller", "Kp [-]", "Ki [1/s]", "Kd [s]", "ITAE [rad s^2]",
-                       "IAE [rad s]", "max |delta| [deg]", "seed 000 Table 3 ITAE"], rows))
+                       "IAE [rad s]", "max |delta| [deg]", "Mu et al. 2018 Table 3 ITAE"], rows))
     return "".join(out)
 
 
 def _turning_diameter(run: Mapping[str, Any]) -> str:
-    out = ['<h2 id="diameter">Turning diameter model (seed 004)</h2>']
+    out = ['<h2 id="diameter">Turning diameter model (Ma et al.)</h2>']
     td = run.get("turning_diameter")
     if not td:
         return "".join(out) + _unavailable(run, "turning_diameter", "Turning-diameter fit")

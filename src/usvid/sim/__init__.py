@@ -8,7 +8,7 @@ Public API
   and radians (t_end, dt [s], u0 [m/s], psi0 [rad]).
 - Logics (:mod:`usvid.manoeuvres.logic`, re-exported here): :class:`Turning`,
   :class:`ZigZag`, :class:`CourseChange` with :class:`PID`, :class:`Disturbance` (white noise
-  through 0.42 s/(s^2 + 0.36 s + 0.37), seed 000), :class:`Commanded` (time series).
+  through 0.42 s/(s^2 + 0.36 s + 0.37), Mu et al. 2018), :class:`Commanded` (time series).
 - :class:`SimResult` (:mod:`usvid.sim.result`): ``t``, ``channels`` (B, N) arrays,
   ``batch_size``, ``zigzag_metrics()``, ``turning_metrics()``, ``course_metrics()``,
   ``to_trial(i)``, ``course`` and ``zigzag_online`` accumulators.

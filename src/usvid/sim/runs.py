@@ -1,5 +1,5 @@
 """Standard manoeuvre runs on a model: zig-zag, turning circle, course change (IMO MSC.137(76),
-ITTC 7.5-04-02-01, seed 000 section 6.1), each simulated with :func:`usvid.sim.simulate` and
+ITTC 7.5-04-02-01, Mu et al. 2018 section 6.1), each simulated with :func:`usvid.sim.simulate` and
 measured with :mod:`usvid.manoeuvres.metrics`. ``usvid simulate`` and the demo call these.
 
 Arguments in SI units; angles in degrees at this edge, named ``*_deg``; inside radians.
@@ -25,7 +25,7 @@ MAX_T_END = 3600.0
 
 
 def default_ki(controller: str) -> float:
-    """Integral gain [1/s] when none is given: seed 000's 0.00095 for PID, 0 for PD."""
+    """Integral gain [1/s] when none is given: Mu et al. 2018's 0.00095 for PID, 0 for PD."""
     return 0.00095 if controller == "pid" else 0.0
 
 
@@ -126,12 +126,12 @@ def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float
                kd: float = 1.0, target_deg: float = 100.0, noise_deg: float = 1.0,
                seed: int = 1, t_end: float = 100.0, dt: float = 0.02, u0: float | None = None
                ) -> tuple[SimResult, dict[str, float]]:
-    """Course change 0 -> ``target_deg`` [deg] with a PD or PID autopilot (seed 000 section 6.1)
-    from a straight approach at ``u0`` [m/s] (default the model's ``vessel.speed``), ``t_end``
-    [s] long, step ``dt`` [s].
+    """Course change 0 -> ``target_deg`` [deg] with a PD or PID autopilot (Mu et al. 2018
+    section 6.1) from a straight approach at ``u0`` [m/s] (default the model's ``vessel.speed``),
+    ``t_end`` [s] long, step ``dt`` [s].
 
-    Gains kp [rad/rad], ki [1/s], kd [s] (seed 000: kp = 0.7, ki = 0.00095, kd = 1; PD: ki = 0,
-    the default for ``controller="pd"``). ``noise_deg``: std [deg] of the seed 000
+    Gains kp [rad/rad], ki [1/s], kd [s] (Mu et al. 2018: kp = 0.7, ki = 0.00095, kd = 1; PD: ki =
+    0, the default for ``controller="pd"``). ``noise_deg``: std [deg] of the Mu et al. 2018
     rudder-equivalent disturbance (0 = calm), stream ``seed``. Returns the :class:`SimResult`
     and ``{"itae" [rad s^2], "iae" [rad s], "max_rudder_deg" [deg]}``.
     """

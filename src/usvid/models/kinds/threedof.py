@@ -44,7 +44,7 @@ from usvid.models.kinds import _fossen
 from usvid.models.thrust import THRUST_ROW, PodThrust, Propeller, thrust_nb, thrust_row
 
 #: Mu et al. 2018 eq. 37 (Lanxin USV, 7.02 m), our sign reading; x_l is not printed.
-SEED000_EQ37 = {
+MU2018_EQ37 = {
     "a_vr": 1.065245, "a_u": -0.3197455, "a_tau": 0.000377,
     "b_ur": -0.938753, "b_v": -3.5,
     "c_uv": -0.041187, "c_r": -5.407752, "c_tau": 0.000238,
@@ -276,4 +276,4 @@ KIND = ModelKind(
     uses_trig=True,
 )
 
-__all__ = ["KIND", "SEED000_EQ37", "THRUST_ROW", "ThreeDOF"]
+__all__ = ["KIND", "MU2018_EQ37", "THRUST_ROW", "ThreeDOF"]
