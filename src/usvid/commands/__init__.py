@@ -12,4 +12,5 @@ COMMAND_MODULES = [
     "fit_turning_diameter",
     "demo",
     "report",
+    "montecarlo",
 ]
