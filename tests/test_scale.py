@@ -9,11 +9,13 @@ import logging
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from usvid.cli import main
 from usvid.commands.montecarlo import montecarlo
 from usvid.io.modelfile import model_to_dict
 from usvid.models import Nomoto1, VesselModel, seed000_servo
+from usvid.scale.batch import run_batch
 from usvid.scale.montecarlo import MonteCarlo, Vary, run_montecarlo
 from usvid.trial import Vessel
 
@@ -78,3 +80,81 @@ def test_montecarlo_cli_errors(tmp_path, capsys):
     assert main(["montecarlo", str(path), "--manoeuvre", "circle", "--out", str(out),
                  "--vary", "K=normal:1,0.1"]) == 2
     assert not out.exists()
+
+
+SPEC = """reader: table
+delimiter: ","
+skip_rows: 1
+columns:
+  t:     {col: 0, unit: s}
+  psi:   {col: 1, unit: deg}
+  r:     {col: 2, unit: deg/s}
+  delta: {col: 3, unit: deg}
+vessel: {length: 7.0, speed: 3.0}
+"""
+
+
+def _write_log(path, K, amp, seed):
+    """A small virtual zig-zag log (Nomoto K [1/s], T = 3 s, 10 Hz, 60 s, Euler, small noise)."""
+    rng = np.random.default_rng(seed)
+    h, n = 0.1, 600
+    t = np.arange(n) * h
+    d = np.radians(amp) * np.sign(np.sin(2 * np.pi * t / 20.0) + 1e-9)
+    r = np.zeros(n)
+    psi = np.zeros(n)
+    for k in range(n - 1):
+        r[k + 1] = r[k] + h * (K * d[k] - r[k]) / 3.0
+        psi[k + 1] = psi[k] + h * r[k]
+    pd.DataFrame({"t": t, "psi": np.degrees(psi) + rng.normal(0, 0.05, n),
+                  "r": np.degrees(r) + rng.normal(0, 0.02, n),
+                  "delta": np.degrees(d)}).round(5).to_csv(path, index=False)
+
+
+def test_batch_on_dask_one_corrupt_log_then_nothing_to_do(client, tmp_path):
+    (tmp_path / "spec.yaml").write_text(SPEC)
+    groups = []
+    for g in range(5):  # 5 boats x 10 logs = 50 virtual logs, 2 held out per boat
+        folder = tmp_path / f"boat{g}"
+        folder.mkdir()
+        for i in range(10):
+            _write_log(folder / f"run{i}.csv", 0.3 + 0.05 * g, 10 + i, seed=10 * g + i)
+        groups.append({"name": f"boat{g}", "logs": [f"boat{g}/*.csv"], "spec": "spec.yaml",
+                       "kinds": ["nomoto1"], "holdout": [f"boat{g}/run8.csv",
+                                                         f"boat{g}/run9.csv"]})
+    (tmp_path / "boat3" / "run4.csv").write_text("t,psi,r,delta\n0,1,2\nnot,a,log,at\nall\n")
+    camp = tmp_path / "campaign.yaml"
+    camp.write_text(yaml.safe_dump({"groups": groups}))
+    out = tmp_path / "out"
+    s = run_batch(camp, out, client=client, progress=False)
+    assert s["logs"] == 50 and s["logs_ok"] == 49
+    assert len(s["errors"]) == 1 and s["errors"][0]["log"].endswith("boat3/run4.csv")
+    logs = pd.read_parquet(out / "logs.parquet")
+    assert logs["ok"].sum() == 49 and logs.loc[~logs["ok"], "error"].str.len().iloc[0] > 0
+    par = pd.read_parquet(out / "parameters.parquet")
+    K = par[par["parameter"] == "K"].set_index("group")["value"]
+    # Euler truth K = 0.3 + 0.05 g; low-noise logs: 5 % covers the Euler and noise bias
+    np.testing.assert_allclose(K.to_numpy(), 0.3 + 0.05 * np.arange(5), rtol=0.05)
+    val = pd.read_parquet(out / "validation.parquet")
+    assert set(val["log"].map(lambda p: p.rsplit("/", 1)[-1])) == {"run8.csv", "run9.csv"}
+    # the same campaign in this process gives the same parameters
+    ref = run_batch(camp, tmp_path / "ref")
+    assert ref["ran"] == s["ran"]
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "ref" / "parameters.parquet"), par)
+    # nothing changed: a second run does nothing
+    again = run_batch(camp, out, client=client, progress=False)
+    assert again["ran"] == [] and len(again["skipped"]) == 5
+    assert again["logs_ok"] == 49 and again["parameters"] == s["parameters"]
+    # one log changed: only its group runs again
+    _write_log(tmp_path / "boat1" / "run0.csv", 0.35, 12, seed=99)
+    assert run_batch(camp, out, client=client, progress=False)["ran"] == ["boat1"]
+
+
+def test_batch_campaign_errors(tmp_path, capsys):
+    camp = tmp_path / "c.yaml"
+    camp.write_text("groups:\n  - name: a\n    logs: ['*.csv']\n    spec: s.yaml\n"
+                    "    kinds: [nomoto9]\n")
+    assert main(["batch", str(camp), "--out", str(tmp_path / "o")]) == 2
+    assert "groups[0].kinds: unknown kind 'nomoto9'" in capsys.readouterr().err
+    camp.write_text("groups:\n  - name: a\n    logs: ['*.csv']\n    kinds: [nomoto1]\n")
+    assert main(["batch", str(camp), "--out", str(tmp_path / "o")]) == 2
+    assert "groups[0] (a): 'spec' is missing" in capsys.readouterr().err

@@ -13,4 +13,5 @@ COMMAND_MODULES = [
     "demo",
     "report",
     "montecarlo",
+    "batch",
 ]
