@@ -82,11 +82,10 @@ SPEED_ROW = 3  # position of the constant speed U in a constant-speed kind's par
 
 #: Rows of a chunk's logic-variable array ``ls`` (:func:`_chunk`): command logged, ramp end,
 #: zig-zag sign and heading reference, reversals, PID integral, ITAE, IAE, max |delta|, dead-time
-#: queue head and length, trig bases of psi and of the steering angle, record counters,
-#: overshoot so far, noise standard deviation.
-(LCMDLOG, LREND, LCUR, LPSI0, LZZN, LINTEG, LITAE, LIAE, LMAXD, LQH, LQN, LTP0, LTP1, LTP2,
- LTD0, LTD1, LTD2, LRC, LJREC, LOVMAX, LESD) = range(21)
-NL = 21
+#: queue head and length, record counters, overshoot so far, noise standard deviation.
+(LCMDLOG, LREND, LCUR, LPSI0, LZZN, LINTEG, LITAE, LIAE, LMAXD, LQH, LQN, LRC, LJREC, LOVMAX,
+ LESD) = range(15)
+NL = 15
 #: Rows of a chunk's vector-step input array ``V`` (:func:`_vstep`): joint state (NT rows),
 #: servo values, command in force / ramp rate / noise sample, input series (8), trig bases (6),
 #: then the kind's parameters.
@@ -306,6 +305,53 @@ def _inputs(V, j):
     return srv, fs, tr
 
 
+def _load_series(V, o, SER, sidx, row, k, kk):
+    """The input series at the step ends (first-order hold) into the rows VF.. of ``V``."""
+    for i in range(4):
+        s = sidx[i]
+        V[o + i * CH] = SER[s, row, k] if s >= 0 else np.nan
+        V[o + (4 + i) * CH] = SER[s, row, kk] if s >= 0 else np.nan
+
+
+def _steer(V, j):
+    """Lane j's steering angle at the step start [rad]: the measured one, else the servo's
+    (limited), plus the disturbance."""
+    fd = V[VF * CH + j]
+    return (_clip(V[7 * CH + j], V[VS * CH + j]) if np.isnan(fd) else fd) + DIST_B * V[10 * CH + j]
+
+
+def _vbases(V):
+    """The step's trig bases (angle, cos, sin of the heading; TRIG: of the steering angle) for
+    all CH lane slots, rotated from the previous step's (:func:`_rot_nan`, vectorised) and
+    renormalised; NaN where the angle moved more than 0.05 rad (then :func:`_base_far`)."""
+    for j in range(CH):
+        o = VT * CH + j
+        a = V[2 * CH + j]
+        c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
+        g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+        V[o] = a
+        V[o + CH] = c_ * g_
+        V[o + 2 * CH] = s_ * g_
+        if TRIG:
+            a = _steer(V, j)
+            c_, s_ = _rot_nan(a, V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH])
+            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+            V[o + 3 * CH] = a
+            V[o + 4 * CH] = c_ * g_
+            V[o + 5 * CH] = s_ * g_
+
+
+def _base_far(V, j, i, a):
+    """Trig base ``i`` (0 heading, 3 steering) of lane j at angle a [rad] by the library."""
+    o = (VT + i) * CH + j
+    c_ = math.cos(a)
+    s_ = math.sin(a)
+    g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+    V[o] = a
+    V[o + CH] = c_ * g_
+    V[o + 2 * CH] = s_ * g_
+
+
 def _vstep(V, zn, w0, w1, w2, h, frac):
     """One RK4 step of length h [s] (the fraction ``frac`` of the step) for all :data:`CH`
     lane slots of a chunk, the lane loop innermost so that LLVM vectorises it across lanes.
@@ -419,6 +465,11 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     W = hi - lo
     V = np.zeros((VP + NPK) * CH)
     zn = np.empty(NT * CH)
+    for j in range(CH):
+        V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
+        V[(VT + 4) * CH + j] = 1.0
+        for i in range(8):  # input series: absent
+            V[(VF + i) * CH + j] = np.nan
     ls = np.zeros((NL, W))
     act = np.zeros(W, dtype=np.bool_)
     simple = np.zeros(W, dtype=np.bool_)
@@ -426,7 +477,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     w0 = 1.0 if skind == 0 else 0.0
     w1 = 1.0 if skind == 1 else 0.0
     w2 = 1.0 if skind == 2 else 0.0
-    s0_, s1_, s2_, s3_, s4_ = sidx[0], sidx[1], sidx[2], sidx[3], sidx[4]
+    s4_ = sidx[4]
+    series = sidx[0] >= 0 or sidx[1] >= 0 or sidx[2] >= 0 or sidx[3] >= 0
     cap = qt.shape[1]
     eps = 1e-9 * dt
     idt = 1.0 / dt
@@ -470,10 +522,9 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         _, h0 = _splitmix(np.uint64(int(Dq[b, 1])))
         _, rngs[j] = _splitmix(h0 ^ np.uint64(b))
         ls[LESD, j] = math.sqrt(Dq[b, 0] / dt) if Dq[b, 0] > 0.0 else 0.0
-        ls[LTP0, j] = Z[b, 2]
-        ls[LTP1, j] = math.cos(Z[b, 2])
-        ls[LTP2, j] = math.sin(Z[b, 2])
-        ls[LTD1, j] = 1.0
+        V[VT * CH + j] = Z[b, 2]
+        V[(VT + 1) * CH + j] = math.cos(Z[b, 2])
+        V[(VT + 2) * CH + j] = math.sin(Z[b, 2])
         act[j] = True
     for k in range(nmax + 1):
         t = k * dt
@@ -499,14 +550,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             # input series at the step ends (first-order hold)
             kk = k + 1 if k < n else k
             o = VF * CH + j
-            V[o] = SER[s0_, row, k] if s0_ >= 0 else np.nan
-            V[o + CH] = SER[s1_, row, k] if s1_ >= 0 else np.nan
-            V[o + 2 * CH] = SER[s2_, row, k] if s2_ >= 0 else np.nan
-            V[o + 3 * CH] = SER[s3_, row, k] if s3_ >= 0 else np.nan
-            V[o + 4 * CH] = SER[s0_, row, kk] if s0_ >= 0 else np.nan
-            V[o + 5 * CH] = SER[s1_, row, kk] if s1_ >= 0 else np.nan
-            V[o + 6 * CH] = SER[s2_, row, kk] if s2_ >= 0 else np.nan
-            V[o + 7 * CH] = SER[s3_, row, kk] if s3_ >= 0 else np.nan
+            if series:
+                _load_series(V, o, SER, sidx, row, k, kk)
             fd = V[o]
             # logic -> command events
             psi = V[2 * CH + j]
@@ -578,27 +623,15 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 rngs[j], g = _normal(rngs[j])
                 noise = ls[LESD, j] * g
             V[VNOISE * CH + j] = noise
-            c_, s_ = _rot(psi, ls[LTP0, j], ls[LTP1, j], ls[LTP2, j])
-            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
-            ls[LTP0, j] = psi
-            ls[LTP1, j] = c_ * g_
-            ls[LTP2, j] = s_ * g_
-            o = VT * CH + j
-            V[o] = psi
-            V[o + CH] = c_ * g_
-            V[o + 2 * CH] = s_ * g_
-            if TRIG:
-                de = (_clip(z7, ma) if np.isnan(fd) else fd) + DIST_B * V[10 * CH + j]
-                c_, s_ = _rot(de, ls[LTD0, j], ls[LTD1, j], ls[LTD2, j])
-                g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
-                ls[LTD0, j] = de
-                ls[LTD1, j] = c_ * g_
-                ls[LTD2, j] = s_ * g_
-            V[o + 3 * CH] = ls[LTD0, j]
-            V[o + 4 * CH] = ls[LTD1, j]
-            V[o + 5 * CH] = ls[LTD2, j]
             simple[j] = simd and not ((qn > 0 and qt[b, qh] < t1) or rend < t1)
             nsimple += simple[j]
+        # -- trig bases of the step: vectorised, then per lane where an angle moved far --
+        _vbases(V)
+        for j in range(W):
+            if act[j] and np.isnan(V[(VT + 1) * CH + j]):
+                _base_far(V, j, 0, V[2 * CH + j])
+            if TRIG and act[j] and np.isnan(V[(VT + 4) * CH + j]):
+                _base_far(V, j, 3, _steer(V, j))
         # -- phase 2: the vectorised RK4 step of all lanes --
         if nsimple > 0:
             _vstep(V, zn, w0, w1, w2, t1 - t, (t1 - t) * idt)
@@ -659,6 +692,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                     tr = tsw + V[(VS + 5) * CH + j]
                     if tr < t1 - eps:
                         # takes effect inside this step: integrate the step again
+                        ok = False  # (the divergence test then checks every state)
                         qh, qn = _push(qt, qv, b, int(sv[3]), int(sv[4]), tr, cmdlog)
                         z, cmdin, ramp, rend, qh, qn = _substeps(
                             V, j, _ztup(V, j), t, t1, eps, idt, w0, w1, w2, skind, sv[0],
@@ -685,9 +719,10 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 if skind == 2:
                     dd = _clip(dd, V[(VS + 1) * CH + j])
             _zput(V, j, (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, dd, z[9], z[10]))
-            if not (abs(z[ZR]) <= R_MAX and np.isfinite(z[0]) and np.isfinite(z[1])
-                    and np.isfinite(z[2]) and np.isfinite(z[3]) and np.isfinite(z[4])
-                    and np.isfinite(z[5]) and np.isfinite(z[6])):
+            if not (abs(z[ZR]) <= R_MAX and (ok or (
+                    np.isfinite(z[0]) and np.isfinite(z[1]) and np.isfinite(z[2])
+                    and np.isfinite(z[3]) and np.isfinite(z[4]) and np.isfinite(z[5])
+                    and np.isfinite(z[6])))):
                 status[b, 0] = 1.0
                 status[b, 1] = t1
                 act[j] = False
@@ -753,8 +788,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
             fut.result()
 
 
-_TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_vstep", "_substeps",
-              "_record", "_chunk")
+_TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
+              "_vbases", "_base_far", "_vstep", "_substeps", "_record", "_chunk")
 #: compiled twice: the per-lane flavour and the vector flavour (:func:`_rot_nan`)
 _STEP = ("_deriv", "_axpy", "_rk4")
 _KERNELS: dict[str, Any] = {}
@@ -801,6 +836,6 @@ def _specialise(g: dict[str, Any], name: str, qual: str) -> None:
     opts: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": _FM}
     if name == "_chunk":
         opts["nogil"] = True
-    if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs"):
+    if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer"):
         opts["inline"] = "always"  # tuples only: no reference counting
     g[name] = numba.njit(**opts)(fn)
