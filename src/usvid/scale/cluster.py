@@ -53,22 +53,28 @@ def connect(scheduler: str | None = None, workers: int | None = None) -> Iterato
 def map_ordered(client: Any, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], *,
                 progress: bool = True, label: str = "tasks") -> list[Any]:
     """``[fn(*a) for a in args]`` as Dask tasks on ``client``, results in the order of ``args``
-    (a task's exception is raised). With ``progress`` a bar on stderr counts finished tasks."""
+    (a task's exception is raised). Each result is fetched as soon as its task ends and then
+    released on the workers, so their memory stays flat however many tasks there are. With
+    ``progress`` a bar on stderr (a terminal) counts finished tasks."""
     from distributed import as_completed
 
     futures = [client.submit(fn, *a, pure=False) for a in args]
     index = {f.key: i for i, f in enumerate(futures)}
     out: list[Any] = [None] * len(futures)
+    done = as_completed(futures)
+    del futures  # a result leaves the workers' memory once fetched (fut.release below)
     if progress and sys.stderr.isatty():
         from rich.console import Console
         from rich.progress import Progress
 
         with Progress(console=Console(stderr=True), transient=True) as bar:
-            task = bar.add_task(label, total=len(futures))
-            for fut in as_completed(futures):
+            task = bar.add_task(label, total=len(out))
+            for fut in done:
                 out[index[fut.key]] = fut.result()
+                fut.release()
                 bar.advance(task)
     else:
-        for fut in as_completed(futures):
+        for fut in done:
             out[index[fut.key]] = fut.result()
+            fut.release()
     return out
