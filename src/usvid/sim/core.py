@@ -518,9 +518,11 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             zzt[b, i] = np.nan
         status[b, 0] = 0.0
         status[b, 1] = np.nan
-        # noise stream (seed, b): a splitmix hash of the seed, hashed again with the lane index
+        # noise stream (seed, stream): a splitmix hash of the seed, hashed again with the lane's
+        # stream index (Dq[b, 2] when given, else the lane index)
         _, h0 = _splitmix(np.uint64(int(Dq[b, 1])))
-        _, rngs[j] = _splitmix(h0 ^ np.uint64(b))
+        stream = int(Dq[b, 2]) if Dq.shape[1] > 2 else b
+        _, rngs[j] = _splitmix(h0 ^ np.uint64(stream))
         ls[LESD, j] = math.sqrt(Dq[b, 0] / dt) if Dq[b, 0] > 0.0 else 0.0
         V[VT * CH + j] = Z[b, 2]
         V[(VT + 1) * CH + j] = math.cos(Z[b, 2])
@@ -757,7 +759,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     """Integrate all lanes of ``Z`` (in place) and fill the outputs.
 
     Arrays are lane-major (a lane's parameters, state and work values contiguous): ``P``
-    (B, n_params), ``S`` (B, SERVO_ROWS), ``L`` (B, 6), ``Dq`` (B, 2), ``Z`` (B, n_states),
+    (B, n_params), ``S`` (B, SERVO_ROWS), ``L`` (B, 6), ``Dq`` (B, 2 or 3) (spectral density,
+    seed, optional noise stream index), ``Z`` (B, n_states),
     ``acc`` (B, 3), ``zz`` (B, N_ZZ), ``zzt`` (B, N_ZZ + 1), ``status`` (B, 2); ``SER``
     (n_series, 1 or B, N) and ``rec`` (n_channels, B, N_rec). Lanes are integrated in chunks of
     ``chunk`` lanes that step together (:func:`_chunk`, vectorised across the chunk's lanes);
