@@ -10,8 +10,12 @@ Reference: the same model and logic run once through ``scipy.integrate.solve_ivp
 rtol 1e-8), with the switches located as events and the 1 s servo dead time applied from the
 switch history.
 
-Printed: wall and CPU time, numba threads, per-run times and their ratio, peak memory
-(tracemalloc peak of Python/numpy allocations during the batch, and the process max RSS).
+Printed: wall and CPU time, numba threads, load average, per-run times and their ratio, peak
+memory (tracemalloc peak of Python/numpy allocations during the batch, and the process max RSS);
+then a table of ns CPU per RK4 step per model kind for the SIMD kernel and for the per-lane path
+(``core.SIMD = False``: every step integrated lane by lane, the previous kernel's scheme), with
+their ratio and the ratio to solve_ivp. The machine may be shared: CPU time per step is the
+figure to compare; wall time depends on the load.
 """
 
 from __future__ import annotations
@@ -27,8 +31,8 @@ import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from usvid.models import VesselModel, mu2018_servo, mu2018_threedof
-from usvid.sim import ZigZag, simulate
+from usvid.models import Nomoto1, VesselModel, mu2018_servo, mu2018_threedof
+from usvid.sim import ZigZag, core, simulate
 from usvid.trial import Vessel
 
 B = int(os.environ.get("USVID_BENCH_RUNS", "10000"))
@@ -37,17 +41,25 @@ AMP = math.radians(10.0)
 U0 = 5.144
 
 
-def batch() -> tuple[float, float, np.ndarray, int]:
-    model = VesselModel(mu2018_threedof(x_l=3.5), servo=mu2018_servo(),
-                        vessel=Vessel(length=7.02, speed=U0))
+def _model(kind: str) -> VesselModel:
+    dyn = mu2018_threedof(x_l=3.5) if kind == "threedof" else Nomoto1(K=0.2, T=5.0)
+    return VesselModel(dyn, servo=mu2018_servo(), vessel=Vessel(length=7.02, speed=U0))
+
+
+def batch(kind: str = "threedof", runs: int = B, simd: bool = True
+          ) -> tuple[float, float, np.ndarray, int]:
+    """``runs`` zig-zags of ``kind``; (wall [s], CPU [s], overshoots [deg], traced peak [B])."""
+    core.SIMD = simd
+    model = _model(kind)
     simulate(model, ZigZag(AMP, AMP), t_end=1.0, dt=DT, channels=("psi",))  # compile / load
-    logic = ZigZag(np.full(B, AMP), AMP)
+    logic = ZigZag(np.full(runs, AMP), AMP)
     tracemalloc.start()
     w0, c0 = time.perf_counter(), time.process_time()
     res = simulate(model, logic, t_end=T_END, dt=DT, record_every=10, channels=("psi",))
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
+    core.SIMD = True
     return wall, cpu, np.degrees(res.zigzag_online["overshoot"]), peak
 
 
@@ -100,26 +112,38 @@ def reference() -> tuple[float, float]:
 
 
 def main() -> None:
+    steps = T_END / DT
     wall, cpu, over, peak = batch()
     ref_wall, ref_over = reference()
     per_run = wall / B
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"bench_sim: {B} zig-zag 10/10 runs, seed-000 3-DOF + 2nd-order servo, "
-          f"{T_END:.0f} s at dt={DT} s ({int(T_END / DT)} RK4 steps/run)")
+          f"{T_END:.0f} s at dt={DT} s ({int(steps)} RK4 steps/run)")
     print(f"  numba threads: {numba.get_num_threads()}  (os.cpu_count() = {os.cpu_count()}, "
-          f"load average {os.getloadavg()[0]:.1f})")
-    print(f"  batch (numba, compile excluded): wall {wall:.2f} s, CPU {cpu:.2f} s, "
-          f"{per_run * 1e6:.0f} us/run, {cpu / (B * T_END / DT) * 1e9:.0f} ns CPU/step "
-          "[target <= 2 s wall on 2 free cores]")
+          f"load average {os.getloadavg()[0]:.1f} before, machine shared)")
+    print(f"  batch (SIMD kernel, compile excluded): wall {wall:.2f} s, CPU {cpu:.2f} s, "
+          f"{per_run * 1e6:.0f} us/run, {cpu / (B * steps) * 1e9:.0f} ns CPU/step "
+          "[target <= 0.7 s wall on 2 free cores]")
     print(f"  CPU time / {numba.get_num_threads()} threads = {cpu / numba.get_num_threads():.2f} s "
-          "(the wall time on otherwise idle cores; the wall above includes waiting for a "
-          "shared, loaded machine)")
+          "(the wall time on otherwise idle cores)")
     print(f"  solve_ivp RK45 (one run):        wall {ref_wall:.3f} s/run")
     print(f"  ratio solve_ivp / numba per run: {ref_wall / per_run:.0f}x")
     print(f"  first overshoot: numba {np.nanmean(over[:, 0]):.3f} deg, "
           f"solve_ivp {ref_over:.3f} deg")
     print(f"  peak memory: traced {peak / 2**20:.1f} MiB during the batch, "
           f"process max RSS {rss:.0f} MiB")
+    print("  ns CPU per RK4 step (per run), SIMD kernel vs the per-lane path (core.SIMD = False, "
+          "the previous kernel's scheme), same process:")
+    print(f"    {'kind':10s} {'runs':>6s} {'SIMD wall':>10s} {'SIMD ns':>8s} {'per-lane ns':>12s} "
+          f"{'speed-up':>9s} {'vs solve_ivp':>12s}  load")
+    n = max(B // 4, 64)
+    for kind in ("nomoto1", "threedof"):
+        w1, c1, o1, _ = batch(kind, n, True)
+        w2, c2, o2, _ = batch(kind, n, False)
+        same = np.allclose(o1, o2, rtol=1e-9, atol=1e-12, equal_nan=True)
+        print(f"    {kind:10s} {n:6d} {w1:9.2f}s {c1 / (n * steps) * 1e9:8.1f} "
+              f"{c2 / (n * steps) * 1e9:12.1f} {c2 / c1:8.1f}x {ref_wall / (w1 / n):11.0f}x  "
+              f"{os.getloadavg()[0]:.1f}{'' if same else '  (overshoots differ!)'}")
     sys.stdout.flush()
 
 

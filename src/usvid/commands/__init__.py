@@ -15,4 +15,6 @@ COMMAND_MODULES = [
     "demo",
     "report",
     "example",
+    "montecarlo",
+    "batch",
 ]

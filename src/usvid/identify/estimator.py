@@ -233,11 +233,21 @@ class IdentifiedModel:
             "data_sha256": {d["file"]: d.get("sha256") for d in self.data},
             "method": self.method,
             "std_errors": dict(self.std_errors),
+            **self._covariance(),
             "ci95": {k: list(v) for k, v in self.ci95.items()},
             "fit": self.fit,
             "options": self.options,
             "diagnostics": self.diagnostics,
         }
+
+    def _covariance(self) -> dict[str, Any]:
+        """``{"covariance": {"names", "matrix"}}`` of the fitted parameters [SI] (what
+        ``usvid montecarlo --from-uncertainty`` samples), or {} when it is not available."""
+        cov = np.asarray(self.cov, float)
+        names = list(self.std_errors)
+        if cov.shape != (len(names), len(names)) or not np.all(np.isfinite(cov)):
+            return {}
+        return {"covariance": {"names": names, "matrix": cov.tolist()}}
 
     def to_dict(self) -> dict[str, Any]:
         """The model file as a JSON-ready dict (:func:`usvid.io.modelfile.model_to_dict`)."""

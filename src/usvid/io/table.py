@@ -12,6 +12,9 @@ is not a number), plus the reasons of ``assemble``. Files are opened read-only.
 
 from __future__ import annotations
 
+import io
+import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +26,10 @@ from usvid.io.spec import ColumnSpec, FormatSpec
 from usvid.io.units import DATETIME
 from usvid.trial import Finding, Trial
 
-_CTRL = {chr(c) for c in range(32) if c not in (9,)} | {"\ufffd", "\x7f"}
+#: A line with one of these is garbage (control bytes other than tab, undecodable bytes).
+_CTRL_RE = re.compile("[\x00-\x08\x0a-\x1f\x7f\ufffd]")
+#: Cells read as missing (not as bad values).
+_NA = ["", "nan", "NaN", "NA", "None", "-"]
 
 
 def _resolve(
@@ -183,13 +189,16 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
             raise LogReadError(f"{path} line {i + 1}: expected a header row, found end of file")
         names = _split(lines[i], spec.delimiter)
         i += 1
+    fast = _read_clean(path, spec, text, blob, lines, i, names)
+    if fast is not None:
+        return fast
     rows: list[list[str]] = []
     linenos: list[int] = []
     garbage = 0
     for k, s in enumerate(lines[i:], start=i + 1):
         if not usable(s):
             continue
-        if any(ch in _CTRL for ch in s):
+        if _CTRL_RE.search(s):
             garbage += 1
             continue
         rows.append(_split(s, spec.delimiter))
@@ -221,6 +230,69 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     cols = {name: np.array([r[p] for r in good], dtype=object) for name, p in pos.items()}
     findings: list[Finding] = []
     t, chans, meta = map_columns(path, spec, cols, rejected, where=np.asarray(linenos)[ok],
+                                 where_name="line", findings=findings)
+    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings)
+
+
+def _has_control(text: str, raw: bytes) -> bool:
+    """True when the data may hold a garbage character: a control byte in the raw bytes, or an
+    undecodable byte or a Unicode line separator in the decoded text."""
+    a = np.frombuffer(raw, dtype=np.uint8)
+    ctrl = ((a < 32) & (a != 9) & (a != 10)) | (a == 127)
+    return bool(ctrl.any()) or any(ch in text for ch in ("\ufffd", "\x85", "\u2028", "\u2029"))
+
+
+def _read_clean(path: Path, spec: FormatSpec, text: str, blob: bytes, lines: list[str], i: int,
+                names: list[str] | None) -> Trial | None:
+    """The data lines ``lines[i:]`` parsed by pandas' C parser when the table is clean: an
+    ASCII-compatible encoding, a one-character delimiter, no quote character, no control byte,
+    no comment and every line with the same number of fields (counted by the delimiters); else
+    None (the line-by-line reader then counts and reports every bad line)."""
+    d = spec.delimiter
+    if d is None or len(d) != 1 or d == '"' or i >= len(lines):
+        return None
+    try:
+        if "\n".encode(spec.encoding) != b"\n" or d.encode(spec.encoding) != d.encode("ascii"):
+            return None
+    except (LookupError, UnicodeError):
+        return None
+    nrows = len(lines) - i
+    ncols = len(names) if names is not None else lines[i].count(d) + 1
+    off = 0  # the body's first byte: after i line breaks (a BOM is in the first line)
+    for _ in range(i):
+        off = blob.find(b"\n", off) + 1
+        if off == 0:
+            return None
+    raw = blob[off:]
+    # (a blank line has no delimiter: with ncols >= 2 the count below or the parser's field
+    # check then fails, and the line reader takes over)
+    if (ncols < 2 or b'"' in raw or (spec.comment and spec.comment.encode(spec.encoding) in raw)
+            or raw.count(d.encode("ascii")) != (ncols - 1) * nrows or _has_control(text, raw)):
+        return None
+    pos = _resolve(path, spec, names, ncols)
+    usecols = sorted(set(pos.values()))
+    dates = {p for n, p in pos.items() if spec.columns[n].unit == DATETIME}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            df = pd.read_csv(io.BytesIO(raw), sep=d, header=None, usecols=usecols,
+                             encoding=spec.encoding,
+                             dtype={p: str for p in dates} or None, keep_default_na=False,
+                             na_values=_NA, skipinitialspace=True, engine="c",
+                             skip_blank_lines=False, quoting=3)  # QUOTE_NONE
+    except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning):
+        return None
+    if len(df) != nrows:
+        return None
+    cols = {}
+    for name, p in pos.items():
+        col = df[p]
+        if col.dtype == object:  # text cells: strip as the line reader does
+            col = col.str.strip()
+        cols[name] = col
+    rejected: dict[str, int] = {}
+    findings: list[Finding] = []
+    t, chans, meta = map_columns(path, spec, cols, rejected, where=i + 1 + np.arange(nrows),
                                  where_name="line", findings=findings)
     return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings)
 

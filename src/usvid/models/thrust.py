@@ -419,7 +419,7 @@ def kt_nb(J: float, P_D: float, theta: float) -> float:
             + w2 * _kt_row_nb(2, J, P_D))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def propeller_thrust_nb(n: float, u: float, D: float, P_D: float, theta: float, t_P: float,
                         w_P: float, rho: float) -> float:
     """Scalar numba twin of :meth:`Propeller.thrust` [N]: n [rps], u [m/s], D [m], rho [kg/m^3].
@@ -430,10 +430,11 @@ def propeller_thrust_nb(n: float, u: float, D: float, P_D: float, theta: float, 
         return 0.0
     an = abs(n)
     J = (1.0 - w_P) * u / (an * D)
-    return (1.0 - t_P) * rho * n * an * D ** 4 * kt_nb(J, P_D, theta)
+    D2 = D * D
+    return (1.0 - t_P) * rho * n * an * (D2 * D2) * kt_nb(J, P_D, theta)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def pod_thrust_nb(V: float, n: float, c: float, d: float) -> float:
     """Scalar numba twin of :meth:`PodThrust.thrust` [N]: ``c V n + d |n| n`` (Mu et al. 2016
     eq. 3)."""

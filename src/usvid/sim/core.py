@@ -48,7 +48,6 @@ from typing import Any
 
 import numba
 import numpy as np
-from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from usvid.models.kind import S0, ModelKind
 
@@ -80,6 +79,20 @@ NPK = 1
 BU, BV, BR = -1, -1, 0  # positions of u, v, r among the kind's states (-1: constant U / zero)
 ZU, ZV, ZR = 3, 4, 3  # their positions in the joint-state tuple (literal indices)
 SPEED_ROW = 3  # position of the constant speed U in a constant-speed kind's parameters
+
+#: Rows of a chunk's logic-variable array ``ls`` (:func:`_chunk`): command logged, ramp end,
+#: zig-zag sign and heading reference, reversals, PID integral, ITAE, IAE, max |delta|, dead-time
+#: queue head and length, record counters, overshoot so far, noise standard deviation.
+(LCMDLOG, LREND, LCUR, LPSI0, LZZN, LINTEG, LITAE, LIAE, LMAXD, LQH, LQN, LRC, LJREC, LOVMAX,
+ LESD) = range(15)
+NL = 15
+#: Rows of a chunk's vector-step input array ``V`` (:func:`_vstep`): joint state (NT rows),
+#: servo values, command in force / ramp rate / noise sample, input series (8), trig bases (6),
+#: then the kind's parameters.
+VS, VCMD, VRAMP, VNOISE, VF, VT, VP = 11, 18, 19, 20, 21, 29, 35
+#: Lanes per chunk (the row length of the chunk's work arrays; a compile-time constant so that
+#: LLVM sees the rows of ``V`` as one object at constant offsets and vectorises the lane loop).
+CH = 32
 
 # -- kind-specific globals (replaced when a kind is specialised) -----------------------------
 NS = 1  # number of kind states
@@ -134,27 +147,40 @@ def _rot(a: float, a0: float, c0: float, s0: float) -> tuple[float, float]:
     return c0 * ch - s0 * sh, s0 * ch + c0 * sh
 
 
+@numba.njit(cache=True, error_model="numpy", fastmath=_FM, inline="always")
+def _rot_nan(a: float, a0: float, c0: float, s0: float) -> tuple[float, float]:
+    """:func:`_rot` without the library branch, for the vectorised step: (NaN, NaN) where
+    |a - a0| > 0.05 rad (that lane's step is then integrated again by :func:`_rot`)."""
+    h = a - a0
+    h2 = h * h
+    ch = 1.0 - h2 * (0.5 - h2 * (1.0 / 24.0 - h2 * (1.0 / 720.0)))
+    sh = h * (1.0 - h2 * (1.0 / 6.0 - h2 * (1.0 / 120.0 - h2 * (1.0 / 5040.0))))
+    far = abs(h) > 0.05
+    return (np.nan if far else c0 * ch - s0 * sh), (np.nan if far else s0 * ch + c0 * sh)
+
+
 @numba.njit(cache=True, error_model="numpy", fastmath=_FM)
 def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=_FM)
-def _push(qt, qv, head, n, tr, value):
-    """Queue a command taking effect at time tr in a lane's dead-time ring buffer (qt, qv);
-    returns the new (head, n). A newer command due at the same time replaces the older one."""
-    cap = qt.shape[0]
+def _push(qt, qv, b, head, n, tr, value):
+    """Queue a command taking effect at time tr in lane b's dead-time ring buffer (rows
+    ``qt[b]``, ``qv[b]``); returns the new (head, n). A newer command due at the same time
+    replaces the older one."""
+    cap = qt.shape[1]
     if n > 0:
         last = (head + n - 1) % cap
-        if qt[last] == tr:
-            qv[last] = value
+        if qt[b, last] == tr:
+            qv[b, last] = value
             return head, n
     if n == cap:  # full (the driver sizes the buffer so that this cannot happen)
         head = (head + 1) % cap
         n -= 1
     slot = (head + n) % cap
-    qt[slot] = tr
-    qv[slot] = value
+    qt[b, slot] = tr
+    qv[b, slot] = value
     return head, n + 1
 
 
@@ -237,326 +263,522 @@ def _rk4(p, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
             z[10] + h6 * (k1[10] + 2.0 * k2[10] + 2.0 * k3[10] + k4[10]))
 
 
-def _lane(b, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots, rec,
-          acc, zz, zzt, status, qt, qv):
-    """Integrate lane b over its ``nsteps[b]`` steps (see the module docstring).
+_rk4v = _rk4  # the vector flavour of _rk4 (replaced in kernel())
 
-    The lane's parameters, servo values, state and logic variables live in locals and tuples
-    during the run; its dead-time queue in the rows ``qt[b]``, ``qv[b]``; the joint state is
-    written back to ``Z[b]`` at the end.
+
+# -- a chunk's work array V: row r of lane j at V[r * CH + j] (module docstring) --------------
+def _ptup(V, j):  # pragma: no cover - placeholder, generated per kind in kernel()
+    return (V[VP * CH + j],)
+
+
+def _ztup(V, j):
+    """Lane j's joint-state tuple from ``V`` (the rows 0..NT-1)."""
+    return (V[j], V[CH + j], V[2 * CH + j], V[3 * CH + j], V[4 * CH + j], V[5 * CH + j],
+            V[6 * CH + j], V[7 * CH + j], V[8 * CH + j], V[9 * CH + j], V[10 * CH + j])
+
+
+def _zput(A, j, z):
+    """Write a joint-state tuple into column j of the rows 0..NT-1 of ``A``."""
+    A[j] = z[0]
+    A[CH + j] = z[1]
+    A[2 * CH + j] = z[2]
+    A[3 * CH + j] = z[3]
+    A[4 * CH + j] = z[4]
+    A[5 * CH + j] = z[5]
+    A[6 * CH + j] = z[6]
+    A[7 * CH + j] = z[7]
+    A[8 * CH + j] = z[8]
+    A[9 * CH + j] = z[9]
+    A[10 * CH + j] = z[10]
+
+
+def _inputs(V, j):
+    """Lane j's servo values, input series and trig bases from ``V``."""
+    o = VS * CH + j
+    srv = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+           V[o + 6 * CH])
+    o = VF * CH + j
+    fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+          V[o + 6 * CH], V[o + 7 * CH])
+    o = VT * CH + j
+    tr = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH])
+    return srv, fs, tr
+
+
+def _load_series(V, o, SER, sidx, row, k, kk):
+    """The input series at the step ends (first-order hold) into the rows VF.. of ``V``."""
+    for i in range(4):
+        s = sidx[i]
+        V[o + i * CH] = SER[s, row, k] if s >= 0 else np.nan
+        V[o + (4 + i) * CH] = SER[s, row, kk] if s >= 0 else np.nan
+
+
+def _steer(V, j):
+    """Lane j's steering angle at the step start [rad]: the measured one, else the servo's
+    (limited), plus the disturbance."""
+    fd = V[VF * CH + j]
+    return (_clip(V[7 * CH + j], V[VS * CH + j]) if np.isnan(fd) else fd) + DIST_B * V[10 * CH + j]
+
+
+def _vbases(V):
+    """The step's trig bases (angle, cos, sin of the heading; TRIG: of the steering angle) for
+    all CH lane slots, rotated from the previous step's (:func:`_rot_nan`, vectorised) and
+    renormalised; NaN where the angle moved more than 0.05 rad (then :func:`_base_far`)."""
+    for j in range(CH):
+        o = VT * CH + j
+        a = V[2 * CH + j]
+        c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
+        g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+        V[o] = a
+        V[o + CH] = c_ * g_
+        V[o + 2 * CH] = s_ * g_
+        if TRIG:
+            a = _steer(V, j)
+            c_, s_ = _rot_nan(a, V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH])
+            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+            V[o + 3 * CH] = a
+            V[o + 4 * CH] = c_ * g_
+            V[o + 5 * CH] = s_ * g_
+
+
+def _base_far(V, j, i, a):
+    """Trig base ``i`` (0 heading, 3 steering) of lane j at angle a [rad] by the library."""
+    o = (VT + i) * CH + j
+    c_ = math.cos(a)
+    s_ = math.sin(a)
+    g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+    V[o] = a
+    V[o + CH] = c_ * g_
+    V[o + 2 * CH] = s_ * g_
+
+
+def _vstep(V, zn, w0, w1, w2, h, frac):
+    """One RK4 step of length h [s] (the fraction ``frac`` of the step) for all :data:`CH`
+    lane slots of a chunk, the lane loop innermost so that LLVM vectorises it across lanes.
+    The trip count is the constant CH whatever the chunk's number of lanes (unused slots hold
+    zeros or stale values and are ignored): every lane is computed by the same vector code, so
+    a lane's result does not depend on its position or on the chunking.
+
+    ``V`` holds the lanes' inputs (rows: joint state, servo values, command / ramp rate /
+    noise, input series, trig bases, parameters; :data:`VS` ..), ``zn`` receives the new
+    joint states: one input and one output array of constant row length :data:`CH`, so that
+    LLVM's alias check is a single one. The heading rotation is the vector-safe
+    :func:`_rot_nan`: a lane whose heading or steering angle moved more than 0.05 rad within
+    the step gets NaN states and is integrated again on the per-lane path.
     """
-    ID = S0 + NS
-    p = to_fixed_tuple(P[b], NPK)
-    srv = (S[b, 0], S[b, 1], S[b, 2], S[b, 3], S[b, 4], S[b, 5], S[b, 6])
+    for j in range(CH):
+        srv, fs, tr = _inputs(V, j)
+        y = _rk4v(_ptup(V, j), _ztup(V, j), h, 0.0, frac, srv, w0, w1, w2,
+                  V[VCMD * CH + j], V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
+        _zput(zn, j, y)
+
+
+def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt, qv, b, qh,
+              qn):
+    """Lane j's step from t to t1 [s] on the per-lane path: sub-steps ending at the events
+    inside it (dead-time queue of lane b, end of an ideal servo's ramp), one RK4 call site.
+    Returns (z, cmdin, ramp, rend, qh, qn)."""
+    p = _ptup(V, j)
+    srv, fs, tr = _inputs(V, j)
+    noise = V[VNOISE * CH + j]
     ma = srv[0]
     mr = srv[1]
-    delay = srv[5]
+    cap = qt.shape[1]
+    tc = t
+    while True:
+        tb = t1
+        what = 0
+        if qn > 0 and qt[b, qh] < tb:
+            tb = qt[b, qh]
+            what = 1
+        if rend < tb:
+            tb = rend
+            what = 2
+        if tb > tc + eps:
+            te = min(tb, t1)
+            z = _rk4(p, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
+                     cmdin, ramp, noise, fs, tr)
+            tc = te
+        if what == 1 and tb <= t1 + eps:
+            cmdin = qv[b, qh]
+            qh = (qh + 1) % cap
+            qn -= 1
+            if skind == 0:
+                dl, ramp, rend = _start_ramp(tb, _clip(cmdin, ma), z[7], mr)
+                z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, z[8], z[9], z[10])
+        elif what == 2 and tb <= t1 + eps:
+            z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], _clip(cmdin, ma), z[8],
+                 z[9], z[10])
+            ramp = 0.0
+            rend = math.inf
+        if what == 0 or tb >= t1 - eps:
+            break
+    return z, cmdin, ramp, rend, qh, qn
+
+
+def _record(V, j, b, jrec, slots, rec, dnow, cmdlog):
+    """Record lane j (lane b of the batch) at the step start into ``rec[:, b, jrec]``."""
+    for ch in range(13):
+        sl = slots[ch]
+        if sl < 0:
+            continue
+        if ch <= 2:
+            val = V[ch * CH + j]
+        elif ch == 3:
+            val = V[(VP + SPEED_ROW) * CH + j] if BU < 0 else V[ZU * CH + j]
+        elif ch == 4:
+            val = 0.0 if BV < 0 else V[ZV * CH + j]
+        elif ch == 5:
+            val = V[ZR * CH + j]
+        elif ch == 6:
+            if BU < 0:
+                val = V[(VP + SPEED_ROW) * CH + j]
+            else:
+                vu = V[ZU * CH + j]
+                vv = V[ZV * CH + j]
+                val = math.sqrt(vu * vu + vv * vv)
+        elif ch == 7:
+            val = dnow
+        elif ch == 8:
+            val = cmdlog
+        elif ch <= 11:
+            val = V[(VF + ch - 8) * CH + j]  # n, n_port, n_stbd at the step start
+        else:
+            val = DIST_B * V[10 * CH + j]
+        rec[sl, b, jrec] = val
+
+
+def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots,
+           rec, acc, zz, zzt, status, qt, qv, simd):
+    """Integrate lanes lo..hi-1 (at most :data:`CH`) together: one task of :func:`run`.
+
+    The chunk's joint states, parameters, servo values and inputs live in the work array
+    ``V`` (a row per quantity, a column per lane), the logic variables in ``ls`` (rows
+    :data:`LCMDLOG` ..). Each step has three phases: per lane, the logic, the events due at
+    the step start, the record and the trig bases; then one vectorised RK4 step of all lanes
+    (:func:`_vstep`, when ``simd``); then per lane, the step is integrated again on the
+    per-lane path (:func:`_substeps`) where an event falls inside it (or the vector step
+    flagged it), the zig-zag switching is located, the servo limits and the divergence test
+    are applied. Without ``simd`` every step takes the per-lane path (the reference).
+    """
+    ID = S0 + NS
+    W = hi - lo
+    V = np.zeros((VP + NPK) * CH)
+    zn = np.empty(NT * CH)
+    for j in range(CH):
+        V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
+        V[(VT + 4) * CH + j] = 1.0
+        for i in range(8):  # input series: absent
+            V[(VF + i) * CH + j] = np.nan
+    ls = np.zeros((NL, W))
+    act = np.zeros(W, dtype=np.bool_)
+    simple = np.zeros(W, dtype=np.bool_)
+    rngs = np.zeros(W, dtype=np.uint64)
     w0 = 1.0 if skind == 0 else 0.0
     w1 = 1.0 if skind == 1 else 0.0
     w2 = 1.0 if skind == 2 else 0.0
-    lp = (L[b, 0], L[b, 1], L[b, 2], L[b, 3], L[b, 4], L[b, 5])
-    qtb = qt[b]
-    qvb = qv[b]
-    qh = 0
-    qn = 0
-    z = (Z[b, 0], Z[b, 1], Z[b, 2], Z[b, S0],
-         Z[b, S0 + 1] if NS > 1 else 0.0, Z[b, S0 + 2] if NS > 2 else 0.0,
-         Z[b, S0 + 3] if NS > 3 else 0.0,
-         Z[b, ID], Z[b, ID + 1], Z[b, ID + 2], Z[b, ID + 3])
-    # at rest on the initial angle: the command in force is the one that holds it
-    cmdin = z[7] / srv[4] if skind == 2 else z[7]
-    cmdlog = cmdin
-    ramp = 0.0
-    rend = math.inf
-    cur = 0.0
-    psi0 = 0.0
-    zzn = 0
-    integ = 0.0
-    itae = 0.0
-    iae = 0.0
-    maxd = 0.0
-    if lk == ZIGZAG and lp[5] != 0.0:  # a replay started in the middle of a zig-zag
-        cur = lp[5]
-        psi0 = lp[4]
-        cmdlog = cur * lp[0]
-        cmdin = cmdlog
-        if skind == 0:
-            dl, ramp, rend = _start_ramp(0.0, _clip(cmdin, ma), z[7], mr)
-            z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, z[8], z[9], z[10])
-    for i in range(N_ZZ):
-        zz[b, i] = np.nan
-    for i in range(N_ZZ + 1):
-        zzt[b, i] = np.nan
-    status[b, 0] = 0.0
-    status[b, 1] = np.nan
-    # noise stream (seed, stream): a splitmix hash of the seed, hashed again with the lane's
-    # stream index (its lane index unless the caller shares streams between lanes)
-    _, h0 = _splitmix(np.uint64(int(Dq[b, 1])))
-    _, rng = _splitmix(h0 ^ np.uint64(int(Dq[b, 2])))
-    esd = math.sqrt(Dq[b, 0] / dt) if Dq[b, 0] > 0.0 else 0.0
-    tpsi = (z[2], math.cos(z[2]), math.sin(z[2]))
-    tde = (0.0, 1.0, 0.0)
-    row = b * sstride
-    s0_, s1_, s2_, s3_, s4_ = sidx[0], sidx[1], sidx[2], sidx[3], sidx[4]
-    n = nsteps[b]
+    s4_ = sidx[4]
+    series = sidx[0] >= 0 or sidx[1] >= 0 or sidx[2] >= 0 or sidx[3] >= 0
+    cap = qt.shape[1]
     eps = 1e-9 * dt
     idt = 1.0 / dt
-    rcount = 0
-    jrec = 0
-    ovmax = np.nan
-    for k in range(n + 1):
+    nmax = 0
+    for j in range(W):
+        b = lo + j
+        nmax = max(nmax, nsteps[b])
+        for i in range(NPK):
+            V[(VP + i) * CH + j] = P[b, i]
+        for i in range(SERVO_ROWS):
+            V[(VS + i) * CH + j] = S[b, i]
+        ma = S[b, 0]
+        for i in range(3):
+            V[i * CH + j] = Z[b, i]
+        for i in range(NS):
+            V[(3 + i) * CH + j] = Z[b, S0 + i]
+        for i in range(4):
+            V[(7 + i) * CH + j] = Z[b, ID + i]
+        # at rest on the initial angle: the command in force is the one that holds it
+        cmdin = Z[b, ID] / S[b, 4] if skind == 2 else Z[b, ID]
+        ls[LREND, j] = math.inf
+        ls[LOVMAX, j] = np.nan
+        if lk == ZIGZAG and L[b, 5] != 0.0:  # a replay started in the middle of a zig-zag
+            ls[LCUR, j] = L[b, 5]
+            ls[LPSI0, j] = L[b, 4]
+            cmdin = L[b, 5] * L[b, 0]
+            if skind == 0:
+                dl, ramp, rend = _start_ramp(0.0, _clip(cmdin, ma), Z[b, ID], S[b, 1])
+                V[7 * CH + j] = dl
+                V[VRAMP * CH + j] = ramp
+                ls[LREND, j] = rend
+        ls[LCMDLOG, j] = cmdin
+        V[VCMD * CH + j] = cmdin
+        for i in range(N_ZZ):
+            zz[b, i] = np.nan
+        for i in range(N_ZZ + 1):
+            zzt[b, i] = np.nan
+        status[b, 0] = 0.0
+        status[b, 1] = np.nan
+        # noise stream (seed, stream): a splitmix hash of the seed, hashed again with the lane's
+        # stream index (Dq[b, 2] when given, else the lane index)
+        _, h0 = _splitmix(np.uint64(int(Dq[b, 1])))
+        stream = int(Dq[b, 2]) if Dq.shape[1] > 2 else b
+        _, rngs[j] = _splitmix(h0 ^ np.uint64(stream))
+        ls[LESD, j] = math.sqrt(Dq[b, 0] / dt) if Dq[b, 0] > 0.0 else 0.0
+        V[VT * CH + j] = Z[b, 2]
+        V[(VT + 1) * CH + j] = math.cos(Z[b, 2])
+        V[(VT + 2) * CH + j] = math.sin(Z[b, 2])
+        act[j] = True
+    for k in range(nmax + 1):
         t = k * dt
         t1 = t + dt
-        # -- input series at the step ends (first-order hold) --
-        kk = k + 1 if k < n else k
-        fs = (SER[s0_, row, k] if s0_ >= 0 else np.nan, SER[s1_, row, k] if s1_ >= 0 else np.nan,
-              SER[s2_, row, k] if s2_ >= 0 else np.nan, SER[s3_, row, k] if s3_ >= 0 else np.nan,
-              SER[s0_, row, kk] if s0_ >= 0 else np.nan,
-              SER[s1_, row, kk] if s1_ >= 0 else np.nan,
-              SER[s2_, row, kk] if s2_ >= 0 else np.nan,
-              SER[s3_, row, kk] if s3_ >= 0 else np.nan)
-        # -- logic -> command events --
-        psi = z[2]
-        if lk == COMMANDED:
-            if s4_ >= 0:
-                c = SER[s4_, row, k]
-                if c != cmdlog or k == 0:
-                    cmdlog = c
-                    qh, qn = _push(qtb, qvb, qh, qn, t + delay, c)
-        elif lk == TURNING:
-            if cur == 0.0 and lp[1] < t1 - eps:
-                cur = 1.0
-                cmdlog = lp[0]
-                qh, qn = _push(qtb, qvb, qh, qn, max(lp[1], t) + delay, lp[0])
-        elif lk == ZIGZAG:
-            if cur == 0.0 and lp[3] < t1 - eps:
-                cur = lp[2]
-                psi0 = psi if np.isnan(lp[4]) else lp[4]
-                tev = max(lp[3], t)
-                zzt[b, 0] = tev
-                cmdlog = cur * lp[0]
-                qh, qn = _push(qtb, qvb, qh, qn, tev + delay, cmdlog)
-        else:
-            err = _wrap(lp[0] - psi)
-            c = lp[1] * err + lp[2] * integ - lp[3] * z[ZR]
-            sat = c > ma or c < -ma
-            if not (lp[4] != 0.0 and sat and c * err > 0.0):
-                integ += err * dt
-            w = 0.5 if (k == 0 or k == n) else 1.0
-            itae += w * t * abs(err) * dt
-            iae += w * abs(err) * dt
-            cmdlog = c
-            qh, qn = _push(qtb, qvb, qh, qn, t + delay, c)
-        # -- events due at the step start --
-        while qn > 0 and qtb[qh] <= t + eps:
-            cmdin = qvb[qh]
-            qh = (qh + 1) % qtb.shape[0]
-            qn -= 1
-            if skind == 0:
-                dl, ramp, rend = _start_ramp(t, _clip(cmdin, ma), z[7], mr)
-                z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, z[8], z[9], z[10])
-        if rend <= t + eps:
-            z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], _clip(cmdin, ma), z[8], z[9], z[10])
-            ramp = 0.0
-            rend = math.inf
-        # -- record (at the step start) --
-        dnow = _clip(z[7], ma) if np.isnan(fs[0]) else fs[0]
-        if abs(dnow) > maxd:
-            maxd = abs(dnow)
-        if rcount == 0:
-            for ch in range(13):
-                sl = slots[ch]
-                if sl < 0:
-                    continue
-                if ch <= 2:
-                    val = z[0] if ch == 0 else (z[1] if ch == 1 else z[2])
-                elif ch == 3:
-                    val = p[SPEED_ROW] if BU < 0 else z[ZU]
-                elif ch == 4:
-                    val = 0.0 if BV < 0 else z[ZV]
-                elif ch == 5:
-                    val = z[ZR]
-                elif ch == 6:
-                    if BU < 0:
-                        val = p[SPEED_ROW]
-                    else:
-                        val = math.sqrt(z[ZU] * z[ZU] + z[ZV] * z[ZV])
-                elif ch == 7:
-                    val = dnow
-                elif ch == 8:
-                    val = cmdlog
-                elif ch == 9:
-                    val = fs[1]
-                elif ch == 10:
-                    val = fs[2]
-                elif ch == 11:
-                    val = fs[3]
-                else:
-                    val = DIST_B * z[10]
-                rec[sl, b, jrec] = val
-            jrec += 1
-        rcount += 1
-        if rcount == rec_every:
-            rcount = 0
-        if k == n:
-            break
-        # -- noise sample, trig bases --
-        noise = 0.0
-        if esd > 0.0:
-            rng, g = _normal(rng)
-            noise = esd * g
-        c_, s_ = _rot(z[2], tpsi[0], tpsi[1], tpsi[2])
-        g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
-        tpsi = (z[2], c_ * g_, s_ * g_)
-        if TRIG:
-            de = (_clip(z[7], ma) if np.isnan(fs[0]) else fs[0]) + DIST_B * z[10]
-            c_, s_ = _rot(de, tde[0], tde[1], tde[2])
-            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
-            tde = (de, c_ * g_, s_ * g_)
-        tr = (tpsi[0], tpsi[1], tpsi[2], tde[0], tde[1], tde[2])
-        # -- the step: sub-steps ending at the events inside it (one RK4 call site); a
-        # zig-zag reversal taking effect inside the step integrates it again --
-        zs = z
-        sv = (cmdin, ramp, rend)
-        qsave = (qh, qn)
-        redo_t = -1.0
-        for attempt in range(2):
-            if attempt == 1:
-                z = zs
-                cmdin, ramp, rend = sv
-                qh, qn = qsave
-                qh, qn = _push(qtb, qvb, qh, qn, redo_t, cmdlog)
-            tc = t
-            while True:
-                tb = t1
-                what = 0
-                if qn > 0 and qtb[qh] < tb:
-                    tb = qtb[qh]
-                    what = 1
-                if rend < tb:
-                    tb = rend
-                    what = 2
-                if tb > tc + eps:
-                    te = min(tb, t1)
-                    z = _rk4(p, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
-                             cmdin, ramp, noise, fs, tr)
-                    tc = te
-                if what == 1 and tb <= t1 + eps:
-                    cmdin = qvb[qh]
-                    qh = (qh + 1) % qtb.shape[0]
-                    qn -= 1
-                    if skind == 0:
-                        dl, ramp, rend = _start_ramp(tb, _clip(cmdin, ma), z[7], mr)
-                        z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, z[8], z[9], z[10])
-                elif what == 2 and tb <= t1 + eps:
-                    z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], _clip(cmdin, ma), z[8],
-                         z[9], z[10])
-                    ramp = 0.0
-                    rend = math.inf
-                if what == 0 or tb >= t1 - eps:
-                    break
-            if attempt == 1 or lk != ZIGZAG or cur == 0.0:
-                break
-            # -- zig-zag switching, event-located --
-            sw = lp[1]
-            dev0 = zs[2] - psi0
-            dev1 = z[2] - psi0
-            if zzn >= 1:
-                ov = -cur * dev1 - sw
-                if np.isnan(ovmax) or ov > ovmax:
-                    ovmax = ov
-            if not ((cur > 0.0 and dev1 >= sw) or (cur < 0.0 and dev1 <= -sw)):
-                break
-            lvl = sw if cur > 0.0 else -sw
-            f = 0.0
-            if (cur > 0.0 and dev0 < lvl) or (cur < 0.0 and dev0 > lvl):
-                f = (lvl - dev0) / (dev1 - dev0)
-            tsw = t + f * dt
-            if zzn >= 1 and zzn <= N_ZZ:
-                zz[b, zzn - 1] = ovmax
-            ovmax = np.nan
-            cur = -cur
-            zzn += 1
-            if zzn <= N_ZZ:
-                zzt[b, zzn] = tsw
-            cmdlog = cur * lp[0]
-            if tsw + delay < t1 - eps:
-                redo_t = tsw + delay  # takes effect inside this step: integrate it again
+        nsimple = 0
+        # -- phase 1, per lane: inputs, logic, events at the step start, record, trig bases --
+        for j in range(W):
+            if not act[j]:
                 continue
-            qh, qn = _push(qtb, qvb, qh, qn, tsw + delay, cmdlog)
-            break
-        # -- servo limits, divergence --
-        if skind != 0:
+            b = lo + j
+            n = nsteps[b]
+            row = b * sstride
+            ma = V[VS * CH + j]
+            delay = V[(VS + 5) * CH + j]
+            qh = int(ls[LQH, j])
+            qn = int(ls[LQN, j])
+            cmdin = V[VCMD * CH + j]
+            ramp = V[VRAMP * CH + j]
+            cmdlog = ls[LCMDLOG, j]
+            rend = ls[LREND, j]
+            cur = ls[LCUR, j]
+            z7 = V[7 * CH + j]
+            # input series at the step ends (first-order hold)
+            kk = k + 1 if k < n else k
+            o = VF * CH + j
+            if series:
+                _load_series(V, o, SER, sidx, row, k, kk)
+            fd = V[o]
+            # logic -> command events
+            psi = V[2 * CH + j]
+            if lk == COMMANDED:
+                if s4_ >= 0:
+                    c = SER[s4_, row, k]
+                    if c != cmdlog or k == 0:
+                        cmdlog = c
+                        qh, qn = _push(qt, qv, b, qh, qn, t + delay, c)
+            elif lk == TURNING:
+                if cur == 0.0 and L[b, 1] < t1 - eps:
+                    cur = 1.0
+                    cmdlog = L[b, 0]
+                    qh, qn = _push(qt, qv, b, qh, qn, max(L[b, 1], t) + delay, L[b, 0])
+            elif lk == ZIGZAG:
+                if cur == 0.0 and L[b, 3] < t1 - eps:
+                    cur = L[b, 2]
+                    ls[LPSI0, j] = psi if np.isnan(L[b, 4]) else L[b, 4]
+                    tev = max(L[b, 3], t)
+                    zzt[b, 0] = tev
+                    cmdlog = cur * L[b, 0]
+                    qh, qn = _push(qt, qv, b, qh, qn, tev + delay, cmdlog)
+            else:
+                err = _wrap(L[b, 0] - psi)
+                c = L[b, 1] * err + L[b, 2] * ls[LINTEG, j] - L[b, 3] * V[ZR * CH + j]
+                sat = c > ma or c < -ma
+                if not (L[b, 4] != 0.0 and sat and c * err > 0.0):
+                    ls[LINTEG, j] += err * dt
+                w = 0.5 if (k == 0 or k == n) else 1.0
+                ls[LITAE, j] += w * t * abs(err) * dt
+                ls[LIAE, j] += w * abs(err) * dt
+                cmdlog = c
+                qh, qn = _push(qt, qv, b, qh, qn, t + delay, c)
+            # events due at the step start
+            while qn > 0 and qt[b, qh] <= t + eps:
+                cmdin = qv[b, qh]
+                qh = (qh + 1) % cap
+                qn -= 1
+                if skind == 0:
+                    z7, ramp, rend = _start_ramp(t, _clip(cmdin, ma), z7, V[(VS + 1) * CH + j])
+            if rend <= t + eps:
+                z7 = _clip(cmdin, ma)
+                ramp = 0.0
+                rend = math.inf
+            V[7 * CH + j] = z7
+            # record (at the step start)
+            dnow = _clip(z7, ma) if np.isnan(fd) else fd
+            if abs(dnow) > ls[LMAXD, j]:
+                ls[LMAXD, j] = abs(dnow)
+            rcount = int(ls[LRC, j])
+            if rcount == 0:
+                _record(V, j, b, int(ls[LJREC, j]), slots, rec, dnow, cmdlog)
+                ls[LJREC, j] += 1.0
+            rcount += 1
+            ls[LRC, j] = 0.0 if rcount == rec_every else rcount
+            ls[LQH, j] = qh
+            ls[LQN, j] = qn
+            V[VCMD * CH + j] = cmdin
+            V[VRAMP * CH + j] = ramp
+            ls[LCMDLOG, j] = cmdlog
+            ls[LREND, j] = rend
+            ls[LCUR, j] = cur
+            if k == n:
+                act[j] = False
+                continue
+            # noise sample, trig bases
+            noise = 0.0
+            if ls[LESD, j] > 0.0:
+                rngs[j], g = _normal(rngs[j])
+                noise = ls[LESD, j] * g
+            V[VNOISE * CH + j] = noise
+            simple[j] = simd and not ((qn > 0 and qt[b, qh] < t1) or rend < t1)
+            nsimple += simple[j]
+        # -- trig bases of the step: vectorised, then per lane where an angle moved far --
+        _vbases(V)
+        for j in range(W):
+            if act[j] and np.isnan(V[(VT + 1) * CH + j]):
+                _base_far(V, j, 0, V[2 * CH + j])
+            if TRIG and act[j] and np.isnan(V[(VT + 4) * CH + j]):
+                _base_far(V, j, 3, _steer(V, j))
+        # -- phase 2: the vectorised RK4 step of all lanes --
+        if nsimple > 0:
+            _vstep(V, zn, w0, w1, w2, t1 - t, (t1 - t) * idt)
+        # -- phase 3, per lane: events inside the step, zig-zag switching, limits, divergence --
+        for j in range(W):
+            if not act[j]:
+                continue
+            b = lo + j
+            ok = False
+            if simple[j]:
+                z = _ztup(zn, j)
+                ok = (np.isfinite(z[0]) and np.isfinite(z[1]) and np.isfinite(z[2])
+                      and np.isfinite(z[3]) and np.isfinite(z[4]) and np.isfinite(z[5])
+                      and np.isfinite(z[6]))
+            if not ok:
+                z, cmdin, ramp, rend, qh, qn = _substeps(
+                    V, j, _ztup(V, j), t, t1, eps, idt, w0, w1, w2, skind, V[VCMD * CH + j],
+                    V[VRAMP * CH + j], ls[LREND, j], qt, qv, b, int(ls[LQH, j]),
+                    int(ls[LQN, j]))
+                sv = (V[VCMD * CH + j], V[VRAMP * CH + j], ls[LREND, j], ls[LQH, j],
+                      ls[LQN, j])  # the state before the step (for a zig-zag redo)
+                V[VCMD * CH + j] = cmdin
+                V[VRAMP * CH + j] = ramp
+                ls[LREND, j] = rend
+                ls[LQH, j] = qh
+                ls[LQN, j] = qn
+            else:
+                sv = (V[VCMD * CH + j], V[VRAMP * CH + j], ls[LREND, j], ls[LQH, j],
+                      ls[LQN, j])
+            cur = ls[LCUR, j]
+            if lk == ZIGZAG and cur != 0.0:  # zig-zag switching, event-located
+                sw = L[b, 1]
+                psi0 = ls[LPSI0, j]
+                dev0 = V[2 * CH + j] - psi0  # the heading at the step start
+                dev1 = z[2] - psi0
+                if ls[LZZN, j] >= 1.0:
+                    ov = -cur * dev1 - sw
+                    if np.isnan(ls[LOVMAX, j]) or ov > ls[LOVMAX, j]:
+                        ls[LOVMAX, j] = ov
+                if (cur > 0.0 and dev1 >= sw) or (cur < 0.0 and dev1 <= -sw):
+                    zzn = int(ls[LZZN, j])
+                    lvl = sw if cur > 0.0 else -sw
+                    f = 0.0
+                    if (cur > 0.0 and dev0 < lvl) or (cur < 0.0 and dev0 > lvl):
+                        f = (lvl - dev0) / (dev1 - dev0)
+                    tsw = t + f * dt
+                    if zzn >= 1 and zzn <= N_ZZ:
+                        zz[b, zzn - 1] = ls[LOVMAX, j]
+                    ls[LOVMAX, j] = np.nan
+                    cur = -cur
+                    zzn += 1
+                    if zzn <= N_ZZ:
+                        zzt[b, zzn] = tsw
+                    cmdlog = cur * L[b, 0]
+                    ls[LCMDLOG, j] = cmdlog
+                    ls[LCUR, j] = cur
+                    ls[LZZN, j] = zzn
+                    tr = tsw + V[(VS + 5) * CH + j]
+                    if tr < t1 - eps:
+                        # takes effect inside this step: integrate the step again
+                        ok = False  # (the divergence test then checks every state)
+                        qh, qn = _push(qt, qv, b, int(sv[3]), int(sv[4]), tr, cmdlog)
+                        z, cmdin, ramp, rend, qh, qn = _substeps(
+                            V, j, _ztup(V, j), t, t1, eps, idt, w0, w1, w2, skind, sv[0],
+                            sv[1], sv[2], qt, qv, b, qh, qn)
+                        V[VCMD * CH + j] = cmdin
+                        V[VRAMP * CH + j] = ramp
+                        ls[LREND, j] = rend
+                    else:
+                        qh, qn = _push(qt, qv, b, int(ls[LQH, j]), int(ls[LQN, j]), tr,
+                                       cmdlog)
+                    ls[LQH, j] = qh
+                    ls[LQN, j] = qn
+            # servo limits, divergence
             dl = z[7]
             dd = z[8]
-            if dl > ma:
-                dl = ma
-                dd = min(dd, 0.0)
-            elif dl < -ma:
-                dl = -ma
-                dd = max(dd, 0.0)
-            if skind == 2:
-                dd = _clip(dd, mr)
-            z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, dd, z[9], z[10])
-        ok = (abs(z[ZR]) <= R_MAX and np.isfinite(z[0]) and np.isfinite(z[1])
-              and np.isfinite(z[2]) and np.isfinite(z[3]) and np.isfinite(z[4])
-              and np.isfinite(z[5]) and np.isfinite(z[6]))
-        if not ok:
-            status[b, 0] = 1.0
-            status[b, 1] = t1
-            break
-    if zzn >= 1 and zzn <= N_ZZ:  # the overshoot after the last reversal, so far
-        zz[b, zzn - 1] = ovmax
-    for i in range(N_ZZ):  # an overshoot counts once the next reversal has happened
-        if i + 2 > zzn:
-            zz[b, i] = np.nan
-    acc[b, 0] = itae
-    acc[b, 1] = iae
-    acc[b, 2] = maxd
-    Z[b, 0] = z[0]
-    Z[b, 1] = z[1]
-    Z[b, 2] = z[2]
-    for i in range(NS):
-        Z[b, S0 + i] = z[3 + i]
-    Z[b, ID] = z[7]
-    Z[b, ID + 1] = z[8]
-    Z[b, ID + 2] = z[9]
-    Z[b, ID + 3] = z[10]
+            if skind != 0:
+                ma = V[VS * CH + j]
+                if dl > ma:
+                    dl = ma
+                    dd = min(dd, 0.0)
+                elif dl < -ma:
+                    dl = -ma
+                    dd = max(dd, 0.0)
+                if skind == 2:
+                    dd = _clip(dd, V[(VS + 1) * CH + j])
+            _zput(V, j, (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, dd, z[9], z[10]))
+            if not (abs(z[ZR]) <= R_MAX and (ok or (
+                    np.isfinite(z[0]) and np.isfinite(z[1]) and np.isfinite(z[2])
+                    and np.isfinite(z[3]) and np.isfinite(z[4]) and np.isfinite(z[5])
+                    and np.isfinite(z[6])))):
+                status[b, 0] = 1.0
+                status[b, 1] = t1
+                act[j] = False
+    for j in range(W):
+        b = lo + j
+        zzn = int(ls[LZZN, j])
+        if zzn >= 1 and zzn <= N_ZZ:  # the overshoot after the last reversal, so far
+            zz[b, zzn - 1] = ls[LOVMAX, j]
+        for i in range(N_ZZ):  # an overshoot counts once the next reversal has happened
+            if i + 2 > zzn:
+                zz[b, i] = np.nan
+        acc[b, 0] = ls[LITAE, j]
+        acc[b, 1] = ls[LIAE, j]
+        acc[b, 2] = ls[LMAXD, j]
+        for i in range(3):
+            Z[b, i] = V[i * CH + j]
+        for i in range(NS):
+            Z[b, S0 + i] = V[(3 + i) * CH + j]
+        for i in range(4):
+            Z[b, ID + i] = V[(7 + i) * CH + j]
 
 
-def _lanes(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every,
-           slots, rec, acc, zz, zzt, status, qt, qv):
-    """Integrate lanes lo..hi-1 (one task of :func:`run`)."""
-    for b in range(lo, hi):
-        _lane(b, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots,
-              rec, acc, zz, zzt, status, qt, qv)
+#: Set to False to integrate every step on the per-lane path (the reference for the benchmark).
+SIMD = True
 
 
 def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: np.ndarray,
         Dq: np.ndarray, SER: np.ndarray, sidx: np.ndarray, Z: np.ndarray, nsteps: np.ndarray,
         dt: float, rec_every: int, slots: np.ndarray, rec: np.ndarray, acc: np.ndarray,
         zz: np.ndarray, zzt: np.ndarray, status: np.ndarray, qcap: int,
-        chunk: int = 8) -> None:
+        chunk: int = CH) -> None:
     """Integrate all lanes of ``Z`` (in place) and fill the outputs.
 
     Arrays are lane-major (a lane's parameters, state and work values contiguous): ``P``
-    (B, n_params), ``S`` (B, SERVO_ROWS), ``L`` (B, 6), ``Dq`` (B, 3) (spectral density, seed,
-    noise stream index), ``Z`` (B, n_states),
+    (B, n_params), ``S`` (B, SERVO_ROWS), ``L`` (B, 6), ``Dq`` (B, 2 or 3) (spectral density,
+    seed, optional noise stream index), ``Z`` (B, n_states),
     ``acc`` (B, 3), ``zz`` (B, N_ZZ), ``zzt`` (B, N_ZZ + 1), ``status`` (B, 2); ``SER``
     (n_series, 1 or B, N) and ``rec`` (n_channels, B, N_rec). Lanes are integrated in chunks of
-    ``chunk`` lanes that step together; chunks run in parallel on a thread pool (the kernel is
-    compiled ``nogil``), as many threads as numba's thread count.
+    ``chunk`` lanes that step together (:func:`_chunk`, vectorised across the chunk's lanes);
+    chunks run in parallel on a thread pool (the kernel is compiled ``nogil``), as many threads
+    as numba's thread count.
     """
     B, nz = Z.shape
+    chunk = max(1, min(chunk, CH))
     if B == 0:
         return
     lanes = kernel(kind)
     qt, qv = np.empty((B, qcap)), np.empty((B, qcap))
     sstride = 1 if SER.shape[1] > 1 else 0
+    simd = bool(SIMD)
 
     def task(lo: int) -> None:
         lanes(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,
-              dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv)
+              dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd)
 
     starts = list(range(0, B, chunk))
     threads = min(numba.get_num_threads(), len(starts))
@@ -569,8 +791,12 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
             fut.result()
 
 
-_TEMPLATES = ("_deriv", "_axpy", "_rk4", "_lane", "_lanes")
+_TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
+              "_vbases", "_base_far", "_vstep", "_substeps", "_record", "_chunk")
+#: compiled twice: the per-lane flavour and the vector flavour (:func:`_rot_nan`)
+_STEP = ("_deriv", "_axpy", "_rk4")
 _KERNELS: dict[str, Any] = {}
+_GLOBALS: dict[str, dict[str, Any]] = {}  # the specialised functions, by kernel key
 
 
 def kernel(kind: ModelKind) -> Any:
@@ -588,18 +814,31 @@ def kernel(kind: ModelKind) -> Any:
     g.update(rhs=kind.rhs, NS=kind.n_states, TRIG=bool(kind.uses_trig), NPK=kind.n_params,
              BU=kind.body[0], BV=kind.body[1], BR=kind.body[2], SPEED_ROW=kind.speed_row,
              ZU=3 + max(kind.body[0], 0), ZV=3 + max(kind.body[1], 0), ZR=3 + kind.body[2])
+    src = ", ".join(f"V[{VP + i} * CH + j]" for i in range(kind.n_params))
+    ns: dict[str, Any] = {}
+    exec(f"def _ptup(V, j):\n    return ({src},)\n", ns)  # noqa: S102 - generated unpacking
+    g["_ptup"] = numba.njit(inline="always")(types.FunctionType(ns["_ptup"].__code__, g))
+    gv = dict(g, _rot=_rot_nan)  # the vector flavour of the step functions
+    for name in _STEP:
+        _specialise(gv, name, f"{name}v__{key}")
+    g["_rk4v"] = gv["_rk4"]
     for name in _TEMPLATES:
-        template = globals()[name]
-        qual = f"{name}__{key}"
-        code = template.__code__.replace(co_name=qual, co_qualname=qual)
-        fn = types.FunctionType(code, g, qual, template.__defaults__)
-        fn.__qualname__ = qual
-        fn.__module__ = __name__
-        opts: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": _FM}
-        if name == "_lanes":
-            opts["nogil"] = True
-        if name in ("_deriv", "_axpy", "_rk4"):
-            opts["inline"] = "always"  # tuples only: no reference counting
-        g[name] = numba.njit(**opts)(fn)
-    _KERNELS[key] = g["_lanes"]
-    return g["_lanes"]
+        _specialise(g, name, f"{name}__{key}")
+    _KERNELS[key] = g["_chunk"]
+    _GLOBALS[key] = g
+    return g["_chunk"]
+
+
+def _specialise(g: dict[str, Any], name: str, qual: str) -> None:
+    """Compile the template ``name`` with the globals ``g`` under the name ``qual`` into g."""
+    template = globals()[name]
+    code = template.__code__.replace(co_name=qual, co_qualname=qual)
+    fn = types.FunctionType(code, g, qual, template.__defaults__)
+    fn.__qualname__ = qual
+    fn.__module__ = __name__
+    opts: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": _FM}
+    if name == "_chunk":
+        opts["nogil"] = True
+    if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer"):
+        opts["inline"] = "always"  # tuples only: no reference counting
+    g[name] = numba.njit(**opts)(fn)

@@ -1,0 +1,57 @@
+"""CLI: ``usvid batch CAMPAIGN.yaml --out DIR [--scheduler ADDRESS] [--workers N] [--json]``.
+
+Each group of the campaign file (:mod:`usvid.scale.batch`: log globs, format spec, model kinds,
+held-out logs) is read, audited, identified and validated as one Dask task (a local cluster by
+default, or the scheduler at ``--scheduler``). Results as Parquet in ``DIR`` plus
+``summary.json``; a failing log is reported with its error and the rest go on; a re-run skips the
+groups whose inputs are unchanged. With ``--json`` one object: ``out``, ``groups``, ``ran``,
+``skipped``, ``logs``, ``logs_ok``, ``errors`` (group, log, kind, error), ``parameters``,
+``validation`` (row counts).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from usvid.commands._common import emit_json
+
+
+def batch(campaign: Path, out: Path, *, scheduler: str | None = None,
+          workers: int | None = None, progress: bool = True) -> dict[str, Any]:
+    """Everything ``usvid batch`` does; returns its JSON object."""
+    from usvid.scale.batch import load_campaign, run_batch
+    from usvid.scale.cluster import connect
+
+    load_campaign(campaign)  # a bad campaign file fails before a cluster is started
+    with connect(scheduler, workers) as client:
+        return run_batch(campaign, out, client=client, progress=progress)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("batch")
+    def batch_cmd(
+        campaign: Annotated[Path, typer.Argument(help="Campaign file (YAML).",
+                                                 show_default=False)],
+        out: Annotated[Path, typer.Option("--out", help="Results folder.")],
+        scheduler: Annotated[str | None, typer.Option(
+            "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786); "
+            "default: a local cluster.")] = None,
+        workers: Annotated[int | None, typer.Option(
+            "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+        as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    ) -> None:
+        """Identify and validate groups of logs of a campaign, one Dask task per group."""
+        s = batch(campaign, out, scheduler=scheduler, workers=workers, progress=not as_json)
+        if as_json:
+            emit_json(s)
+            return
+        print(f"batch: {s['groups']} group(s), ran {len(s['ran'])}, skipped "
+              f"{len(s['skipped'])} unchanged; {s['logs_ok']} of {s['logs']} log(s) read; "
+              f"{s['parameters']} parameter rows, {s['validation']} validation rows -> "
+              f"{s['out']}")
+        for e in s["errors"]:
+            what = e["log"] or f"kind {e['kind']}"
+            print(f"  error: {e['group']}: {what}: {e['error']}")

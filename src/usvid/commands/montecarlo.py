@@ -1,0 +1,163 @@
+"""CLI: ``usvid montecarlo MODEL.json --manoeuvre zigzag|turning|course-keeping [options]
+--runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] --out RESULTS.parquet
+[--scheduler ADDRESS] [--workers N] [--json]``.
+
+Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks on
+a Dask cluster (a local one by default, or the scheduler at ``--scheduler``), writes one row per
+run (sampled parameters [SI], ``success``, metrics) to a Parquet file atomically and prints the
+quantiles of each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``,
+``parameters``, ``uncertainty`` (where the joint draws come from), ``quantiles`` (per metric
+``q05``, ``q50``, ``q95``, ``mean``, ``n``), ``chunks``, ``workers``, ``wall_s``.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+
+from usvid.commands._common import emit_json
+from usvid.errors import UsvidError
+from usvid.files import write_atomic
+
+ManoeuvreOpt = Annotated[str, typer.Option(
+    "--manoeuvre", help="zigzag, turning or course-keeping.")]
+
+
+def _uncertainty(model: dict[str, Any], path: Path) -> tuple[list[str], np.ndarray, np.ndarray,
+                                                             str]:
+    """(names, mean [SI], covariance, source) from the model file's identification record."""
+    ident = model.get("identification") or {}
+    params = model.get("parameters", {})
+    cov = ident.get("covariance")
+    if cov and cov.get("names"):
+        names = list(cov["names"])
+        return (names, np.array([float(params[n]) for n in names]),
+                np.asarray(cov["matrix"], float), "covariance")
+    se = {k: v for k, v in (ident.get("std_errors") or {}).items()
+          if v is not None and k in params and np.isfinite(v)}
+    if not se:
+        raise UsvidError(f"{path}: --from-uncertainty needs identification.covariance or "
+                         "identification.std_errors in the model file (an identified model)")
+    names = list(se)
+    return (names, np.array([float(params[n]) for n in names]),
+            np.diag(np.square([float(se[n]) for n in names])), "std_errors")
+
+
+def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
+               from_uncertainty: bool = False, vary: list[str] | None = None, seed: int = 0,
+               options: dict[str, Any] | None = None, scheduler: str | None = None,
+               workers: int | None = None, chunk: int = 4096, client: Any = None,
+               progress: bool = True) -> dict[str, Any]:
+    """Everything ``usvid montecarlo`` does; returns its JSON object (and writes ``out``).
+    ``client``: an existing Dask client (else one from ``scheduler``/``workers``)."""
+    import json
+
+    from usvid.scale.cluster import connect
+    from usvid.scale.montecarlo import MonteCarlo, parse_vary, quantiles, run_montecarlo
+
+    try:
+        model = json.loads(Path(model_path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UsvidError(f"{model_path}: cannot read the model file ({exc})") from None
+    names: list[str] = []
+    mean, cov, source = np.zeros(0), np.zeros((0, 0)), "none"
+    if from_uncertainty:
+        names, mean, cov, source = _uncertainty(model, model_path)
+    varies = tuple(parse_vary(v) for v in vary or [])
+    if not names and not varies:
+        raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
+    mc = MonteCarlo(model, manoeuvre, dict(options or {}), tuple(names), mean, cov, varies,
+                    int(seed))
+    t0 = time.perf_counter()
+    if client is not None:
+        df = run_montecarlo(mc, runs, chunk=chunk, client=client, progress=progress)
+        nworkers = len(client.scheduler_info().get("workers", {}))
+    else:
+        with connect(scheduler, workers) as cl:
+            df = run_montecarlo(mc, runs, chunk=chunk, client=cl, progress=progress)
+            nworkers = len(cl.scheduler_info().get("workers", {}))
+    buf = io.BytesIO()
+    df.to_parquet(buf, index=False)
+    write_atomic(out, buf.getvalue())
+    return {"out": str(out), "runs": int(runs), "failed": int((~df["success"]).sum()),
+            "manoeuvre": manoeuvre, "parameters": list(mc.parameters), "uncertainty": source,
+            "seed": int(seed), "quantiles": quantiles(df, mc.metrics),
+            "chunks": -(-runs // chunk), "workers": nworkers,
+            "wall_s": round(time.perf_counter() - t0, 3)}
+
+
+def _print(s: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"montecarlo {s['manoeuvre']}: {s['runs']} runs ({s['failed']} "
+                        f"diverged) -> {s['out']}")
+    for col in ("metric", "q05", "q50", "q95", "mean", "n"):
+        table.add_column(col, justify="left" if col == "metric" else "right")
+    for m, q in s["quantiles"].items():
+        table.add_row(m, *("-" if q[k] is None else f"{q[k]:.4g}"
+                           for k in ("q05", "q50", "q95", "mean")), str(q["n"]))
+    Console().print(table)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("montecarlo")
+    def montecarlo_cmd(
+        model_path: Annotated[Path, typer.Argument(help="Model file (JSON, usvid_model: 1).",
+                                                   show_default=False)],
+        manoeuvre: ManoeuvreOpt,
+        out: Annotated[Path, typer.Option("--out", help="Results (Parquet, one row per run).")],
+        runs: Annotated[int, typer.Option("--runs", help="Number of runs.")] = 1000,
+        from_uncertainty: Annotated[bool, typer.Option(
+            "--from-uncertainty", help="Draw the fitted parameters from the model file's "
+            "covariance (or its standard errors).")] = False,
+        vary: Annotated[list[str] | None, typer.Option(
+            "--vary", help="NAME=normal:MEAN,SD or NAME=uniform:LO,HI (SI units); repeat for "
+            "several.")] = None,
+        seed: Annotated[int, typer.Option("--seed", help="Random seed.")] = 0,
+        delta_deg: Annotated[float | None, typer.Option(
+            "--delta-deg", help="Rudder amplitude / angle [deg] (zig-zag 10, turning 35).")]
+            = None,
+        psi_deg: Annotated[float | None, typer.Option(
+            "--psi-deg", help="Zig-zag switching heading [deg] (default --delta-deg).")] = None,
+        target_deg: Annotated[float, typer.Option(
+            "--target-deg", help="Course change [deg] (course-keeping).")] = 100.0,
+        kp: Annotated[float, typer.Option("--kp", help="Autopilot gain [rad/rad].")] = 0.7,
+        ki: Annotated[float, typer.Option("--ki", help="Integral gain [1/s].")] = 0.0,
+        kd: Annotated[float, typer.Option("--kd", help="Derivative gain [s].")] = 1.0,
+        t_end: Annotated[float | None, typer.Option(
+            "--t-end", help="Simulated time per run [s].")] = None,
+        dt: Annotated[float, typer.Option("--dt", help="Integration step [s].")] = 0.02,
+        speed: Annotated[float | None, typer.Option(
+            "--speed", help="Approach speed [m/s] (default: the model's vessel.speed).")] = None,
+        chunk: Annotated[int, typer.Option("--chunk", help="Runs per Dask task.")] = 4096,
+        scheduler: Annotated[str | None, typer.Option(
+            "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786); "
+            "default: a local cluster.")] = None,
+        workers: Annotated[int | None, typer.Option(
+            "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+        as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
+    ) -> None:
+        """Monte-Carlo simulation of a manoeuvre over parameter uncertainty (Dask)."""
+        from usvid.scale.montecarlo import MANOEUVRES
+
+        if manoeuvre not in MANOEUVRES:
+            raise UsvidError(f"--manoeuvre {manoeuvre!r}: expected one of "
+                             f"{', '.join(MANOEUVRES)}")
+        if not (0 < dt <= 1.0):
+            raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
+        opts = {k: v for k, v in dict(delta_deg=delta_deg, psi_deg=psi_deg,
+                                      target_deg=target_deg, kp=kp, ki=ki, kd=kd, t_end=t_end,
+                                      dt=dt, speed=speed).items() if v is not None}
+        s = montecarlo(model_path, manoeuvre, runs, out, from_uncertainty=from_uncertainty,
+                       vary=vary, seed=seed, options=opts, scheduler=scheduler,
+                       workers=workers, chunk=chunk, progress=not as_json)
+        if as_json:
+            emit_json(s)
+        else:
+            _print(s)

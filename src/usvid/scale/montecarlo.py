@@ -1,0 +1,242 @@
+"""Monte-Carlo simulation of a standard manoeuvre over the uncertainty of a model's parameters.
+
+The parameters of run i are drawn from the model file's uncertainty (the covariance of the
+fitted parameters when the file holds one, else independent normals from its standard errors)
+and/or from given distributions (``NAME=normal:MEAN,SD``, ``NAME=uniform:LO,HI``, SI units).
+Runs are drawn in fixed blocks of :data:`BLOCK` runs, block k from the generator seeded with
+``(seed, k)``: run i's parameters, hence its results, are the same whatever the number of
+workers or the chunk size. Chunks of runs are simulated as batches of lanes of the integration
+core (:func:`usvid.sim.simulate`) and measured with the kernel's online trackers:
+
+* ``zigzag``: ``overshoot_1_deg``, ``overshoot_2_deg``, ``overshoot_3_deg`` [deg],
+  ``initial_turning_time_s`` (execute to first reversal) and ``reversal_2_s`` [s];
+* ``turning``: ``advance_m``, ``transfer_m``, ``tactical_diameter_m`` [m]
+  (:func:`usvid.manoeuvres.metrics.turning_metrics` per run);
+* ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder_deg`` [deg], in calm
+  water (a disturbance's noise stream is tied to the lane, not to the run).
+
+A run that diverges keeps its row with ``success`` false and NaN metrics.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+import numba
+import numpy as np
+import pandas as pd
+
+from usvid.errors import UsvidError
+from usvid.io.modelfile import model_from_dict
+from usvid.manoeuvres.logic import PID, CourseChange, Turning, ZigZag
+from usvid.manoeuvres.metrics import turning_metrics
+from usvid.scale.cluster import map_ordered
+from usvid.sim.runs import default_t_end
+from usvid.sim.simulate import simulate
+
+__all__ = ["BLOCK", "MANOEUVRES", "MonteCarlo", "Vary", "parse_vary", "quantiles",
+           "run_chunk", "run_montecarlo"]
+
+#: Runs per sampling block (the unit of the seeded random streams).
+BLOCK = 1024
+MANOEUVRES = ("zigzag", "turning", "course-keeping")
+METRICS = {
+    "zigzag": ("overshoot_1_deg", "overshoot_2_deg", "overshoot_3_deg",
+               "initial_turning_time_s", "reversal_2_s"),
+    "turning": ("advance_m", "transfer_m", "tactical_diameter_m"),
+    "course-keeping": ("itae", "iae", "max_rudder_deg"),
+}
+_VARY = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*(normal|uniform)\s*:\s*([^,]+),([^,]+)$")
+
+
+@dataclass(frozen=True)
+class Vary:
+    """A parameter drawn from ``normal`` (a = mean, b = standard deviation) or ``uniform``
+    (a = low, b = high), SI units."""
+
+    name: str
+    dist: str
+    a: float
+    b: float
+
+
+def parse_vary(text: str) -> Vary:
+    """``NAME=normal:MEAN,SD`` or ``NAME=uniform:LO,HI`` (SI units) -> :class:`Vary`."""
+    m = _VARY.match(text)
+    try:
+        if not m:
+            raise ValueError
+        a, b = float(m.group(3)), float(m.group(4))
+    except ValueError:
+        raise UsvidError(f"--vary {text!r}: expected NAME=normal:MEAN,SD or "
+                         "NAME=uniform:LO,HI (numbers in SI units)") from None
+    if not (math.isfinite(a) and math.isfinite(b)) or (m.group(2) == "normal" and b < 0) \
+            or (m.group(2) == "uniform" and b < a):
+        raise UsvidError(f"--vary {text!r}: need finite numbers, SD >= 0, LO <= HI")
+    return Vary(m.group(1), m.group(2), a, b)
+
+
+@dataclass
+class MonteCarlo:
+    """What to run: the model file dict, the manoeuvre and its options, the distributions.
+
+    ``options``: ``delta_deg``, ``psi_deg`` [deg] (zig-zag, turning), ``target_deg`` [deg],
+    ``kp`` [rad/rad], ``ki`` [1/s], ``kd`` [s] (course-keeping), ``t_end`` [s], ``dt`` [s],
+    ``speed`` [m/s]. ``names``/``mean``/``cov``: the jointly normal parameters (SI), may be
+    empty; ``vary``: further independent distributions (they override a jointly drawn name).
+    """
+
+    model: dict[str, Any]
+    manoeuvre: str
+    options: dict[str, Any] = field(default_factory=dict)
+    names: tuple[str, ...] = ()
+    mean: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cov: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    vary: tuple[Vary, ...] = ()
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.manoeuvre not in MANOEUVRES:
+            raise UsvidError(f"--manoeuvre {self.manoeuvre!r}: expected one of "
+                             f"{', '.join(MANOEUVRES)}")
+        vm = model_from_dict(self.model)
+        known = {f.name for f in dataclasses.fields(vm.dynamics)}
+        for name in (*self.names, *(v.name for v in self.vary)):
+            if name not in known:
+                raise UsvidError(f"--vary {name}: not a parameter of model kind "
+                                 f"'{vm.kind}' (parameters: {', '.join(sorted(known))})")
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        """The sampled parameter names, in column order."""
+        extra = tuple(v.name for v in self.vary if v.name not in self.names)
+        return (*self.names, *extra)
+
+    @property
+    def metrics(self) -> tuple[str, ...]:
+        return METRICS[self.manoeuvre]
+
+    def sample(self, lo: int, hi: int) -> dict[str, np.ndarray]:
+        """The parameters [SI] of runs lo..hi-1 (independent of how runs are chunked)."""
+        out: dict[str, list[np.ndarray]] = {n: [] for n in self.parameters}
+        chol = None
+        if self.names:
+            chol = np.linalg.cholesky(self.cov + 1e-300 * np.eye(len(self.names))) \
+                if np.all(np.linalg.eigvalsh(self.cov) > 0) else None
+        for blk in range(lo // BLOCK, (hi - 1) // BLOCK + 1):
+            rng = np.random.default_rng([int(self.seed), blk])
+            a, b = max(lo, blk * BLOCK) - blk * BLOCK, min(hi, (blk + 1) * BLOCK) - blk * BLOCK
+            draws: dict[str, np.ndarray] = {}
+            if self.names:
+                z = rng.standard_normal((BLOCK, len(self.names)))
+                if chol is not None:
+                    x = self.mean + z @ chol.T
+                else:  # semi-definite: through the eigen-decomposition
+                    w, v = np.linalg.eigh(self.cov)
+                    x = self.mean + (z * np.sqrt(np.clip(w, 0.0, None))) @ v.T
+                draws.update({n: x[:, i] for i, n in enumerate(self.names)})
+            for v in self.vary:
+                if v.dist == "normal":
+                    draws[v.name] = v.a + v.b * rng.standard_normal(BLOCK)
+                else:
+                    draws[v.name] = rng.uniform(v.a, v.b, BLOCK)
+            for n in self.parameters:
+                out[n].append(draws[n][a:b])
+        return {n: np.concatenate(v) for n, v in out.items()}
+
+
+def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> pd.DataFrame:
+    """Simulate runs lo..hi-1: one row per run (``run``, the sampled parameters [SI],
+    ``success``, the metrics). ``threads``: numba threads for this call (1 on Dask workers)."""
+    if threads is not None:
+        numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
+    B = hi - lo
+    vm = model_from_dict(mc.model)
+    params = mc.sample(lo, hi)
+    model = dataclasses.replace(vm, dynamics=dataclasses.replace(vm.dynamics, **params))
+    o = mc.options
+    u0 = o.get("speed") or getattr(vm.vessel, "speed", None)
+    if u0 is None:
+        raise UsvidError("the model file has no vessel.speed: give --speed [m/s]")
+    dt = float(o.get("dt", 0.02))
+    t_end = o.get("t_end") or default_t_end(vm, u0)
+    rows: dict[str, Any] = {"run": np.arange(lo, hi)}
+    rows.update(params)
+    delta = math.radians(o.get("delta_deg", 10.0 if mc.manoeuvre == "zigzag" else 35.0))
+    with np.errstate(all="ignore"):
+        if mc.manoeuvre == "zigzag":
+            psi_sw = math.radians(o.get("psi_deg") or math.degrees(delta))
+            logic = ZigZag(np.full(B, delta), psi_sw)
+            nsteps = max(1, round(t_end / dt))
+            res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=nsteps,
+                           channels=("psi",))
+            ov = np.degrees(res.zigzag_online["overshoot"])
+            rt = res.zigzag_online["reversal_t"]
+            metrics = {"overshoot_1_deg": ov[:, 0], "overshoot_2_deg": ov[:, 1],
+                       "overshoot_3_deg": ov[:, 2], "initial_turning_time_s": rt[:, 1] - rt[:, 0],
+                       "reversal_2_s": rt[:, 2]}
+        elif mc.manoeuvre == "turning":
+            logic = Turning(np.full(B, delta))
+            res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=5,
+                           channels=("x", "y", "psi", "delta"))
+            tm = []
+            for i in range(B):  # metrics per run (fits of the steady circle)
+                try:
+                    tm.append(turning_metrics(res.t, res["x"][i], res["y"][i], res["psi"][i],
+                                              t_execute=0.0))
+                except (UsvidError, ValueError, IndexError, np.linalg.LinAlgError):
+                    tm.append(None)
+            metrics = {k: np.array([np.nan if m is None else float(getattr(m, k))
+                                    for m in tm]) for k in METRICS["turning"]}
+        else:
+            ki = float(o.get("ki", 0.0))
+            logic = CourseChange(target=math.radians(o.get("target_deg", 100.0)),
+                                 controller=PID(kp=float(o.get("kp", 0.7)), ki=ki,
+                                                kd=float(o.get("kd", 1.0))))
+            res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0,
+                           psi0=np.zeros(B), record_every=max(1, round(t_end / dt)),
+                           channels=("psi",))
+            metrics = {"itae": res.course["itae"], "iae": res.course["iae"],
+                       "max_rudder_deg": np.degrees(res.course["max_rudder"])}
+    ok = np.ones(B, bool) if res.status is None else np.asarray(res.status) == 0
+    rows["success"] = ok
+    for k, v in metrics.items():
+        rows[k] = np.where(ok, np.asarray(v, float), np.nan)
+    return pd.DataFrame(rows)
+
+
+def run_montecarlo(mc: MonteCarlo, runs: int, *, chunk: int = 4096, client: Any = None,
+                   progress: bool = True) -> pd.DataFrame:
+    """All ``runs`` runs, in chunks of ``chunk`` runs: as Dask tasks on ``client``, else in
+    this process. One row per run, ordered by run (identical either way)."""
+    if runs < 1:
+        raise UsvidError(f"--runs must be >= 1 (got {runs})")
+    if chunk < 1:
+        raise UsvidError(f"--chunk must be >= 1 (got {chunk})")
+    bounds = [(mc, lo, min(runs, lo + chunk)) for lo in range(0, runs, chunk)]
+    if client is None:
+        parts = [run_chunk(*b) for b in bounds]
+    else:
+        parts = map_ordered(client, run_chunk, [(*b, 1) for b in bounds], progress=progress,
+                            label="montecarlo")
+    return pd.concat(parts, ignore_index=True)
+
+
+def quantiles(df: pd.DataFrame, metrics: tuple[str, ...],
+              qs: tuple[float, ...] = (0.05, 0.5, 0.95)) -> dict[str, dict[str, float]]:
+    """Per metric: its quantiles (keys ``q05``, ``q50``, ``q95``), mean and the number of
+    finite values ``n``, over the successful runs."""
+    out = {}
+    for m in metrics:
+        x = df[m].to_numpy(float)
+        x = x[np.isfinite(x)]
+        d = {f"q{round(q * 100):02d}": (float(np.quantile(x, q)) if x.size else None)
+             for q in qs}
+        d["mean"] = float(x.mean()) if x.size else None
+        d["n"] = int(x.size)
+        out[m] = d
+    return out
