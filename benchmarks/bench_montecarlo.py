@@ -19,7 +19,7 @@ import pandas as pd
 from distributed import Client, LocalCluster
 
 from usvid.io.modelfile import model_to_dict
-from usvid.models import Nomoto1, VesselModel, seed000_servo
+from usvid.models import Nomoto1, VesselModel, mu2018_servo
 from usvid.scale.montecarlo import MonteCarlo, Vary, run_chunk, run_montecarlo
 from usvid.trial import Vessel
 
@@ -34,7 +34,7 @@ def _usage() -> tuple[float, float]:
 
 
 def main() -> None:
-    vm = VesselModel(Nomoto1(K=0.2, T=5.0), servo=seed000_servo(),
+    vm = VesselModel(Nomoto1(K=0.2, T=5.0), servo=mu2018_servo(),
                      vessel=Vessel(length=7.0, speed=3.0))
     mc = MonteCarlo(model_to_dict(vm), "zigzag", {"t_end": T_END, "dt": DT},
                     vary=(Vary("K", "normal", 0.2, 0.02), Vary("T", "normal", 5.0, 0.5)), seed=1)

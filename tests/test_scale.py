@@ -14,7 +14,7 @@ import yaml
 from usvid.cli import main
 from usvid.commands.montecarlo import montecarlo
 from usvid.io.modelfile import model_to_dict
-from usvid.models import Nomoto1, VesselModel, seed000_servo
+from usvid.models import Nomoto1, VesselModel, mu2018_servo
 from usvid.scale.batch import run_batch
 from usvid.scale.montecarlo import MonteCarlo, Vary, run_montecarlo
 from usvid.trial import Vessel
@@ -34,7 +34,7 @@ def client():
 
 
 def _model_file(tmp_path):
-    vm = VesselModel(Nomoto1(K=0.2, T=5.0), servo=seed000_servo(),
+    vm = VesselModel(Nomoto1(K=0.2, T=5.0), servo=mu2018_servo(),
                      vessel=Vessel(length=7.0, speed=3.0))
     d = model_to_dict(vm)
     # an identified model's record: std errors and the covariance of (K, T)
