@@ -11,6 +11,7 @@ import importlib
 import inspect
 import pkgutil
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 from usvid.errors import UsvidError
@@ -21,10 +22,22 @@ from usvid.models.kind import Dynamics, ModelKind
 _ORDER = ("nomoto1", "nomoto2", "norrbin", "threedof", "catamaran", "mmg")
 
 
+def _models_digest() -> bytes:
+    """Hash of every module of :mod:`usvid.models` (a kind's rhs inlines their numba functions,
+    e.g. the thrust laws): part of each kind's ``source_hash``, so that a compiled core cached on
+    disk is never reused after one of them changed."""
+    root = Path(_kinds_pkg.__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for f in sorted(root.rglob("*.py")):
+        h.update(f.read_bytes())
+    return h.digest()
+
+
 @cache
 def kinds() -> dict[str, ModelKind]:
     """All registered kinds by name (imported once)."""
     found: dict[str, ModelKind] = {}
+    models = _models_digest()
     for info in pkgutil.iter_modules(_kinds_pkg.__path__):
         if info.name.startswith("_"):
             continue
@@ -34,7 +47,7 @@ def kinds() -> dict[str, ModelKind]:
             # in an import cycle has no KIND yet; helpers are private modules, "_name.py")
             raise UsvidError(f"model kind module {module.__name__} defines no KIND "
                              "(a ModelKind); private helpers are named with a leading '_'")
-        digest = hashlib.sha256(inspect.getsource(module).encode()).hexdigest()[:12]
+        digest = hashlib.sha256(inspect.getsource(module).encode() + models).hexdigest()[:12]
         object.__setattr__(kind, "source_hash", digest)
         found[kind.name] = kind
     order = [k for k in _ORDER if k in found] + sorted(set(found) - set(_ORDER))
