@@ -257,3 +257,33 @@ def test_table_utf8_byte_order_mark(tmp_path) -> None:
     tr = read_trial(q, {"reader": "table", "columns": {"t": {"col": 0, "unit": "s"},
                                                         "psi": {"col": 1, "unit": "deg"}}})
     assert len(tr) == 3 and tr.rejected == {}
+
+
+_CSV_SPEC = {"reader": "table", "delimiter": ",", "columns": {
+    "t": {"col": "t", "unit": "s"}, "psi": {"col": "psi", "unit": "deg"},
+    "r": {"col": "r", "unit": "deg/s"}, "delta": {"col": "delta", "unit": "deg"}}}
+
+
+def test_csv_quoted_fields_read_like_pandas(tmp_path) -> None:
+    # a standard CSV whose text column holds the delimiter in quotes on every other row: every
+    # row is a record (the naive splitter rejected half of them), as pandas reads it
+    lines = ["t,psi,r,delta,note"] + [
+        f'{0.1 * i:.1f},{i},0,0,{chr(34) + "ok, nominal" + chr(34) if i % 2 else "fine"}'
+        for i in range(1201)]
+    p = _write(tmp_path, "q.csv", "\n".join(lines) + "\n")
+    tr = read_trial(p, parse_spec(_CSV_SPEC))
+    ref = pd.read_csv(p)
+    assert len(tr) == len(ref) == 1201 and not tr.rejected
+    np.testing.assert_allclose(np.degrees(tr["psi"]), ref["psi"], rtol=0, atol=1e-9)
+
+
+def test_csv_quoted_line_break_and_unbalanced_quote(tmp_path) -> None:
+    # RFC 4180: a quoted field may hold a line break (one record over two lines); an unbalanced
+    # quote is one bad line (its naive split has the right field count here: kept), and the
+    # records after it are read, not swallowed into the open quote
+    text = ('t,psi,r,delta,note\n0,1,0,0,"two\nlines"\n0.1,2,0,0,ok\n'
+            '0.2,3,0,0,"open\n0.3,4,0,0,x\n0.4,5,0,0,"a ""quoted"" word"\n')
+    tr = read_trial(_write(tmp_path, "q.csv", text), parse_spec(_CSV_SPEC))
+    np.testing.assert_allclose(tr.t, [0.0, 0.1, 0.2, 0.3, 0.4], atol=1e-12)
+    np.testing.assert_allclose(np.degrees(tr["psi"]), [1, 2, 3, 4, 5], atol=1e-9)
+    assert not tr.rejected

@@ -12,9 +12,11 @@ is not a number), plus the reasons of ``assemble``. Files are opened read-only.
 
 from __future__ import annotations
 
+import csv
 import io
 import re
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -155,6 +157,37 @@ def _split(line: str, delim: str | None) -> list[str]:
     return [f.strip().strip('"') for f in line.split(delim)]
 
 
+def _records(lines: list[str], i: int, delim: str | None
+             ) -> Iterator[tuple[int, str, list[str]]]:
+    """(first line number, its text, fields) of each record of ``lines[i:]``. With a
+    one-character delimiter and a quote character in the data, records are split by the
+    :mod:`csv` module (RFC 4180 quoting: a quoted field may hold the delimiter, doubled quotes
+    or a line break; the record's text is then all its lines); a record the module rejects (an
+    unbalanced quote) is one bad line, split naively (its field count then rejects it), and
+    parsing goes on after it. Without quotes: line by line."""
+    body = lines[i:]
+    if not (delim is not None and len(delim) == 1 and any('"' in s for s in body)):
+        for k, s in enumerate(body, start=i + 1):
+            yield k, s, _split(s, delim)
+        return
+    start = 0  # a bad record (an unbalanced quote) is one bad line; parsing restarts after it
+    while start < len(body):
+        reader = csv.reader(io.StringIO("\n".join(body[start:])), delimiter=delim,
+                            skipinitialspace=True, strict=True)
+        done = 0
+        try:
+            for fields in reader:
+                first, done = done, reader.line_num
+                text = "\n".join(body[start + first:start + done])
+                yield (i + 1 + start + first, text,
+                       [f.strip() for f in fields] if text.strip() else [])
+            return
+        except csv.Error:
+            s = body[start + done]
+            yield i + 1 + start + done, s, _split(s, delim)
+            start += done + 1
+
+
 def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     """Read a delimited text table (whitespace, ',', ';', tab) with a spec.
 
@@ -195,13 +228,13 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     rows: list[list[str]] = []
     linenos: list[int] = []
     garbage = 0
-    for k, s in enumerate(lines[i:], start=i + 1):
+    for k, s, fields in _records(lines, i, spec.delimiter):
         if not usable(s):
             continue
-        if _CTRL_RE.search(s):
+        if _CTRL_RE.search(s.replace("\n", " ")):  # (a quoted field may hold a line break)
             garbage += 1
             continue
-        rows.append(_split(s, spec.delimiter))
+        rows.append(fields)
         linenos.append(k)
     if garbage:
         rejected["garbage"] = garbage
