@@ -49,7 +49,7 @@ def read_log_bytes(path: Path, limit: int = -1) -> bytes:
             blob = fh.read(limit)
     except OSError as exc:
         raise LogReadError(f"{path}: cannot read ({exc.strerror or exc})") from None
-    if not blob.strip():
+    if not blob[:65536].strip() and not blob.strip():  # (the prefix first: no 2nd copy)
         raise LogReadError(f"{path}: empty file")
     return blob
 

@@ -30,6 +30,8 @@ from usvid.trial import Finding, Trial
 
 #: A line with one of these is garbage (control bytes other than tab, undecodable bytes).
 _CTRL_RE = re.compile("[\x00-\x08\x0a-\x1f\x7f\ufffd]")
+#: Control bytes of a garbage line (all below 32 but tab and line feed, and DEL).
+_CTRL_BYTES = bytes([*(b for b in range(32) if b not in (9, 10)), 127])
 #: Cells read as missing (not as bad values).
 _NA = ["", "nan", "NaN", "NA", "None", "-"]
 
@@ -270,9 +272,10 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
 def _has_control(text: str, raw: bytes) -> bool:
     """True when the data may hold a garbage character: a control byte in the raw bytes, or an
     undecodable byte or a Unicode line separator in the decoded text."""
-    a = np.frombuffer(raw, dtype=np.uint8)
-    ctrl = ((a < 32) & (a != 9) & (a != 10)) | (a == 127)
-    return bool(ctrl.any()) or any(ch in text for ch in ("\ufffd", "\x85", "\u2028", "\u2029"))
+    if len(raw.translate(None, _CTRL_BYTES)) != len(raw):  # (a C loop, no copy of the test)
+        return True
+    return not raw.isascii() and any(ch in text for ch in ("\ufffd", "\x85", "\u2028",
+                                                           "\u2029"))
 
 
 def _read_clean(path: Path, spec: FormatSpec, text: str, blob: bytes, lines: list[str], i: int,
