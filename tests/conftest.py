@@ -26,3 +26,25 @@ def twin_dir() -> Path:
     if not TWIN_DIR.is_dir():
         pytest.skip(f"real data not found at {TWIN_DIR} (../shared/data is not beside the repo)")
     return TWIN_DIR
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Before the xdist workers start: compile the integration core of every model kind, two
+    processes side by side, into numba's disk cache (otherwise every worker compiles every kind
+    it meets: about half of a cold run's CPU). Skipped in a worker and without xdist."""
+    import os
+    import subprocess
+    import sys
+
+    cfg = session.config
+    if hasattr(cfg, "workerinput") or not getattr(cfg.option, "numprocesses", None):
+        return
+    from usvid.models import registry
+
+    # the largest kinds (most parameters: longest compile) first, dealt to the two processes
+    names = sorted(registry.names(), key=lambda k: -registry.get(k).n_params)
+    script = str(Path(__file__).with_name("precompile.py"))
+    procs = [subprocess.Popen([sys.executable, script, *names[i::2]], env=dict(os.environ))
+             for i in range(2)]
+    for p in procs:
+        p.wait()

@@ -829,6 +829,12 @@ def kernel(kind: ModelKind) -> Any:
     return g["_chunk"]
 
 
+#: Kinds with more parameters than this keep one out-of-line copy of their right-hand side per
+#: flavour instead of four inlined ones per RK4 step (an MMG model's rhs inlined eight times took
+#: minutes to compile; its lanes gain little from SIMD).
+INLINE_MAX_PARAMS = 40
+
+
 def _specialise(g: dict[str, Any], name: str, qual: str) -> None:
     """Compile the template ``name`` with the globals ``g`` under the name ``qual`` into g."""
     template = globals()[name]
@@ -841,4 +847,6 @@ def _specialise(g: dict[str, Any], name: str, qual: str) -> None:
         opts["nogil"] = True
     if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer"):
         opts["inline"] = "always"  # tuples only: no reference counting
+    if name == "_deriv" and g["NPK"] > INLINE_MAX_PARAMS:
+        opts["inline"] = "never"
     g[name] = numba.njit(**opts)(fn)
