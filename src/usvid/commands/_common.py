@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
+
+import typer
 
 from usvid.errors import UsvidError
 
@@ -22,3 +24,11 @@ def emit_json(obj: Any) -> None:
     from usvid.files import to_json  # numpy: loaded when a command runs, not for --help
 
     print(to_json(obj))
+
+
+#: ``--scheduler`` and ``--workers`` of the commands that run on Dask (montecarlo, batch).
+SchedulerOpt = Annotated[str | None, typer.Option(
+    "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786); "
+    "default: a local cluster.")]
+WorkersOpt = Annotated[int | None, typer.Option(
+    "--workers", help="Workers of the local cluster (default: one per core).")]

@@ -16,7 +16,7 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._common import emit_json
+from usvid.commands._common import SchedulerOpt, WorkersOpt, emit_json
 
 
 def batch(campaign: Path, out: Path, *, scheduler: str | None = None,
@@ -36,11 +36,8 @@ def register(app: typer.Typer) -> None:
         campaign: Annotated[Path, typer.Argument(help="Campaign file (YAML).",
                                                  show_default=False)],
         out: Annotated[Path, typer.Option("--out", help="Results folder.")],
-        scheduler: Annotated[str | None, typer.Option(
-            "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786); "
-            "default: a local cluster.")] = None,
-        workers: Annotated[int | None, typer.Option(
-            "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+        scheduler: SchedulerOpt = None,
+        workers: WorkersOpt = None,
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
     ) -> None:
         """Identify and validate groups of logs of a campaign, one Dask task per group."""

@@ -20,7 +20,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from usvid.commands._common import emit_json
+from usvid.commands._common import SchedulerOpt, WorkersOpt, emit_json
 from usvid.errors import UsvidError
 from usvid.files import write_atomic
 
@@ -136,11 +136,8 @@ def register(app: typer.Typer) -> None:
         speed: Annotated[float | None, typer.Option(
             "--speed", help="Approach speed [m/s] (default: the model's vessel.speed).")] = None,
         chunk: Annotated[int, typer.Option("--chunk", help="Runs per Dask task.")] = 4096,
-        scheduler: Annotated[str | None, typer.Option(
-            "--scheduler", help="Address of an existing Dask scheduler (tcp://host:8786); "
-            "default: a local cluster.")] = None,
-        workers: Annotated[int | None, typer.Option(
-            "--workers", help="Workers of the local cluster (default: one per core).")] = None,
+        scheduler: SchedulerOpt = None,
+        workers: WorkersOpt = None,
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
     ) -> None:
         """Monte-Carlo simulation of a manoeuvre over parameter uncertainty (Dask)."""
