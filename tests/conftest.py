@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
+
+from usvid.models import registry
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
@@ -32,15 +37,9 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     """Before the xdist workers start: compile the integration core of every model kind, two
     processes side by side, into numba's disk cache (otherwise every worker compiles every kind
     it meets: about half of a cold run's CPU). Skipped in a worker and without xdist."""
-    import os
-    import subprocess
-    import sys
-
     cfg = session.config
     if hasattr(cfg, "workerinput") or not getattr(cfg.option, "numprocesses", None):
         return
-    from usvid.models import registry
-
     # the largest kinds (most parameters: longest compile) first, dealt to the two processes
     names = sorted(registry.names(), key=lambda k: -registry.get(k).n_params)
     script = str(Path(__file__).with_name("precompile.py"))
