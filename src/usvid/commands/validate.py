@@ -68,12 +68,7 @@ def print_validation(rows: list[dict[str, Any]]) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    def f(v: Any) -> str:
-        if isinstance(v, float):
-            return "-" if not math.isfinite(v) else f"{v:.4g}"
-        if isinstance(v, list):
-            return ", ".join(f(x) for x in v[:3]) + (" ..." if len(v) > 3 else "")
-        return "-" if v is None else str(v)
+    from usvid.identify.validation import short_value as f
 
     con = Console()
     for r in rows:

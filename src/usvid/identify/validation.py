@@ -101,22 +101,25 @@ class ValidationResult:
             for k in keys:
                 if k in r.measured:
                     body.append("<tr>" + "".join(
-                        f"<td>{html.escape(_short(v))}</td>" for v in (
+                        f"<td>{html.escape(short_value(v))}</td>" for v in (
                             r.trial, r.manoeuvre, k, r.measured.get(k), r.predicted.get(k),
                             r.error.get(k))) + "</tr>")
             for k, v in r.replay.items():
                 if isinstance(v, float):
                     body.append(f"<tr><td>{html.escape(r.trial)}</td><td>replay</td>"
-                                f"<td>{html.escape(k)}</td><td colspan=3>{_short(v)}</td></tr>")
+                                f"<td>{html.escape(k)}</td><td colspan=3>"
+                                f"{short_value(v)}</td></tr>")
         return (f"<table><caption>validation of a {html.escape(self.model_kind)} model"
                 f"</caption>{head}{''.join(body)}</table>")
 
 
-def _short(v: Any) -> str:
+def short_value(v: Any) -> str:
+    """A metric value for a table: 4 significant digits, the first 3 items of a list, "-" for
+    None or a non-finite number."""
     if isinstance(v, float):
         return "-" if not math.isfinite(v) else f"{v:.4g}"
     if isinstance(v, list):
-        return ", ".join(_short(x) for x in v[:3]) + (" ..." if len(v) > 3 else "")
+        return ", ".join(short_value(x) for x in v[:3]) + (" ..." if len(v) > 3 else "")
     return "-" if v is None else str(v)
 
 
