@@ -389,7 +389,8 @@ def test_n2k_format_names_only_what_is_read():
     from usvid.io import parse_spec
 
     assert parse_spec({"reader": "nmea2000", "n2k_format": "candump3"}).n2k_format == "candump3"
-    with pytest.raises(FormatSpecError, match="n2k_format: unknown NMEA 2000 format 'pcdin'"):
-        parse_spec({"reader": "nmea2000", "n2k_format": "pcdin"}, source="s.yaml")
+    assert parse_spec({"reader": "nmea2000", "n2k_format": "pcdin"}).n2k_format == "pcdin"
+    with pytest.raises(FormatSpecError, match="n2k_format: unknown NMEA 2000 format 'seatalk'"):
+        parse_spec({"reader": "nmea2000", "n2k_format": "seatalk"}, source="s.yaml")
     with pytest.raises(FormatSpecError, match="only used by reader nmea2000"):
         parse_spec({"reader": "nmea0183", "n2k_format": "candump3"}, source="s.yaml")

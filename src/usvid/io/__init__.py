@@ -18,7 +18,13 @@ from usvid.io.ardupilot import (
     read_tlog,
     servo1_function,
 )
-from usvid.io.n2k import read_candump, write_candump
+from usvid.io.n2k import (
+    detect_n2k_format,
+    read_candump,
+    read_nmea2000,
+    write_candump,
+    write_nmea2000,
+)
 from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
 from usvid.io.rosbag import bag_kind, read_rosbag
 from usvid.io.spec import (
@@ -45,6 +51,7 @@ __all__ = [
     "load_spec",
     "parse_spec",
     "read_candump",
+    "read_nmea2000",
     "read_excel",
     "read_nmea0183",
     "read_parquet",
@@ -55,6 +62,7 @@ __all__ = [
     "shipped_specs",
     "table_spec",
     "write_candump",
+    "write_nmea2000",
     "write_csv",
     "write_nmea0183",
     "write_parquet",
@@ -113,7 +121,8 @@ def auto_spec(path: str | Path, reader: str) -> tuple[FormatSpec, str]:
 
 def detect_reader(path: str | Path) -> str:
     """Guess the reader of a log without a spec: ``rosbag``, ``ulog``, ``dataflash``, ``tlog``
-    (by their headers), ``nmea2000`` (candump -L lines), ``nmea0183`` (``$``/``!`` sentences),
+    (by their headers), ``nmea2000`` (a log in one of the NMEA 2000 formats of
+    :mod:`usvid.io.n2k`, e.g. candump -L lines), ``nmea0183`` (``$``/``!`` sentences),
     ``parquet`` (PAR1 magic) or ``excel`` (.xlsx zip); ``table`` for a CSV with a header of Trial
     channel names. Raises :class:`LogReadError` when unreadable/empty.
     """
@@ -126,11 +135,10 @@ def detect_reader(path: str | Path) -> str:
         return "parquet"
     if head[:2] == b"PK":
         return "excel"
+    if detect_n2k_format(path, head) is not None:
+        return "nmea2000"
     lines = [ln.strip() for ln in head.splitlines()[:200] if ln.strip()]
     n0183 = sum(1 for ln in lines if b"$" in ln or ln.startswith(b"!"))
-    n2k = sum(1 for ln in lines if ln.startswith(b"(") and b"#" in ln)
-    if n2k and n2k >= n0183:
-        return "nmea2000"
     if n0183:
         return "nmea0183"
     return "table"
@@ -195,7 +203,7 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
     if reader == "nmea0183":
         return read_nmea0183(p, fs)
     if reader == "nmea2000":
-        return read_candump(p, fs)
+        return read_nmea2000(p, fs)
     if fs is None:
         if reader == "excel":
             raise FormatSpecError(f"{p}: an Excel log needs a format spec (--format SPEC)")

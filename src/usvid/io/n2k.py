@@ -1,14 +1,44 @@
-"""NMEA 2000 logs in ``candump -L`` format: reader and writer.
+"""NMEA 2000 logs in every wire format the ``nmea2000`` package decodes: reader and writer.
 
-Line format (can-utils ``candump -L``)::
+Formats (``n2k_format:`` in the spec, names as ``nmea2000.input_formats.N2KFormat``; detected
+from the file's content when omitted), one record per line or packet:
 
-    (1700000000.123456) can0 09F11203#013930FF7FFF7FFC
+==========================  =================================================  ===============
+``n2k_format``              record                                             time stamp
+==========================  =================================================  ===============
+``candump3``                ``(1700000000.123456) can0 09F11203#013930FF...``  epoch [s]
+``candump1``                ``<0x09F11203> [8] 01 39 30 FF 7F FF 7F FC``         none
+``candump2``                ``can0  09F11203   [8]  01 39 30 FF 7F FF 7F FC``    none
+``n2k_ascii`` (Actisense)   ``A221320.123 03FF2 1F112 013930FF7FFF7FFC``        time of day [3]
+``n2k_ascii_raw``           ``03FF2 1F112 013930FF7FFF7FFC``                    none
+``basic_string``            ``2023-11-14T22:13:20.123Z,2,127250,3,255,8,01,..`` ISO date-time
+``can_frame_ascii``         ``22:13:20.123 R 09F11203 01 39 30 FF 7F FF 7F FC``  time of day
+``can_frame_ascii_raw``     ``09F11203 01 39 30 FF 7F FF 7F FC``                 none
+``pcdin`` (SeaSmart)        ``$PCDIN,01F112,0LIM0E3K,03,013930FF7FFF7FFC*2C``  base-32 ms [2]
+``mxpgn`` (Shipmodul)       ``$MXPGN,01F112,2803,FC7FFF7FFF303901*3E``         none
+``pdgy`` (Digital Yacht)    ``!PDGY,127250,2,3,255,100.250,ATkw/3//f/w=``      seconds [1]
+``ebyte`` (binary)          13-byte TCP packets: type, CAN id (big endian), data  none
+``waveshare`` (binary)      20-byte USB-CAN-A packets ``AA 55 ..`` + checksum   none
+``bst_d0`` (binary)         Actisense BST D0 (reassembled PGN) in BDTP framing  ms counter [1]
+``bst_95`` (binary)         Actisense BST 95 (CAN frame) in BDTP framing        ms counter [1]
+``python_can``              a python-can log file (.blf, .asc, .trc, ...)        its stamps
+==========================  =================================================  ===============
 
-i.e. ``(epoch seconds) interface CANID#DATA`` with a 29-bit extended CAN id (priority, PGN, source,
-destination) and up to 8 data bytes. Decoding goes through the ``nmea2000`` package
-(``NMEA2000Decoder`` bound to ``candump3``, SI units; its canboat backend reassembles fast-packet
-PGNs), encoding through the same canboat database (``nmea2000.backend.DATABASE.encode``, the
-function nmea2000's own encoders call) plus ``can_id_compose`` and ``fast_packet_fragment``.
+[1] a relative clock (seconds since the gateway started; the BST counters wrap at 2^32 ms and
+2^16 ms and are unwrapped); [2] 1/1024 s since 2010-01-01 (SeaSmart); [3] ``hhmmss.ddd`` (the
+example of nmea2000's documentation, ``A173321.107``, is the moment of its ``can_frame_ascii``
+example ``17:33:21.107``; nmea2000 itself turns it into an offset from the present). Times of
+day wrap at midnight and are unwrapped. A format without time
+stamps takes the time of the last System Time (PGN 126992, 1e-4 s) before each frame, and a
+relative clock gets its date from the first System Time (``meta["t0_utc"]``); a log with neither
+is a one-line error. Lines with the checksum of an NMEA 0183 sentence (PCDIN, MXPGN) are checked.
+Decoding goes through the ``nmea2000`` package (``NMEA2000Decoder`` bound to the format, SI
+units; its canboat backend reassembles fast-packet PGNs); ``python_can`` files are read by
+python-can's ``LogReader`` (a dependency of ``nmea2000``). ``pdgy_debug`` lines (``$PDGY``) hold
+no PGN data (nmea2000 refuses them): such a log is a one-line error. Encoding goes through the
+same canboat database (``nmea2000.backend.DATABASE.encode``, the function nmea2000's own encoders
+call) plus ``can_id_compose`` and ``fast_packet_fragment``; the framing of each format follows
+the package's encoders (``nmea2000.encoder_formats``), with real time stamps.
 
 PGNs and the Trial channels they give (canboat field ids, SI):
 
@@ -24,23 +54,28 @@ PGNs and the Trial channels they give (canboat field ids, SI):
   ``n_port`` (instance 0) and ``n_stbd`` (instance 1) when both instances are present.
 
 Rudder sign: NMEA 2000 defines a positive rudder angle as the vessel's bow turning to starboard,
-the Trial convention. Rejected lines, counted per reason: ``garbage`` (not a candump line),
-``truncated`` (a frame of one of these PGNs with fewer than 8 data bytes: they are all single-frame
-PGNs, and the decoder would otherwise read the missing bytes as values), ``bad_frame`` (a candump
-line that does not decode), ``no_time``, ``not_available`` (every field "not available"); other
-PGNs are ignored and counted in ``meta["ignored_pgns"]``.
+the Trial convention. Rejected records, counted per reason: ``garbage`` (not a record of the
+format), ``checksum`` (PCDIN/MXPGN sentence checksum), ``truncated`` (a record of one of these
+PGNs with fewer than 8 data bytes: they are all single-frame PGNs, and the decoder would otherwise
+read the missing bytes as values), ``bad_frame`` (a record that does not decode), ``no_time``,
+``not_available`` (every field "not available"); other PGNs are ignored and counted in
+``meta["ignored_pgns"]``.
 """
 
 from __future__ import annotations
 
+import base64
+import io
 import math
 import re
-from datetime import datetime
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
-from usvid.errors import LogReadError
+from usvid.errors import FormatSpecError, LogReadError
 from usvid.files import write_atomic
 from usvid.io._assemble import (
     MAX_EPOCH_S,
@@ -50,12 +85,13 @@ from usvid.io._assemble import (
     read_log_bytes,
     utc_iso,
 )
-from usvid.io.spec import FormatSpec
+from usvid.io.spec import N2K_FORMATS, FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
 PGNS = (127250, 127251, 127245, 128259, 129025, 129026, 127488)
-_LINE = re.compile(r"^\s*\(([^)]*)\)\s+(\S+)\s+([0-9A-Fa-f]{8})#([0-9A-Fa-f]*)\s*$")
+#: System Time: the clock of a format without time stamps.
+SYSTEM_TIME_PGN = 126992
 _PGN_ID = {
     127250: "vesselHeading",
     127251: "rateOfTurn",
@@ -64,7 +100,44 @@ _PGN_ID = {
     129025: "positionRapidUpdate",
     129026: "cogSogRapidUpdate",
     127488: "engineParametersRapidUpdate",
+    SYSTEM_TIME_PGN: "systemTime",
 }
+#: SeaSmart ($PCDIN) timer origin: 2010-01-01T00:00:00Z [epoch s]; the timer counts 1/1024 s.
+PCDIN_EPOCH = 1262304000.0
+
+
+@dataclass(frozen=True)
+class N2kFormat:
+    """How a wire format carries time: ``epoch`` (UTC seconds), ``rel`` (a relative clock of
+    wrap period ``period`` [s], 0 = none) or ``none``; ``binary`` for packet formats."""
+
+    clock: str
+    period: float = 0.0
+    binary: bool = False
+
+
+FORMATS: dict[str, N2kFormat] = {
+    "candump3": N2kFormat("epoch"),
+    "candump1": N2kFormat("none"),
+    "candump2": N2kFormat("none"),
+    "n2k_ascii": N2kFormat("rel", 86400.0),
+    "n2k_ascii_raw": N2kFormat("none"),
+    "basic_string": N2kFormat("epoch"),
+    "can_frame_ascii": N2kFormat("rel", 86400.0),
+    "can_frame_ascii_raw": N2kFormat("none"),
+    "pcdin": N2kFormat("epoch"),
+    "mxpgn": N2kFormat("none"),
+    "pdgy": N2kFormat("rel"),
+    "ebyte": N2kFormat("none", binary=True),
+    "waveshare": N2kFormat("none", binary=True),
+    "bst_d0": N2kFormat("rel", 2.0**32 / 1000.0, binary=True),
+    "bst_95": N2kFormat("rel", 2.0**16 / 1000.0, binary=True),
+    "python_can": N2kFormat("epoch", binary=True),
+}
+assert set(FORMATS) == set(N2K_FORMATS) - {"auto"}
+#: Suffixes of the python-can log files detected as ``n2k_format: python_can`` (any file
+#: python-can's ``LogReader`` reads, e.g. ``.mf4`` with asammdf, when named in the spec).
+PYTHON_CAN_SUFFIXES = (".blf", ".asc", ".trc")
 
 
 def _fields(msg) -> dict:
@@ -88,6 +161,20 @@ def _raw(f) -> int | None:
         return int(f.raw_value)
     except (TypeError, ValueError):
         return None
+
+
+def _system_time(msg) -> float:
+    """Epoch seconds of a System Time message (``date`` [days since 1970], ``time`` [s])."""
+    f = _fields(msg)
+    try:
+        d = float(f["date"].raw_value)
+        s = float(f["time"].raw_value)
+    except (KeyError, TypeError, ValueError):
+        return math.nan
+    # 0xFFFF days / 0xFFFFFFFF * 1e-4 s are "not available"
+    if not (0 <= d < 65533 and 0 <= s < 86400.5):
+        return math.nan
+    return d * 86400.0 + s
 
 
 def _channels(msg) -> dict[str, float] | None:
@@ -125,89 +212,526 @@ def _channels(msg) -> dict[str, float] | None:
     return None
 
 
-def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
-    """Read a ``candump -L`` NMEA 2000 log into a multi-rate Trial (SI units, radians).
+# ----------------------------------------------------------------------------------------------
+# records of each format: (wire time or NaN, PGN, data bytes) or None (not a record: garbage)
+# ----------------------------------------------------------------------------------------------
+def pgn_of_can_id(can_id: int) -> int:
+    """PGN of a 29-bit CAN id (PDU1 PGNs carry the destination in their low byte)."""
+    pgn = (can_id >> 8) & 0x3FFFF
+    if (pgn >> 8) & 0xFF < 240:
+        pgn &= 0x3FF00
+    return pgn
 
-    Time: the line's epoch-seconds stamp; ``t`` [s] since the first record,
-    ``meta["t0_utc"]`` its ISO time. Raises :class:`LogReadError` naming the file when the file
-    is empty or has no usable frame.
+
+def _pgn_dpp(pdus: int, pduf: int, dpp: int) -> int:
+    return ((dpp & 0x03) << 16) | (pduf << 8) | (pdus if pduf >= 240 else 0)
+
+
+_H = r"[0-9A-Fa-f]"
+_BYTES = rf"((?:\s+{_H}{{2}})*)"
+_RE = {
+    "candump3": re.compile(rf"^\(([^)]*)\)\s+\S+\s+({_H}{{8}})#({_H}*)$"),
+    "candump1": re.compile(rf"^<0x({_H}{{1,8}})>\s+\[(\d+)\]{_BYTES}$"),
+    "candump2": re.compile(rf"^[A-Za-z][A-Za-z0-9_-]*\s+({_H}{{8}})\s+\[(\d+)\]{_BYTES}$"),
+    "n2k_ascii": re.compile(
+        rf"^A(\d\d)(\d\d)(\d\d(?:\.\d+)?)\s+{_H}{{5}}\s+({_H}{{5,6}})\s+({_H}*)$"),
+    "n2k_ascii_raw": re.compile(rf"^{_H}{{5}}\s+({_H}{{5,6}})\s+({_H}*)$"),
+    "can_frame_ascii": re.compile(
+        rf"^(\d\d):(\d\d):(\d\d(?:\.\d+)?)\s+[RT]\s+({_H}{{8}}){_BYTES}$"),
+    "can_frame_ascii_raw": re.compile(rf"^({_H}{{8}}){_BYTES}$"),
+    "pcdin": re.compile(rf"^\$PCDIN,({_H}{{6}}),([0-9A-Va-v]{{1,8}}),{_H}{{2}},({_H}*)$"),
+    "mxpgn": re.compile(rf"^\$MXPGN,({_H}{{6}}),({_H}{{2}}){_H}{{2}},({_H}*)$"),
+}
+_BASIC_TIME = re.compile(r"^\d{4}-\d\d-\d\d[T-]\d\d:\d\d:\d\d(\.\d+)?Z?$")
+
+
+def _nbytes(hexs: str) -> int:
+    return len(hexs) // 2 if len(hexs) % 2 == 0 else -1
+
+
+def _sentence(line: str) -> tuple[str, bool | None]:
+    """An NMEA 0183 sentence without its tag block and checksum; whether the checksum matched
+    (None: no checksum)."""
+    if line.startswith("\\"):
+        parts = line.split("\\")
+        if len(parts) >= 3:
+            line = parts[2]
+    body, star, cs = line.partition("*")
+    if not star:
+        return body, None
+    x = 0
+    for ch in body[1:]:
+        x ^= ord(ch)
+    try:
+        return body, int(cs[:2], 16) == x
+    except ValueError:
+        return body, False
+
+
+def _basic_time(stamp: str) -> float:
+    if not _BASIC_TIME.match(stamp):
+        return math.nan
+    s = stamp.rstrip("Z")
+    if "T" not in s:
+        s = s[:10] + "T" + s[11:]
+    try:
+        return datetime.fromisoformat(s).replace(tzinfo=UTC).timestamp()
+    except ValueError:
+        return math.nan
+
+
+def parse_text_record(fmt: str, line: str) -> tuple[float, int, int] | str | None:
+    """``(wire time [s] or NaN, PGN, data bytes)`` of one line of text format ``fmt``; None when
+    the line is not a record of the format, ``"checksum"`` when its sentence checksum is wrong.
+    A negative byte count is a malformed data field."""
+    nan = math.nan
+    if fmt == "basic_string":
+        p = line.split(",")
+        if len(p) < 6 or not all(x.isdigit() for x in p[1:6]):
+            return None
+        if any(len(x) != 2 for x in p[6:]):
+            return None
+        n = len(p) - 6
+        return _basic_time(p[0]), int(p[2]), n if n >= int(p[5]) else -1
+    if fmt == "pdgy":
+        if not line.startswith("!PDGY,"):
+            return None
+        p = line.split(",")
+        try:
+            if len(p) == 7:
+                n = len(base64.b64decode(p[6], validate=True))
+                return float(p[5]), int(p[1]), n
+            if len(p) == 4:
+                return nan, int(p[1]), len(base64.b64decode(p[3], validate=True))
+        except ValueError:
+            return None
+        return None
+    if fmt in ("pcdin", "mxpgn"):
+        body, ok = _sentence(line)
+        m = _RE[fmt].match(body)
+        if m is None:
+            return None
+        if ok is False:
+            return "checksum"
+        pgn = int(m.group(1), 16)
+        n = _nbytes(m.group(3))
+        if fmt == "pcdin":
+            return int(m.group(2), 32) / 1024 + PCDIN_EPOCH, pgn, n
+        return nan, pgn, n if n == int(m.group(2), 16) & 0x0F else -1
+    m = _RE[fmt].match(line)
+    if m is None:
+        return None
+    g = m.groups()
+    if fmt == "candump3":
+        try:
+            stamp = float(g[0])
+        except ValueError:
+            stamp = nan
+        n = _nbytes(g[2])
+        return stamp, pgn_of_can_id(int(g[1], 16)), n if n <= 8 else -1
+    if fmt in ("candump1", "candump2"):
+        n = len(g[2].split())
+        return nan, pgn_of_can_id(int(g[0], 16)), min(int(g[1]), n) if n <= 8 else -1
+    if fmt == "n2k_ascii":
+        return int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), int(g[3], 16), _nbytes(g[4])
+    if fmt == "n2k_ascii_raw":
+        return nan, int(g[0], 16), _nbytes(g[1])
+    if fmt == "can_frame_ascii":
+        n = len(g[4].split())
+        return (int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), pgn_of_can_id(int(g[3], 16)),
+                n if n <= 8 else -1)
+    # can_frame_ascii_raw
+    n = len(g[1].split())
+    return nan, pgn_of_can_id(int(g[0], 16)), n if n <= 8 else -1
+
+
+_DLE, _STX, _ETX = 0x10, 0x02, 0x03
+
+
+def bdtp_frames(blob: bytes) -> Iterator[tuple[int, int, bytes | None]]:
+    """The data blocks of an Actisense BDTP stream (``DLE STX .. DLE ETX``, ``DLE DLE`` escapes
+    a data DLE): ``(start, end, block)`` (byte offsets), block None for a damaged frame (an
+    unknown escape, a new start inside a frame, or the end of the file inside a frame)."""
+    n = len(blob)
+    i = blob.find(b"\x10\x02")
+    while i >= 0:
+        out = bytearray()
+        j = i + 2
+        block: bytes | None = None
+        nxt = -1
+        while True:
+            k = blob.find(b"\x10", j)
+            if k < 0 or k + 1 >= n:
+                out = None  # type: ignore[assignment]
+                break
+            out += blob[j:k]
+            c = blob[k + 1]
+            if c == _ETX:
+                block = bytes(out)
+                nxt = k + 2
+                break
+            if c == _DLE:
+                out.append(_DLE)
+                j = k + 2
+                continue
+            nxt = k if c == _STX else k + 2  # a new frame starts / unknown escape: damaged
+            break
+        yield i, (nxt if nxt >= 0 else n), block
+        if nxt < 0:
+            return
+        i = blob.find(b"\x10\x02", nxt)
+
+
+def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, int, bytes] | str]:
+    """Records of a binary format: ``(wire time [s] or NaN, PGN, data bytes, packet)``, or a
+    reason string (``garbage``, ``truncated``, ``bad_frame``) for a damaged stretch."""
+    nan = math.nan
+    if fmt == "ebyte":
+        i, n, junk = 0, len(blob), False
+        while i < n:
+            b = blob[i]
+            ln = b & 0x0F
+            if b & 0x80 and 1 <= ln <= 8 and i + 5 + ln <= n:
+                pkt = blob[i:i + 5 + ln]
+                yield nan, pgn_of_can_id(int.from_bytes(pkt[1:5], "big") & 0x1FFFFFFF), ln, pkt
+                i += 5 + ln
+                junk = False
+                continue
+            if not junk:
+                yield "truncated" if b & 0x80 and 1 <= ln <= 8 else "garbage"
+                junk = True
+            i += 1
+        return
+    if fmt == "waveshare":
+        i, n = 0, len(blob)
+        while True:
+            k = blob.find(b"\xaa\x55", i)
+            if k < 0:
+                if blob[i:].strip(b"\x00"):
+                    yield "garbage"
+                return
+            if k > i and blob[i:k].strip(b"\x00"):
+                yield "garbage"
+            if k + 20 > n:
+                yield "truncated"
+                return
+            pkt = blob[k:k + 20]
+            if sum(pkt[2:19]) & 0xFF != pkt[19]:
+                yield "bad_frame"  # the checksum: resynchronise after the marker (as nmea2000)
+                i = k + 2
+                continue
+            cid = int.from_bytes(pkt[5:9], "little") & 0x1FFFFFFF
+            yield nan, pgn_of_can_id(cid), min(pkt[9], 8), pkt
+            i = k + 20
+        return
+    # bst_d0 / bst_95 in BDTP framing
+    want = 0xD0 if fmt == "bst_d0" else 0x95
+    last = 0
+    for off, end, blk in bdtp_frames(blob):
+        if off > last and blob[last:off].strip(b"\x00"):
+            yield "garbage"
+        last = end
+        if blk is None:
+            yield "truncated"
+            continue
+        if not blk or blk[0] != want:
+            yield "garbage"
+            continue
+        if sum(blk) & 0xFF:
+            yield "bad_frame"
+            continue
+        if want == 0xD0:
+            if len(blk) < 14 or int.from_bytes(blk[1:3], "little") != len(blk) - 1:
+                yield "bad_frame"
+                continue
+            ms = int.from_bytes(blk[9:13], "little")
+            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), len(blk) - 14, blk
+        else:
+            if len(blk) < 9 or blk[1] != len(blk) - 3:
+                yield "bad_frame"
+                continue
+            ms = int.from_bytes(blk[2:4], "little")
+            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), len(blk) - 9, blk
+    if blob[last:].strip(b"\x00"):
+        yield "garbage"
+
+
+# ----------------------------------------------------------------------------------------------
+# format detection
+# ----------------------------------------------------------------------------------------------
+#: Plausible NMEA 2000 PGNs (ISO request 59392 up to the last proprietary fast-packet 131071):
+#: a line of another kind that happens to match a format's pattern rarely names one.
+_PGN_RANGE = (59392, 131071)
+
+
+def _library_text_format(line: str) -> str | None:
+    """nmea2000's own detection of one text line, refined where it lumps two of our formats."""
+    from nmea2000.input_formats import detect_format
+
+    try:
+        f = detect_format(line).value
+    except ValueError:
+        return None
+    if f == "n2k_ascii_raw" and line.startswith("A"):
+        return "n2k_ascii"
+    if f == "can_frame_ascii" and not re.match(r"^\d\d:", line):
+        return "can_frame_ascii_raw"
+    return f
+
+
+def detect_n2k_format(path: Path, head: bytes) -> str | None:
+    """The NMEA 2000 wire format of a log from its first bytes ``head`` (None: not one)."""
+    if head[:2] == b"\x10\x02" and len(head) > 2 and head[2] in (0xD0, 0x95):
+        return "bst_d0" if head[2] == 0xD0 else "bst_95"
+    if head[:2] == b"\xaa\x55":
+        return "waveshare"
+    if head[:4] == b"LOGG" or path.suffix.lower() in PYTHON_CAN_SUFFIXES:
+        return "python_can"
+    if len(head) >= 13 and head[0] & 0x80 and 1 <= head[0] & 0x0F <= 8:
+        recs = []
+        for r in binary_records("ebyte", head[:13 * 8]):
+            recs.append(r)
+            if len(recs) == 4:
+                break
+        if recs and all(isinstance(r, tuple) and _PGN_RANGE[0] <= r[1] <= _PGN_RANGE[1]
+                        for r in recs):
+            return "ebyte"
+    try:
+        text = head.decode("ascii")
+    except UnicodeDecodeError:
+        text = head.decode("ascii", errors="replace")
+    lines = [ln.strip() for ln in text.splitlines()[:200] if ln.strip()]
+    votes: dict[str, int] = {}
+    for ln in lines:
+        f = _library_text_format(ln)
+        if f is None or f not in FORMATS and f != "pdgy_debug":
+            continue
+        if f != "pdgy_debug":
+            r = parse_text_record(f, ln)
+            if not isinstance(r, tuple) or not _PGN_RANGE[0] <= r[1] <= _PGN_RANGE[1]:
+                continue
+        votes[f] = votes.get(f, 0) + 1
+    if not votes:
+        return None
+    best = max(votes, key=lambda k: votes[k])
+    # the majority of the lines: a NMEA 0183 log with a few $PCDIN sentences stays NMEA 0183
+    return best if 2 * votes[best] >= len(lines) else None
+
+
+# ----------------------------------------------------------------------------------------------
+# reader
+# ----------------------------------------------------------------------------------------------
+def _unwrap(w: np.ndarray, period: float) -> np.ndarray:
+    """A wrapping relative clock [s] made monotonic (a step back of more than half the period
+    is a wrap)."""
+    if period <= 0 or len(w) < 2:
+        return w
+    d = np.diff(w)
+    wraps = np.r_[0.0, np.cumsum(np.where(d < -period / 2, period, 0.0))]
+    return w + wraps
+
+
+def _python_can_records(path: Path):
+    """Messages of a python-can log file as ``(stamp, PGN, data bytes, message)``."""
+    import can
+
+    try:
+        reader = can.LogReader(str(path))
+    except Exception as exc:  # unknown suffix, a missing optional package, unreadable file
+        why = str(exc).splitlines()[0][:120] if str(exc) else ""
+        raise LogReadError(f"{path}: python-can cannot read this file "
+                           f"({type(exc).__name__}: {why})") from None
+    it = iter(reader)
+    try:
+        while True:
+            try:
+                m = next(it)
+            except StopIteration:
+                return
+            if not m.is_extended_id or m.is_error_frame or m.is_remote_frame:
+                yield "garbage"
+                continue
+            yield float(m.timestamp), pgn_of_can_id(m.arbitration_id), len(m.data), m
+    except Exception:  # python-can raises struct/zlib/value errors on a damaged file
+        yield "damaged"
+    finally:
+        stop = getattr(reader, "stop", None)
+        if stop is not None:
+            try:
+                stop()
+            except Exception:  # noqa: S110 - closing a damaged file
+                pass
+
+
+def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
+    """Read an NMEA 2000 log in any format of :data:`FORMATS` into a multi-rate Trial (SI units,
+    radians).
+
+    The format: ``spec.n2k_format``, detected from the content when ``auto`` or no spec
+    (``meta["n2k_format"]``). Time: ``t`` [s] since the first record, ``meta["t0_utc"]`` its
+    ISO time when the log carries a date (see the module docstring). Raises
+    :class:`LogReadError` naming the file when the file is empty, not of the format, or has no
+    usable frame.
     """
     from nmea2000.decoder import NMEA2000Decoder
     from nmea2000.input_formats import N2KFormat
 
     path = Path(path)
     blob = read_log_bytes(path)
-    text = blob.decode("ascii", errors="replace")
-    dec = NMEA2000Decoder(N2KFormat.CANDUMP3, units="si", include_pgns=list(PGNS))
+    fmt = spec.n2k_format if spec is not None else "auto"
+    if fmt == "auto":
+        found = detect_n2k_format(path, blob[:65536])
+        if found == "pdgy_debug":
+            raise LogReadError(f"{path}: Digital Yacht debug lines ($PDGY) carry no PGN data "
+                               "(nmea2000 does not decode them)")
+        if found is None:
+            raise LogReadError(
+                f"{path}: not an NMEA 2000 log in a format usvid reads (n2k_format: one of "
+                f"{', '.join(FORMATS)})")
+        fmt = found
+    info = FORMATS[fmt]
+    dec = NMEA2000Decoder(N2KFormat(fmt), units="si",
+                          include_pgns=[*PGNS, SYSTEM_TIME_PGN])
     rejected: dict[str, int] = {}
     ignored: dict[int, int] = {}
-    ts: list[float] = []
+    seq_w: list[float] = []  # wire time of every data and System Time record (NaN: none)
+    data_pos: list[int] = []  # index in seq_w of each data record
+    sys_pos: list[tuple[int, float]] = []  # (index in seq_w, epoch [s]) of each System Time
+    systs: list[float] = []  # latest System Time before each data record (NaN: none yet)
     rows: list[dict[str, float]] = []
+    sys_now = math.nan
     first_bad: int | None = None
+    n_records = 0
 
-    def rej(reason: str, lineno: int) -> None:
+    def rej(reason: str, where: int) -> None:
         nonlocal first_bad
         rejected[reason] = rejected.get(reason, 0) + 1
         if first_bad is None:
-            first_bad = lineno
+            first_bad = where
 
-    lines = text.splitlines()
-    for lineno, line in enumerate(lines, start=1):
-        if not line.strip():
-            continue
-        m = _LINE.match(line)
-        if m is None or len(m.group(4)) % 2 or len(m.group(4)) > 16:
-            rej("garbage", lineno)
-            continue
-        try:
-            stamp = float(m.group(1))
-        except ValueError:
-            stamp = math.nan
-        if not (math.isfinite(stamp) and abs(stamp) <= MAX_EPOCH_S):
-            rej("no_time", lineno)
-            continue
-        can_id = int(m.group(3), 16)
-        pgn = (can_id >> 8) & 0x3FFFF
-        if (pgn >> 8) & 0xFF < 240:  # PDU1: destination in the low byte
-            pgn &= 0x3FF00
-        if pgn not in PGNS:
+    def take(where: int, wire: float, pgn: int, nbytes: int, item) -> None:
+        nonlocal sys_now
+        if pgn not in PGNS and pgn != SYSTEM_TIME_PGN:
             ignored[pgn] = ignored.get(pgn, 0) + 1
-            continue
-        if len(m.group(4)) < 16:  # every PGN read here is a single 8-byte frame
-            rej("truncated", lineno)
-            continue
+            return
+        if nbytes < 0:
+            rej("garbage", where)
+            return
+        if nbytes < 8:  # every PGN read here is a single 8-byte frame
+            rej("truncated", where)
+            return
+        if info.clock == "epoch" and not (math.isfinite(wire) and abs(wire) <= MAX_EPOCH_S):
+            rej("no_time", where)
+            return
         try:
-            msg = dec.decode(line.strip())
+            msg = dec.decode(item)
         except Exception:  # nmea2000 raises ValueError / canboat DecodeError on a bad frame
-            rej("bad_frame", lineno)
-            continue
+            rej("bad_frame", where)
+            return
         if msg is None:  # a fast-packet fragment waiting for the rest
-            continue
+            return
+        if msg.PGN == SYSTEM_TIME_PGN:
+            e = _system_time(msg)
+            if math.isfinite(e):
+                sys_now = e
+                sys_pos.append((len(seq_w), e))
+                seq_w.append(wire)
+            return
         try:
             ch = _channels(msg)
         except (TypeError, ValueError, AttributeError):
-            rej("bad_frame", lineno)
-            continue
+            rej("bad_frame", where)
+            return
         if ch is None:
-            continue
+            return
         if all(math.isnan(v) for v in ch.values()):
             rejected["not_available"] = rejected.get("not_available", 0) + 1
-            continue
-        ts.append(stamp)
+            return
+        data_pos.append(len(seq_w))
+        seq_w.append(wire)
+        systs.append(sys_now)
         rows.append(ch)
+
+    if not info.binary:
+        text = blob.decode("ascii", errors="replace")
+        lines = text.splitlines()
+        for lineno, raw in enumerate(lines, start=1):
+            line = raw.strip()
+            if not line:
+                continue
+            n_records += 1
+            r = parse_text_record(fmt, line)
+            if r is None:
+                rej("garbage", lineno)
+                continue
+            if isinstance(r, str):
+                rej(r, lineno)
+                continue
+            take(lineno, r[0], r[1], r[2], line)
+        what = f"{len(lines)} line(s)"
+    else:
+        recs = (_python_can_records(path) if fmt == "python_can"
+                else binary_records(fmt, blob))
+        damaged = False
+        for r in recs:
+            n_records += 1
+            if isinstance(r, str):
+                if r == "damaged":
+                    damaged = True
+                else:
+                    rej(r, n_records)
+                continue
+            take(n_records, r[0], r[1], r[2], r[3])
+        what = f"{n_records} record(s)"
+        if damaged:
+            rej("damaged_file", n_records)
     findings: list[Finding] = []
-    meta: dict = {"reader": "nmea2000"}
+    meta: dict = {"reader": "nmea2000", "n2k_format": fmt}
     if ignored:
         meta["ignored_pgns"] = {str(k): v for k, v in sorted(ignored.items())}
         findings.append(ignored_finding(path, "ignored_pgns", "frame(s) of PGNs", ignored))
-    if not rows:
+
+    def fail(extra: str = "") -> LogReadError:
         detail = ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items()))
-        where = f" (first bad line {first_bad})" if first_bad else ""
-        raise LogReadError(
-            f"{path}: no usable NMEA 2000 frame in {len(lines)} line(s)"
-            + (f"; rejected {detail}{where}" if detail else "")
-        )
-    t_abs = np.asarray(ts, dtype=float)
+        where = f" (first bad record {first_bad})" if first_bad else ""
+        return LogReadError(
+            f"{path}: no usable NMEA 2000 frame ({fmt}) in {what}"
+            + (f"; rejected {detail}{where}" if detail else "") + extra)
+
+    if not rows:
+        raise fail()
+    big_w = np.asarray(seq_w, dtype=float)
+    w = big_w[np.asarray(data_pos, dtype=int)]
+    clock = info.clock
+    if fmt == "python_can" and np.nanmax(np.abs(w)) < 1e8:
+        clock = "rel"  # python-can gives time since the start of the file (e.g. .asc, .trc)
+    t0_epoch = math.nan
+    if clock == "epoch":
+        t_abs = w
+        t0_epoch = float(np.nanmin(t_abs))
+    elif clock == "rel" and np.isfinite(w).any():
+        fin = np.isfinite(big_w)
+        unw = np.full(len(big_w), np.nan)
+        unw[fin] = _unwrap(big_w[fin], info.period)
+        w = unw[np.asarray(data_pos, dtype=int)]
+        keep = np.isfinite(w)
+        _add_no_time(rejected, int((~keep).sum()))
+        rows = [r for r, k in zip(rows, keep, strict=True) if k]
+        t_abs = w[keep]
+        for pos, e in sys_pos:  # the first System Time on the same clock dates the log
+            if math.isfinite(unw[pos]):
+                t0_epoch = e - (float(unw[pos]) - float(np.min(t_abs)))
+                break
+    else:  # no wire time: the System Time broadcast on the bus
+        s = np.asarray(systs, dtype=float)
+        ok = np.isfinite(s)
+        if not ok.any():
+            raise fail(f"; the {fmt} format has no time stamps and the log no System Time "
+                       f"(PGN {SYSTEM_TIME_PGN})")
+        _add_no_time(rejected, int((~ok).sum()))
+        rows = [r for r, k in zip(rows, ok, strict=True) if k]
+        t_abs = s[ok]
+        t0_epoch = float(np.min(t_abs))
     names = sorted({k for r in rows for k in r})
     chans = {k: np.full(len(rows), np.nan) for k in names}
     for j, r in enumerate(rows):
@@ -225,13 +749,14 @@ def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
         chans["psi"] = chans.pop("psi_mag")
     # fields the bus marked "not available" throughout (e.g. an unused angleOrder) are absent
     chans = {k: v for k, v in chans.items() if np.isfinite(v).any()}
-    t0 = float(np.nanmin(t_abs))
-    meta["t0_epoch"] = t0
-    meta["t0_utc"] = utc_iso(t0)
+    t_min = float(np.min(t_abs))
+    if math.isfinite(t0_epoch):
+        meta["t0_epoch"] = t0_epoch
+        meta["t0_utc"] = utc_iso(t0_epoch)
     chans = apply_renames(chans, spec)
     return assemble(
         path,
-        t_abs - t0,
+        t_abs - t_min,
         chans,
         spec=spec,
         rejected=rejected,
@@ -241,11 +766,24 @@ def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     )
 
 
+def _add_no_time(rejected: dict[str, int], n: int) -> None:
+    if n:
+        rejected["no_time"] = rejected.get("no_time", 0) + n
+
+
+def read_candump(path: str | Path, spec: FormatSpec | None = None) -> Trial:
+    """Read a ``candump -L`` NMEA 2000 log (the ``candump3`` format of :func:`read_nmea2000`,
+    unless ``spec.n2k_format`` names another)."""
+    if spec is None:
+        spec = FormatSpec(reader="nmea2000", n2k_format="candump3", source="<candump>")
+    elif spec.n2k_format == "auto":
+        spec = replace(spec, n2k_format="candump3")
+    return read_nmea2000(path, spec)
 # ----------------------------------------------------------------------------------------------
 # writer
 # ----------------------------------------------------------------------------------------------
 class _Encoder:
-    """PGN payloads through nmea2000's canboat database, framed as candump -L lines."""
+    """PGN payloads through nmea2000's canboat database, framed as CAN frames."""
 
     def __init__(self, source: int, interface: str, priority: int = 2) -> None:
         from nmea2000 import _canboat as cb
@@ -257,11 +795,16 @@ class _Encoder:
         self.iface = interface
         self.prio = priority
         self.seq = 0
-        self.sid = 0
+
+    def payload(self, pgn: int, fields: dict) -> bytes:
+        return self.db.encode(_PGN_ID[pgn], fields, src=self.src, prio=self.prio)
+
+    def can_id(self, pgn: int) -> int:
+        return self.cb.can_id_compose(self.prio, pgn, self.src, 255)
 
     def frames(self, pgn: int, fields: dict) -> list[tuple[int, bytes]]:
-        payload = self.db.encode(_PGN_ID[pgn], fields, src=self.src, prio=self.prio)
-        cid = self.cb.can_id_compose(self.prio, pgn, self.src, 255)
+        payload = self.payload(pgn, fields)
+        cid = self.can_id(pgn)
         if len(payload) <= 8:
             return [(cid, payload)]
         frags = self.cb.fast_packet_fragment(self.seq, payload)
@@ -275,23 +818,14 @@ class _Encoder:
         ]
 
 
-def candump_lines(
-    trial: Trial,
-    *,
-    t0_utc: str | datetime | None = None,
-    source: int = 3,
-    interface: str = "can0",
-) -> list[str]:
-    """candump -L lines for every finite sample of ``trial`` (see :func:`write_candump`)."""
-    e0 = log_start_epoch(trial, t0_utc)
-    enc = _Encoder(source, interface)
+def _pgn_messages(trial: Trial, e0: float) -> Iterator[tuple[int, float, int, dict]]:
+    """``(sample index, epoch [s], PGN, canboat fields)`` for every finite sample of ``trial``."""
     lat, lon, psi, r = (channel_or_none(trial, k) for k in ("lat", "lon", "psi", "r"))
     delta, dcmd = channel_or_none(trial, "delta"), channel_or_none(trial, "delta_cmd")
     sog = channel_or_none(trial, "sog" if "sog" in trial.data.columns else "U")
     cog = channel_or_none(trial, "cog")
     n, n_p, n_s = (channel_or_none(trial, k) for k in ("n", "n_port", "n_stbd"))
     t = trial.t
-    out: list[str] = []
 
     def fin(a: np.ndarray | None, i: int) -> bool:
         return a is not None and math.isfinite(a[i])
@@ -300,28 +834,193 @@ def candump_lines(
         st = e0 + float(t[i])
         sid = i % 250
         if fin(lat, i) and fin(lon, i):
-            out += enc.lines(st, 129025, {"latitude": float(lat[i]), "longitude": float(lon[i])})
+            yield i, st, 129025, {"latitude": float(lat[i]), "longitude": float(lon[i])}
         if fin(cog, i) or fin(sog, i):
-            out += enc.lines(st, 129026, {
+            yield i, st, 129026, {
                 "sid": sid, "cogReference": 0,
                 "cog": float(cog[i]) % (2 * math.pi) if fin(cog, i) else None,
                 "sog": float(sog[i]) if fin(sog, i) else None,
-            })
+            }
         if fin(psi, i):
-            out += enc.lines(st, 127250, {"sid": sid, "heading": float(psi[i]) % (2 * math.pi),
-                                          "deviation": None, "variation": None, "reference": 0})
+            yield i, st, 127250, {"sid": sid, "heading": float(psi[i]) % (2 * math.pi),
+                                  "deviation": None, "variation": None, "reference": 0}
         if fin(r, i):
-            out += enc.lines(st, 127251, {"sid": sid, "rate": float(r[i])})
+            yield i, st, 127251, {"sid": sid, "rate": float(r[i])}
         if fin(delta, i) or fin(dcmd, i):
-            out += enc.lines(st, 127245, {
+            yield i, st, 127245, {
                 "instance": 0, "directionOrder": 0,
                 "angleOrder": float(dcmd[i]) if fin(dcmd, i) else None,
                 "position": float(delta[i]) if fin(delta, i) else None,
-            })
+            }
         for inst, arr in ((0, n), (0, n_p), (1, n_s)):
             if fin(arr, i):
-                out += enc.lines(st, 127488, {"instance": inst, "speed": float(arr[i])})
+                yield i, st, 127488, {"instance": inst, "speed": float(arr[i])}
+
+
+def candump_lines(
+    trial: Trial,
+    *,
+    t0_utc: str | datetime | None = None,
+    source: int = 3,
+    interface: str = "can0",
+) -> list[str]:
+    """candump -L lines for every finite sample of ``trial`` (see :func:`write_candump`)."""
+    enc = _Encoder(source, interface)
+    out: list[str] = []
+    for _, st, pgn, fields in _pgn_messages(trial, log_start_epoch(trial, t0_utc)):
+        out += enc.lines(st, pgn, fields)
     return out
+
+
+def _b32(x: int, width: int = 8) -> str:
+    digits = "0123456789ABCDEFGHIJKLMNOPQRSTUV"
+    out = ""
+    for _ in range(width):
+        out = digits[x % 32] + out
+        x //= 32
+    return out
+
+
+def _nmea0183(body: str) -> str:
+    x = 0
+    for ch in body[1:]:
+        x ^= ord(ch)
+    return f"{body}*{x:02X}"
+
+
+def _bdtp(block: bytes) -> bytes:
+    return b"\x10\x02" + block.replace(b"\x10", b"\x10\x10") + b"\x10\x03"
+
+
+def _bst_checksum(block: bytes) -> bytes:
+    return block + bytes([(256 - sum(block) % 256) % 256])
+
+
+class _KeepOpen(io.BytesIO):
+    def close(self) -> None:  # python-can's writers close their file on stop()
+        pass
+
+
+def nmea2000_bytes(
+    trial: Trial,
+    n2k_format: str = "candump3",
+    *,
+    t0_utc: str | datetime | None = None,
+    source: int = 3,
+    boot_offset_s: float = 100.0,
+) -> bytes:
+    """The bytes of :func:`write_nmea2000` (see there)."""
+    if n2k_format not in FORMATS:
+        raise FormatSpecError(f"n2k_format: unknown NMEA 2000 format {n2k_format!r} (one of: "
+                              f"{', '.join(FORMATS)})")
+    if n2k_format == "candump3":
+        return ("\n".join(candump_lines(trial, t0_utc=t0_utc, source=source)) + "\n").encode()
+    e0 = log_start_epoch(trial, t0_utc)
+    enc = _Encoder(source, "can0")
+    info = FORMATS[n2k_format]
+    msgs: list[tuple[float, int, dict]] = []
+    last = -1
+    for i, st, pgn, fields in _pgn_messages(trial, e0):
+        if info.clock != "epoch" and i != last:  # the bus clock before each sample's frames
+            day = math.floor(round(st, 4) / 86400.0)
+            msgs.append((st, SYSTEM_TIME_PGN, {"sid": i % 250, "source": 0, "date": day,
+                                               "time": round(st - 86400.0 * day, 4)}))
+            last = i
+        msgs.append((st, pgn, fields))
+    out_t: list[str] = []
+    out_b: list[bytes] = []
+    prio, src = enc.prio, enc.src
+    can_msgs = []
+    for st, pgn, fields in msgs:
+        rel = st - e0 + boot_offset_s  # a gateway clock started boot_offset_s before the log
+        if n2k_format in ("n2k_ascii", "n2k_ascii_raw", "basic_string", "pcdin", "mxpgn",
+                          "pdgy", "bst_d0"):  # reassembled PGN formats
+            pl = enc.payload(pgn, fields)
+            if n2k_format in ("n2k_ascii", "n2k_ascii_raw"):
+                rec = f"{(src << 12) | (255 << 4) | prio:05X} {pgn:05X} {pl.hex().upper()}"
+                tod = datetime.fromtimestamp(round(st, 3), tz=UTC).strftime("%H%M%S.%f")[:-3]
+                out_t.append(f"A{tod} {rec}" if n2k_format == "n2k_ascii" else rec)
+            elif n2k_format == "basic_string":
+                ts = datetime.fromtimestamp(round(st, 3), tz=UTC).strftime(
+                    "%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+                out_t.append(",".join([ts, str(prio), str(pgn), str(src), "255", str(len(pl)),
+                                       *(f"{b:02x}" for b in pl)]))
+            elif n2k_format == "pcdin":
+                timer = _b32(round((st - PCDIN_EPOCH) * 1024))
+                out_t.append(_nmea0183(f"$PCDIN,{pgn:06X},{timer},{src:02X},{pl.hex().upper()}"))
+            elif n2k_format == "mxpgn":
+                attr = f"{(prio & 7) << 4 | (len(pl) & 0x0F):02X}{src:02X}"
+                out_t.append(_nmea0183(f"$MXPGN,{pgn:06X},{attr},{pl[::-1].hex().upper()}"))
+            elif n2k_format == "pdgy":
+                out_t.append(f"!PDGY,{pgn},{prio},{src},255,{rel:.3f},"
+                             + base64.b64encode(pl).decode("ascii"))
+            else:  # bst_d0
+                pf = (pgn >> 8) & 0xFF
+                head = bytes([0xD0, *(13 + len(pl)).to_bytes(2, "little"), 255, src,
+                              pgn & 0xFF if pf >= 240 else 255, pf,
+                              (prio & 7) << 2 | (pgn >> 16) & 3, 0])
+                ms = round(rel * 1000) % 2**32
+                out_b.append(_bdtp(_bst_checksum(head + ms.to_bytes(4, "little") + pl)))
+            continue
+        for cid, data in enc.frames(pgn, fields):  # CAN frame formats
+            hx = " ".join(f"{b:02X}" for b in data)
+            if n2k_format == "candump1":
+                out_t.append(f"<0x{cid:08X}> [{len(data)}] {hx}")
+            elif n2k_format == "candump2":
+                out_t.append(f"can0  {cid:08X}   [{len(data)}]  {hx}")
+            elif n2k_format == "can_frame_ascii":
+                tod = datetime.fromtimestamp(round(st, 3), tz=UTC).strftime("%H:%M:%S.%f")[:-3]
+                out_t.append(f"{tod} R {cid:08X} {hx}")
+            elif n2k_format == "can_frame_ascii_raw":
+                out_t.append(f"{cid:08X} {hx}")
+            elif n2k_format == "ebyte":
+                out_b.append(bytes([0x80 | len(data)]) + cid.to_bytes(4, "big") + data)
+            elif n2k_format == "waveshare":
+                pkt = (b"\xaa\x55\x01\x02\x01" + cid.to_bytes(4, "little") + bytes([len(data)])
+                       + data.ljust(8, b"\x00") + b"\x00")
+                out_b.append(pkt + bytes([sum(pkt[2:19]) & 0xFF]))
+            elif n2k_format == "bst_95":
+                pf = (pgn >> 8) & 0xFF
+                ms = round(rel * 1000) % 2**16
+                blk = bytes([0x95, 6 + len(data), *ms.to_bytes(2, "little"), src,
+                             pgn & 0xFF if pf >= 240 else 255, pf,
+                             (prio & 7) << 2 | (pgn >> 16) & 3]) + data
+                out_b.append(_bdtp(_bst_checksum(blk)))
+            else:  # python_can
+                can_msgs.append((st, cid, data))
+    if n2k_format == "python_can":
+        import can
+
+        buf = _KeepOpen()
+        writer = can.BLFWriter(buf)
+        for st, cid, data in can_msgs:
+            writer.on_message_received(can.Message(timestamp=st, arbitration_id=cid,
+                                                   is_extended_id=True, data=data))
+        writer.stop()
+        return buf.getvalue()
+    if out_t:
+        return ("\r\n".join(out_t) + "\r\n").encode()
+    return b"".join(out_b)
+
+
+def write_nmea2000(
+    trial: Trial,
+    path: str | Path,
+    n2k_format: str = "candump3",
+    *,
+    t0_utc: str | datetime | None = None,
+    source: int = 3,
+) -> Path:
+    """Write a Trial as an NMEA 2000 log in wire format ``n2k_format`` (any of :data:`FORMATS`;
+    ``python_can`` writes a Vector BLF file through python-can), atomically.
+
+    Channels -> PGNs as :func:`write_candump`. Time: the format's own time stamps (``candump3``
+    microseconds, ``basic_string`` / ``can_frame_ascii`` milliseconds, ``pcdin`` 1/1024 s,
+    ``n2k_ascii`` / ``pdgy`` / BST a gateway clock in ms started 100 s before the log); a System
+    Time frame (PGN 126992, 1e-4 s) precedes each sample's frames in every format without UTC
+    stamps, so that the log can be dated (and timed, where the format has no stamps).
+    """
+    return write_atomic(path, nmea2000_bytes(trial, n2k_format, t0_utc=t0_utc, source=source))
 
 
 def write_candump(

@@ -21,6 +21,7 @@ file that is not a bag, a missing topic, a missing field or an unknown message t
 from __future__ import annotations
 
 import math
+import operator
 import os
 import shutil
 import tempfile
@@ -161,7 +162,8 @@ def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> T
         by_topic.setdefault(col.topic, []).append((col, path_steps(str(col.col))))
     conns = [c for t in wanted for c in topics[t]]
     stamps: dict[str, list[int]] = {t: [] for t in wanted}
-    values: dict[str, list] = {c.name: [] for c in cols}
+    rows: dict[str, list] = {t: [] for t in wanted}
+    extract = {t: _extractor(g) for t, g in by_topic.items()}
     checked: set[str] = set()
     deser = reader.deserialize
     try:
@@ -176,18 +178,17 @@ def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> T
                     ) from None
                 state.reject("bad_message")
                 continue
-            getters = by_topic[conn.topic]
-            if conn.topic not in checked:
-                _check_fields(path, spec, msg, conn.msgtype, getters)
-                checked.add(conn.topic)
+            topic = conn.topic
+            if topic not in checked:
+                _check_fields(path, spec, msg, conn.msgtype, by_topic[topic])
+                checked.add(topic)
             try:
-                row = [raw_of(get_path(msg, st), col.conversion) for col, st in getters]
+                row = extract[topic](msg)
             except (AttributeError, IndexError, TypeError, ValueError):
                 state.reject("bad_message")
                 continue
-            stamps[conn.topic].append(ts)
-            for (col, _), v in zip(getters, row, strict=True):
-                values[col.name].append(v)
+            stamps[topic].append(ts)
+            rows[topic].append(row)
     except LogReadError:
         raise
     except Exception as exc:  # storage damage part-way: keep what was read, say where
@@ -197,13 +198,66 @@ def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> T
             f"{path.name}: reading stopped at a damaged part of the log ({_why(exc)}); "
             f"{sum(len(v) for v in stamps.values())} message(s) before it were read", count=1))
     series = []
-    for col in cols:
-        t = np.asarray(stamps[col.topic], dtype=np.int64)
-        raw = np.asarray(values[col.name], dtype=float).reshape(len(t), width(col))
-        series.append(Series(col, t, raw if width(col) > 1 else raw[:, 0]))
+    for topic, getters in by_topic.items():
+        t, table = _as_table(stamps[topic], rows[topic], sum(width(c) for c, _ in getters),
+                             state)
+        k = 0
+        for col, _ in getters:
+            w = width(col)
+            series.append(Series(col, t, table[:, k:k + w] if w > 1 else table[:, k]))
+            k += w
     first = min((int(s.t_ns[0]) for s in series if len(s.t_ns)), default=0)
     epoch = 0 if first > 315_532_800 * 10**9 else None  # log time is epoch time (after 1980)
     return build_trial(path, spec, series, state, reader="rosbag", clock_epoch_ns=epoch)
+
+
+def _extractor(getters: list) -> Any:
+    """A function message -> tuple of the raw values of the topic's columns (all columns of a
+    topic in one call, a quaternion as w, x, y, z and a vector as x, y): one C-level
+    ``operator.attrgetter`` when the field paths are attribute names only (no per-value Python
+    work in the loop), else the general path walk."""
+    leaves: list[str] = []
+    for col, steps in getters:
+        base = ".".join(str(s) for s in steps)
+        sub = {"yaw": "wxyz", "speed": "xy", "course": "xy"}.get(col.conversion or "", "")
+        leaves += [f"{base}.{a}" for a in sub] if sub else [base]
+    if all(isinstance(s, str) for _, steps in getters for s in steps):
+        get = operator.attrgetter(*leaves)
+        return get if len(leaves) > 1 else (lambda m: (get(m),))
+
+    def walk(m: Any) -> tuple:
+        out: list[float] = []
+        for col, steps in getters:
+            v = raw_of(get_path(m, steps), col.conversion)
+            out += v if isinstance(v, tuple) else [v]
+        return tuple(out)
+
+    return walk
+
+
+def _as_table(stamps: list[int], rows: list[tuple], k: int, state: ReadState
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Times [ns] (N,) and values (N, k) of one topic; a row that is not k numbers (a field of
+    another type in a damaged or odd message) is rejected as ``bad_message``."""
+    t = np.asarray(stamps, dtype=np.int64)
+    try:
+        table = np.array(rows, dtype=float).reshape(len(t), k)
+        return t, table
+    except (TypeError, ValueError):
+        pass
+    good, vals = [], []
+    for i, r in enumerate(rows):
+        try:
+            v = [float(x) for x in r]
+        except (TypeError, ValueError):
+            state.reject("bad_message")
+            continue
+        if len(v) == k:
+            good.append(i)
+            vals.append(v)
+        else:
+            state.reject("bad_message")
+    return t[good], np.array(vals, dtype=float).reshape(len(good), k)
 
 
 def _known_type(reader: Any, msgtype: str) -> bool:

@@ -68,6 +68,7 @@ After the conversion ``value = sign * factor(unit) * (scale * raw + offset)`` as
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from dataclasses import dataclass, field
@@ -85,10 +86,12 @@ READERS = ("table", "excel", "parquet", "nmea0183", "nmea2000", "rosbag", "ulog"
            "tlog")
 #: Readers of message-based logs (columns name a message type and a field).
 MESSAGE_READERS = ("rosbag", "ulog", "dataflash", "tlog")
-#: NMEA 2000 wire formats the ``nmea2000`` reader reads (names as
-#: ``nmea2000.input_formats.N2KFormat``): so far only ``candump3`` (``candump -L``); ``auto``
-#: detects it. The package's other formats are not bound yet (issue 11, open part).
-N2K_FORMATS = ("auto", "candump3")
+#: NMEA 2000 wire formats the ``nmea2000`` reader reads: every input format the ``nmea2000``
+#: package decodes, named as ``nmea2000.input_formats.N2KFormat`` (see :mod:`usvid.io.n2k`);
+#: ``python_can`` is a log file python-can reads (.asc, .blf, .trc, ...); ``auto`` detects it.
+N2K_FORMATS = ("auto", "candump3", "candump1", "candump2", "n2k_ascii", "n2k_ascii_raw",
+               "basic_string", "can_frame_ascii", "can_frame_ascii_raw", "pcdin", "mxpgn", "pdgy",
+               "ebyte", "waveshare", "bst_d0", "bst_95", "python_can")
 CONVERTS = ("yaw", "pwm", "speed", "course")
 FRAMES = ("enu", "ned")
 DELIMITERS = {"whitespace": None, ",": ",", ";": ";", "\t": "\t", "tab": "\t"}
@@ -538,8 +541,16 @@ def shipped_spec_path(name: str) -> Path:
 
 
 def shipped_spec(name: str) -> FormatSpec:
-    """Load a shipped spec by name, e.g. ``shipped_spec("hsva_kvlcc2")``."""
-    return load_spec(shipped_spec_path(name))
+    """Load a shipped spec by name, e.g. ``shipped_spec("hsva_kvlcc2")`` (parsed once per file
+    version: every auto-detected message log loads its preset, and YAML parsing costs more
+    than reading a short log)."""
+    p = shipped_spec_path(name)
+    return _load_shipped(p, p.stat().st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=64)
+def _load_shipped(path: Path, mtime_ns: int) -> FormatSpec:
+    return load_spec(path)
 
 
 def coerce_spec(spec: str | Path | FormatSpec | dict | None) -> FormatSpec | None:
