@@ -1,14 +1,16 @@
 """Benchmark: read a one-hour log in each message-log format (ROS 2 MCAP and sqlite3, ROS 1 bag,
-PX4 ULog, ArduPilot DataFlash, MAVLink tlog) with usvid's reader and with the library's own plain
-loop over the same file.
+PX4 ULog, ArduPilot DataFlash, MAVLink tlog) and in three NMEA 2000 wire formats (candump -L,
+SeaSmart $PCDIN, EByte binary) with usvid's reader and with the library's own plain loop over the
+same file.
 
 The log: a zig-zagging vessel at 10 Hz (position, velocity, heading, yaw rate, rudder angle and
 command, engine speed every 0.1 s), written by usvid's writers (``write_rosbag``, ``write_ulog``,
-``write_dataflash``, ``write_tlog``). The library loop is what a user of the library writes to
-get at the data: rosbags ``AnyReader.messages()`` + ``deserialize`` of every message; pyulog
-``ULog(path)``; pymavlink ``DFReader_binary`` / ``mavlink_connection`` + ``recv_msg()`` until the
-end. Prints records (messages in the file), seconds and records/s for both, and their ratio (aim:
-usvid within 1.5x of the library loop, i.e. ratio <= 1.5).
+``write_dataflash``, ``write_tlog``, ``write_nmea2000``). The library loop is what a user of the
+library writes to get at the data: rosbags ``AnyReader.messages()`` + ``deserialize`` of every
+message; pyulog ``ULog(path)``; pymavlink ``DFReader_binary`` / ``mavlink_connection`` +
+``recv_msg()`` until the end; nmea2000 ``NMEA2000Decoder(format).decode()`` of every line (text)
+or 13-byte packet (EByte). Prints records (messages in the file), seconds and records/s for both,
+and their ratio (aim: usvid within 1.5x of the library loop, i.e. ratio <= 1.5).
 
 Run: ``.venv/bin/python benchmarks/bench_message_logs.py [--minutes 60]``
 """
@@ -28,6 +30,7 @@ import pandas as pd
 from usvid import Trial
 from usvid.io import read_trial
 from usvid.io.ardupilot import write_dataflash, write_tlog
+from usvid.io.n2k import write_nmea2000
 from usvid.io.rosbag import write_rosbag
 from usvid.io.ulog import write_ulog
 
@@ -85,6 +88,24 @@ def lib_tlog(p: Path) -> int:
     return n
 
 
+def lib_n2k(fmt: str):
+    def run(p: Path) -> int:
+        from nmea2000.decoder import NMEA2000Decoder
+        from nmea2000.input_formats import N2KFormat
+
+        dec = NMEA2000Decoder(N2KFormat(fmt), units="si")
+        if fmt == "ebyte":
+            blob = p.read_bytes()
+            recs = [blob[i:i + 13] for i in range(0, len(blob), 13)]
+        else:
+            recs = p.read_text().splitlines()
+        for r in recs:
+            dec.decode(r)
+        return len(recs)
+
+    return run
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--minutes", type=float, default=60.0)
@@ -100,8 +121,11 @@ def main() -> None:
             ("PX4 ULog", lambda: write_ulog(tr, d / "log.ulg"), lib_ulog),
             ("DataFlash", lambda: write_dataflash(tr, d / "log.bin"), lib_dataflash),
             ("MAVLink tlog", lambda: write_tlog(tr, d / "log.tlog"), lib_tlog),
+            *((f"N2K {f}", (lambda f=f: write_nmea2000(tr, d / f"n2k_{f}.log", f)), lib_n2k(f))
+              for f in ("candump3", "pcdin", "ebyte")),
         ]
-        print(f"one log of {args.minutes:g} min, {len(tr)} rows at 10 Hz, 7-8 message types")
+        print(f"one log of {args.minutes:g} min, {len(tr)} rows at 10 Hz, 7-8 message types "
+              "(NMEA 2000: 7 PGNs, + System Time in EByte)")
         print(f"{'format':14s} {'records':>9s} {'usvid s':>8s} {'usvid rec/s':>12s} "
               f"{'lib s':>7s} {'lib rec/s':>10s} {'ratio':>6s}")
         for name, write, lib in cases:

@@ -125,14 +125,20 @@ def test_campaign_identifies_the_same_nomoto_in_every_format(campaign):
             assert abs(p[k] / base[k] - 1) < 0.005, (fmt, k, p[k], base[k])
 
 
-@pytest.mark.parametrize("fmt", ["ros2_mcap", "ulog", "dataflash", "tlog"])
+@pytest.mark.parametrize("fmt", ["ros2_mcap", "ulog", "dataflash", "tlog", "skid_steer"])
 def test_cli_identify_without_format(campaign, tmp_path, fmt, capsys):
+    """Every preset setup: ros2_usv, px4_boat, ardupilot_rover (DataFlash and tlog) and
+    ardupilot_skid_steer (DataFlash: the steering demand STER.SteerOut is the Nomoto input)."""
     refs, _ = campaign
-    log = WRITERS[fmt](refs[0], tmp_path)
+    if fmt == "skid_steer":
+        tr = Trial(refs[0].data.assign(n_port=0.5, n_stbd=0.5), meta=dict(refs[0].meta))
+        log = write_dataflash(tr, tmp_path / "skid.bin", skid_steer=True)
+    else:
+        log = WRITERS[fmt](refs[0], tmp_path)
     code = main(["identify", str(log), "--model", "nomoto1", "--out", str(tmp_path / "m.json")])
     err = capsys.readouterr().err
     assert code == 0, err
-    assert f"format {PRESET[fmt]}" in err
+    assert f"format {PRESET.get(fmt, 'ardupilot_skid_steer')}" in err
     assert (tmp_path / "m.json").is_file()
 
 
@@ -342,22 +348,32 @@ def test_not_a_log_of_the_spec(tmp_path):
         assert str(junk) in one_line(ei.value)
 
 
-def test_missing_extra_names_it(monkeypatch, small_logs):
+@pytest.mark.parametrize("fmt, module, extra", [
+    ("ros2_mcap", "rosbags", "ros"), ("ros1", "rosbags", "ros"), ("ulog", "pyulog", "px4"),
+    ("dataflash", "pymavlink", "ardupilot"), ("tlog", "pymavlink", "ardupilot")])
+def test_missing_extra_names_it(monkeypatch, small_logs, tmp_path, capsys, fmt, module, extra):
     import builtins
+    import importlib
 
     real = builtins.__import__
 
     def fake(name, *a, **k):
-        if name.split(".")[0] == "pyulog":
+        if name.split(".")[0] == module:
             raise ImportError(name)
         return real(name, *a, **k)
 
     monkeypatch.setattr(builtins, "__import__", fake)
-    import importlib
-
     monkeypatch.setattr(importlib, "import_module", lambda n: fake(n))
-    with pytest.raises(UsvidError, match=r"usvid\[px4\]"):
-        read_trial(small_logs["ulog"])
+    with pytest.raises(UsvidError, match=rf"'{module}': pip install 'usvid\[{extra}\]'") as ei:
+        read_trial(small_logs[fmt])
+    one_line(ei.value)
+    # the CLI: one line naming the extra, exit 2
+    assert main(["audit", str(small_logs[fmt])]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("usvid: error:") and f"usvid[{extra}]" in err and "\n" not in err
+    if fmt in ("ros2_mcap", "tlog"):  # and the writers
+        with pytest.raises(UsvidError, match=rf"usvid\[{extra}\]"):
+            WRITERS[fmt](small_trial(), tmp_path)
 
 
 @pytest.mark.parametrize("bad, msg", [

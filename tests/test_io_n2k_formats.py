@@ -20,11 +20,18 @@ from usvid import Trial
 from usvid.errors import LogReadError, UsvidError
 from usvid.io import detect_reader, read_trial
 from usvid.io.n2k import (
+    _FIELDS,
     FORMATS,
     SYSTEM_TIME_PGN,
+    _channels,
+    _system_time,
+    bdtp_frames,
+    binary_records,
+    decode_payloads,
     detect_n2k_format,
     nmea2000_bytes,
     parse_text_record,
+    valid_raw,
     write_nmea2000,
 )
 from usvid.io.spec import N2K_FORMATS
@@ -123,6 +130,61 @@ def test_framing_matches_the_package_encoders(fmt):
         ours = [ln for ln in blob.decode().splitlines()
                 if parse_text_record(fmt, ln)[1] != SYSTEM_TIME_PGN]
     assert ours == lib
+
+
+def test_vectorised_decode_matches_the_package():
+    """usvid decodes the payloads of its PGNs at once (numpy; layouts from the package's canboat
+    database, valid raw intervals found by asking its decoder): on random payloads, "not
+    available" markers and out-of-range values, every value equals the package's own decoder
+    exactly."""
+    from nmea2000.backend import decode
+
+    rng = np.random.default_rng(11)
+    pgn = np.repeat(np.array(list(_FIELDS)), 400)
+    pay = rng.integers(0, 256, (len(pgn), 8), dtype=np.uint8)
+    pay[::9, :] = 0xFF  # "not available" everywhere
+    pay[1::13, 1:3] = [0xFD, 0xFF]  # u16 0xFFFD at byte 1 (reserved marker)
+    pay[3::13, 1:3] = [0xFC, 0xFF]  # the largest valid u16
+    pay[2::17, 7] = 0x01  # magnetic reference
+    pay[4::19, 0:2] = [1, 0]  # rudder / engine instance 1
+    chans, sys_epoch = decode_payloads(pgn, pay)
+    for i in range(len(pgn)):
+        msg = decode(int(pgn[i]), bytes(pay[i]), units="si")
+        if pgn[i] == SYSTEM_TIME_PGN:
+            np.testing.assert_equal(sys_epoch[i], _system_time(msg))
+            continue
+        want = _channels(msg)
+        got = {k: v[i] for k, v in chans.items() if not np.isnan(v[i])}
+        assert got == {k: v for k, v in want.items() if not np.isnan(v)}, (pgn[i], pay[i])
+    # canboat's limits as found: -pi for a signed angle, the top three codes reserved
+    assert valid_raw(127250, "deviation") == (-31416, 32764)
+    assert valid_raw(129025, "latitude")[0] == -900_000_000
+
+
+@pytest.mark.parametrize("fmt", sorted(set(FORMATS) - {"python_can"}))
+def test_records_parse_as_the_package_decoders(fmt):
+    """usvid's framing of each format gives the PGN and payload that nmea2000's own decoder for
+    the format finds (the same decoded fields, record by record)."""
+    from nmea2000.backend import decode
+    from nmea2000.decoder import NMEA2000Decoder
+    from nmea2000.input_formats import N2KFormat
+
+    dec = NMEA2000Decoder(N2KFormat(fmt), units="si")
+    blob = nmea2000_bytes(trial(T=0.2), fmt)
+    if FORMATS[fmt].binary:
+        recs = list(binary_records(fmt, blob))
+        size = {"ebyte": 13, "waveshare": 20}.get(fmt)
+        items = ([blob[i:i + size] for i in range(0, len(blob), size)] if size else
+                 [blk for _, _, blk in bdtp_frames(blob)])
+    else:
+        items = blob.decode().splitlines()
+        recs = [parse_text_record(fmt, ln) for ln in items]
+    assert len(recs) == len(items) > 10
+    for (_, pgn, payload), item in zip(recs, items, strict=True):
+        lib = dec.decode(item)
+        ours = decode(pgn, payload, units="si")
+        assert lib.PGN == pgn
+        assert [(f.id, f.value) for f in lib.fields] == [(f.id, f.value) for f in ours.fields]
 
 
 def test_untimed_log_without_system_time_is_one_line(tmp_path):

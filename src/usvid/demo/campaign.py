@@ -40,6 +40,7 @@ from usvid.files import write_atomic
 from usvid.identify.estimator import identify
 from usvid.io.n2k import read_candump, write_candump
 from usvid.io.nmea0183 import read_nmea0183, write_nmea0183
+from usvid.io.rosbag import write_rosbag
 from usvid.io.spec import load_spec
 from usvid.io.table import read_table
 from usvid.manoeuvres.detect import steady_turn
@@ -427,8 +428,9 @@ def smooth_wander(t: np.ndarray, sigma: float, tau: float, rng: np.random.Genera
 
 
 def _to_logs(trial: Any, t0_utc: str, truth: tuple[np.ndarray, dict[str, np.ndarray]],
-             seed: int) -> tuple[Any, Any, Any]:
-    """Split a virtual trial into what each logger records: (NMEA 0183, NMEA 2000, CSV).
+             seed: int) -> tuple[Any, Any, Any, Any]:
+    """Split a virtual trial into what each logger records: (NMEA 0183, NMEA 2000, CSV, ROS:
+    every channel, as a ROS robot records them).
 
     Adds the GNSS wander (:data:`GNSS_WANDER_M`) to the positions and a Doppler course over
     ground (true course ``psi + atan2(v, u)`` plus :data:`COG_SIGMA_DEG` noise) at the fixes.
@@ -461,11 +463,15 @@ def _to_logs(trial: Any, t0_utc: str, truth: tuple[np.ndarray, dict[str, np.ndar
         return Trial(data=df.loc[keep].reset_index(drop=True), name=trial.name, meta=meta)
 
     col = {c: d[c].to_numpy(dtype=float) for c in d.columns}
-    n0183 = sub({"lat": lat, "lon": lon, "U": col["U"], "cog": cog, "psi": col["psi"],
-                 "r": col["r"], "delta": col["delta"]})
+    nav = {"lat": lat, "lon": lon, "U": col["U"], "cog": cog, "psi": col["psi"], "r": col["r"],
+           "delta": col["delta"]}
+    n0183 = sub(nav)
     n2k = sub({"n": col["n"], "delta_cmd": col["delta_cmd"]})
     csv = sub({"u": col["u"], "v": col["v"]})
-    return n0183, n2k, csv
+    # a ROS robot records the same sensors on its topics (no NMEA quantisation)
+    ros = sub({**nav, "n": col["n"], "delta_cmd": col["delta_cmd"], "u": col["u"],
+               "v": col["v"]})
+    return n0183, n2k, csv, ros
 
 
 def _csv_text(trial: Any) -> str:
@@ -477,12 +483,16 @@ def _csv_text(trial: Any) -> str:
     return "\n".join(lines) + "\n"
 
 
-def generate_campaign(out_dir: Any, seed: int = 1, quick: bool = False) -> Campaign:
+def generate_campaign(out_dir: Any, seed: int = 1, quick: bool = False,
+                      ros2_bag: bool = False) -> Campaign:
     """Simulate the programme and write its log files into ``out_dir`` (created).
 
     Per trial ``NAME.nmea`` (NMEA 0183), ``NAME.candump`` (NMEA 2000, ``candump -L``) and
-    ``NAME.csv`` (logger export), plus the three format specs ``lanxin_*.yaml``. Deterministic
-    for a given ``seed`` (disturbance and sensor noise are seeded; file times are fixed).
+    ``NAME.csv`` (logger export), plus the three format specs ``lanxin_*.yaml``. With
+    ``ros2_bag`` (needs the ``usvid[ros]`` extra) the first zig-zag is also recorded as a ROS 2
+    bag ``NAME_ros2/`` (MCAP storage, topics of the ``ros2_usv`` preset, every sensor channel;
+    ``files["ros2"]``). Deterministic for a given ``seed`` (disturbance and sensor noise are
+    seeded; file times are fixed).
     """
 
 
@@ -531,12 +541,15 @@ def generate_campaign(out_dir: Any, seed: int = 1, quick: bool = False) -> Campa
         vt = virtual_trial(res, sensors, seed=seed * 100 + k, i=i, name=m.name)
         vt = vt.slice_time(0.0, m.duration_s, name=m.name)
         t0_utc = (t0 + timedelta(minutes=10 * k)).isoformat()
-        n0183, n2k, csv = _to_logs(vt, t0_utc, run_channels(res, i), seed * 100 + k)
+        n0183, n2k, csv, ros = _to_logs(vt, t0_utc, run_channels(res, i), seed * 100 + k)
         files = {
             "nmea0183": str(write_nmea0183(n0183, out / f"{m.name}.nmea", t0_utc=t0_utc)),
             "nmea2000": str(write_candump(n2k, out / f"{m.name}.candump", t0_utc=t0_utc)),
             "csv": str(write_atomic(out / f"{m.name}.csv", _csv_text(csv))),
         }
+        if ros2_bag and m.kind == "zigzag" and not any("ros2" in t.files for t in trials):
+            files["ros2"] = str(write_rosbag(ros, out / f"{m.name}_ros2", storage="mcap",
+                                             t0_utc=t0_utc))
         trials.append(CampaignTrial(m, files, {"t0_utc": t0_utc}))
     truth, extra = campaign_truth(model, quick)
     vessel = {"length": LANXIN["length"], "speed": speed, "beam": LANXIN["beam"],

@@ -23,6 +23,7 @@ output is written atomically, so an interrupted demo never leaves a half-written
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 import shutil
@@ -189,7 +190,9 @@ class DemoPipeline:
         # of logs/ with other names (the user's) are never deleted or modified
         tmp = Path(tempfile.mkdtemp(prefix=".logs.", suffix=".tmp", dir=self.out))
         try:
-            camp = generate_campaign(tmp, seed=self.seed, quick=self.quick)
+            # the first zig-zag also as a ROS 2 bag when the usvid[ros] extra is installed
+            camp = generate_campaign(tmp, seed=self.seed, quick=self.quick,
+                                     ros2_bag=importlib.util.find_spec("rosbags") is not None)
             move_into(tmp, logs)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)  # only the temporary folder it created

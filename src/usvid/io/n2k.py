@@ -1,28 +1,24 @@
 """NMEA 2000 logs in every wire format the ``nmea2000`` package decodes: reader and writer.
 
 Formats (``n2k_format:`` in the spec, names as ``nmea2000.input_formats.N2KFormat``; detected
-from the file's content when omitted), one record per line or packet:
+from the file's content when omitted), one record per line or packet, and their clocks:
 
-==========================  =================================================  ===============
-``n2k_format``              record                                             time stamp
-==========================  =================================================  ===============
-``candump3``                ``(1700000000.123456) can0 09F11203#013930FF...``  epoch [s]
-``candump1``                ``<0x09F11203> [8] 01 39 30 FF 7F FF 7F FC``         none
-``candump2``                ``can0  09F11203   [8]  01 39 30 FF 7F FF 7F FC``    none
-``n2k_ascii`` (Actisense)   ``A221320.123 03FF2 1F112 013930FF7FFF7FFC``        time of day [3]
-``n2k_ascii_raw``           ``03FF2 1F112 013930FF7FFF7FFC``                    none
-``basic_string``            ``2023-11-14T22:13:20.123Z,2,127250,3,255,8,01,..`` ISO date-time
-``can_frame_ascii``         ``22:13:20.123 R 09F11203 01 39 30 FF 7F FF 7F FC``  time of day
-``can_frame_ascii_raw``     ``09F11203 01 39 30 FF 7F FF 7F FC``                 none
-``pcdin`` (SeaSmart)        ``$PCDIN,01F112,0LIM0E3K,03,013930FF7FFF7FFC*2C``  base-32 ms [2]
-``mxpgn`` (Shipmodul)       ``$MXPGN,01F112,2803,FC7FFF7FFF303901*3E``         none
-``pdgy`` (Digital Yacht)    ``!PDGY,127250,2,3,255,100.250,ATkw/3//f/w=``      seconds [1]
-``ebyte`` (binary)          13-byte TCP packets: type, CAN id (big endian), data  none
-``waveshare`` (binary)      20-byte USB-CAN-A packets ``AA 55 ..`` + checksum   none
-``bst_d0`` (binary)         Actisense BST D0 (reassembled PGN) in BDTP framing  ms counter [1]
-``bst_95`` (binary)         Actisense BST 95 (CAN frame) in BDTP framing        ms counter [1]
-``python_can``              a python-can log file (.blf, .asc, .trc, ...)        its stamps
-==========================  =================================================  ===============
+- ``candump3``: ``(1700000000.123456) can0 09F11203#003930FF7FFF7FFC`` (``candump -L``), UTC;
+- ``candump1``: ``<0x09F11203> [8] 00 39 30 FF 7F FF 7F FC``, no time;
+- ``candump2``: ``can0  09F11203   [8]  00 39 30 FF 7F FF 7F FC``, no time;
+- ``n2k_ascii`` (Actisense): ``A221320.123 03FF2 1F112 003930FF7FFF7FFC``, time of day [3];
+- ``n2k_ascii_raw``: ``03FF2 1F112 003930FF7FFF7FFC``, no time;
+- ``basic_string`` (canboat): ``2023-11-14T22:13:20.123Z,2,127250,3,255,8,00,39,...``, UTC;
+- ``can_frame_ascii`` (Yacht Devices): ``22:13:20.123 R 09F11203 00 39 30 ...``, time of day;
+- ``can_frame_ascii_raw``: ``09F11203 00 39 30 FF 7F FF 7F FC``, no time;
+- ``pcdin`` (SeaSmart): ``$PCDIN,01F112,D1DDG03U,03,003930FF7FFF7FFC*4E``, UTC [2];
+- ``mxpgn`` (Shipmodul): ``$MXPGN,01F112,2803,FC7FFF7FFF303900*10``, no time;
+- ``pdgy`` (Digital Yacht): ``!PDGY,127250,2,3,255,100.000,ADkw/3//f/w=``, seconds [1];
+- ``ebyte`` (binary): 13-byte TCP packets (type, CAN id big endian, data), no time;
+- ``waveshare`` (binary): 20-byte USB-CAN-A packets ``AA 55 ...`` with a checksum, no time;
+- ``bst_d0`` / ``bst_95`` (binary): Actisense BST D0 (reassembled PGN) / BST 95 (CAN frame) in
+  BDTP framing, a millisecond counter [1];
+- ``python_can``: a python-can log file (``.blf``, ``.asc``, ``.trc``, ...), its stamps.
 
 [1] a relative clock (seconds since the gateway started; the BST counters wrap at 2^32 ms and
 2^16 ms and are unwrapped); [2] 1/1024 s since 2010-01-01 (SeaSmart); [3] ``hhmmss.ddd`` (the
@@ -65,6 +61,7 @@ read the missing bytes as values), ``bad_frame`` (a record that does not decode)
 from __future__ import annotations
 
 import base64
+import functools
 import io
 import math
 import re
@@ -213,6 +210,140 @@ def _channels(msg) -> dict[str, float] | None:
 
 
 # ----------------------------------------------------------------------------------------------
+# vectorised decoding of the payloads (layouts from the package's canboat database)
+# ----------------------------------------------------------------------------------------------
+#: Fields read per PGN: (canboat field id, signed). Their bit offsets, lengths and resolutions
+#: are the package's (``nmea2000.backend.DATABASE``); ``reference`` and ``instance`` are lookups
+#: read as their wire code.
+_FIELDS: dict[int, tuple[tuple[str, bool], ...]] = {
+    127250: (("heading", False), ("deviation", True), ("variation", True), ("reference", False)),
+    127251: (("rate", True),),
+    127245: (("instance", False), ("angleOrder", True), ("position", True)),
+    128259: (("speedWaterReferenced", False), ("speedGroundReferenced", False)),
+    129025: (("latitude", True), ("longitude", True)),
+    129026: (("cog", False), ("sog", False)),
+    127488: (("instance", False), ("speed", False)),
+    SYSTEM_TIME_PGN: (("date", False), ("time", False)),
+}
+_CODES = ("reference", "instance")
+
+
+@functools.cache
+def _layout(pgn: int) -> tuple[tuple[str, int, int, float, bool], ...]:
+    """``(field id, bit offset, bit length, resolution, signed)`` of the fields read."""
+    from nmea2000.backend import DATABASE
+
+    info = {f.id: f for f in DATABASE.pgn_info(_PGN_ID[pgn]).fields}
+    return tuple((fid, int(info[fid].bit_offset), int(info[fid].bit_length),
+                  float(info[fid].resolution or 1.0), signed) for fid, signed in _FIELDS[pgn])
+
+
+@functools.cache
+def valid_raw(pgn: int, fid: str) -> tuple[int, int]:
+    """The interval of raw values of field ``fid`` that the package decodes as a value: outside
+    it canboat reports "not available" (its markers at the top of the range, e.g. 0xFFFD..0xFFFF,
+    and its range limits, e.g. -pi for a signed angle, -90 deg for a latitude). Found by asking
+    the package's decoder (bisection on single-field payloads), so that the vectorised decoder
+    keeps canboat's verdicts without restating its rules."""
+    from nmea2000.backend import decode
+
+    _, off, ln, _, signed = next(f for f in _layout(pgn) if f[0] == fid)
+
+    def ok(r: int) -> bool:
+        word = (r & ((1 << ln) - 1)) << off
+        msg = decode(pgn, word.to_bytes(8, "little"), units="si")
+        return msg is not None and next(f for f in msg.fields if f.id == fid).value is not None
+
+    lo, hi = (-(1 << (ln - 1)), (1 << (ln - 1)) - 1) if signed else (0, (1 << ln) - 1)
+    a, b = 0, hi
+    while a < b:  # the largest valid raw value
+        m = (a + b + 1) // 2
+        a, b = (m, b) if ok(m) else (a, m - 1)
+    top = a
+    a, b = lo, 0
+    while a < b:  # the smallest
+        m = (a + b) // 2
+        a, b = (a, m) if ok(m) else (m + 1, b)
+    return a, top
+
+
+def decode_payloads(pgn: np.ndarray, payload: np.ndarray
+                    ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Decode 8-byte payloads ``payload`` (N, 8) uint8 of PGNs ``pgn`` (N,) at once.
+
+    Returns the Trial channels (name -> (N,) float, NaN where a record does not carry it or the
+    field is "not available"; the names and values of :func:`_channels` on the package's
+    decoding) and the System Time of each 126992 record [epoch s] (NaN elsewhere). Values are
+    ``raw * resolution`` in SI, as canboat's; the valid raw intervals are :func:`valid_raw`.
+    """
+    n = len(pgn)
+    word = np.ascontiguousarray(payload, dtype=np.uint8).view("<u8")[:, 0]
+    chans: dict[str, np.ndarray] = {}
+    sys_epoch = np.full(n, np.nan)
+
+    def put(name: str, rows: np.ndarray, values: np.ndarray) -> None:
+        if not len(rows):
+            return
+        if name not in chans:
+            chans[name] = np.full(n, np.nan)
+        chans[name][rows] = values
+
+    for p in np.unique(pgn):
+        p = int(p)
+        if p not in _FIELDS:
+            continue
+        rows = np.flatnonzero(pgn == p)
+        w = word[rows]
+        raw: dict[str, np.ndarray] = {}
+        val: dict[str, np.ndarray] = {}
+        for fid, off, ln, res, signed in _layout(p):
+            r = ((w >> np.uint64(off)) & np.uint64((1 << ln) - 1)).astype(np.int64)
+            if signed:
+                r = np.where(r >= 1 << (ln - 1), r - (1 << ln), r)
+            raw[fid] = r
+            if fid not in _CODES:
+                lo, hi = valid_raw(p, fid)
+                val[fid] = np.where((r >= lo) & (r <= hi), r * res, np.nan)
+        if p == 127250:
+            mag = raw["reference"] == 1
+            put("psi", rows[~mag], val["heading"][~mag])
+            if mag.any():
+                put("psi_mag", rows[mag], val["heading"][mag]
+                    + np.nan_to_num(val["deviation"][mag])
+                    + np.nan_to_num(val["variation"][mag]))
+        elif p == 127251:
+            put("r", rows, val["rate"])
+        elif p == 127245:
+            # a number here (a lookup in 127488): "not available" reads as instance 0
+            lo, hi = valid_raw(p, "instance")
+            ri = np.where((raw["instance"] >= lo) & (raw["instance"] <= hi), raw["instance"], 0)
+            for inst in np.unique(ri):
+                k = ri == inst
+                put("delta" if inst == 0 else f"delta_{'port' if inst == 1 else int(inst)}",
+                    rows[k], val["position"][k])
+                if inst == 0:
+                    put("delta_cmd", rows[k], val["angleOrder"][k])
+        elif p == 128259:
+            put("stw", rows, val["speedWaterReferenced"])
+            put("sog", rows, val["speedGroundReferenced"])
+        elif p == 129025:
+            put("lat", rows, val["latitude"])
+            put("lon", rows, val["longitude"])
+        elif p == 129026:
+            put("cog", rows, val["cog"])
+            put("sog", rows, val["sog"])
+        elif p == 127488:
+            for inst in np.unique(raw["instance"]):
+                k = raw["instance"] == inst
+                put(f"_engine{int(inst)}", rows[k], val["speed"][k])
+        else:  # System Time
+            d, t = val["date"], val["time"]
+            ok = (d < 65533) & (t < 86400.5)  # (NaN compares False)
+            sys_epoch[rows[ok]] = d[ok] * 86400.0 + t[ok]
+    return chans, sys_epoch
+
+
+# ----------------------------------------------------------------------------------------------
 # records of each format: (wire time or NaN, PGN, data bytes) or None (not a record: garbage)
 # ----------------------------------------------------------------------------------------------
 def pgn_of_can_id(can_id: int) -> int:
@@ -245,8 +376,17 @@ _RE = {
 _BASIC_TIME = re.compile(r"^\d{4}-\d\d-\d\d[T-]\d\d:\d\d:\d\d(\.\d+)?Z?$")
 
 
-def _nbytes(hexs: str) -> int:
-    return len(hexs) // 2 if len(hexs) % 2 == 0 else -1
+def _hex(hexs: str) -> bytes | None:
+    """Bytes of a hex string (None: an odd number of digits)."""
+    return bytes.fromhex(hexs) if len(hexs) % 2 == 0 else None
+
+
+def _spaced(hexs: str, dlc: int | None = None) -> bytes | None:
+    """Bytes of space-separated hex pairs (at most ``dlc`` of them; None: more than 8)."""
+    b = bytes.fromhex(hexs)
+    if len(b) > 8:
+        return None
+    return b if dlc is None else b[:dlc]
 
 
 def _sentence(line: str) -> tuple[str, bool | None]:
@@ -259,13 +399,21 @@ def _sentence(line: str) -> tuple[str, bool | None]:
     body, star, cs = line.partition("*")
     if not star:
         return body, None
-    x = 0
-    for ch in body[1:]:
-        x ^= ord(ch)
     try:
-        return body, int(cs[:2], 16) == x
-    except ValueError:
+        return body, int(cs[:2], 16) == xor8(body[1:].encode("latin-1"))
+    except (ValueError, UnicodeEncodeError):
         return body, False
+
+
+def xor8(b: bytes) -> int:
+    """XOR of all bytes of ``b`` (the NMEA 0183 checksum), folded as one integer in halves at
+    byte boundaries (a few big-integer operations instead of a loop over the characters)."""
+    x, n = int.from_bytes(b, "little"), len(b)
+    while n > 1:
+        h = (n + 1) // 2
+        x = (x & ((1 << (8 * h)) - 1)) ^ (x >> (8 * h))
+        n = h
+    return x
 
 
 def _basic_time(stamp: str) -> float:
@@ -280,10 +428,11 @@ def _basic_time(stamp: str) -> float:
         return math.nan
 
 
-def parse_text_record(fmt: str, line: str) -> tuple[float, int, int] | str | None:
-    """``(wire time [s] or NaN, PGN, data bytes)`` of one line of text format ``fmt``; None when
-    the line is not a record of the format, ``"checksum"`` when its sentence checksum is wrong.
-    A negative byte count is a malformed data field."""
+def parse_text_record(fmt: str, line: str) -> tuple[float, int, bytes | None] | str | None:
+    """``(wire time [s] or NaN, PGN, payload)`` of one line of text format ``fmt`` (the payload
+    in wire order: a CAN frame's data, or the whole PGN of a reassembled format; None when its
+    data field is malformed); None when the line is not a record of the format, ``"checksum"``
+    when its sentence checksum is wrong."""
     nan = math.nan
     if fmt == "basic_string":
         p = line.split(",")
@@ -291,18 +440,20 @@ def parse_text_record(fmt: str, line: str) -> tuple[float, int, int] | str | Non
             return None
         if any(len(x) != 2 for x in p[6:]):
             return None
-        n = len(p) - 6
-        return _basic_time(p[0]), int(p[2]), n if n >= int(p[5]) else -1
+        try:
+            data = bytes.fromhex("".join(p[6:]))
+        except ValueError:
+            return None
+        return _basic_time(p[0]), int(p[2]), data if len(data) >= int(p[5]) else None
     if fmt == "pdgy":
         if not line.startswith("!PDGY,"):
             return None
         p = line.split(",")
         try:
             if len(p) == 7:
-                n = len(base64.b64decode(p[6], validate=True))
-                return float(p[5]), int(p[1]), n
+                return float(p[5]), int(p[1]), base64.b64decode(p[6], validate=True)
             if len(p) == 4:
-                return nan, int(p[1]), len(base64.b64decode(p[3], validate=True))
+                return nan, int(p[1]), base64.b64decode(p[3], validate=True)
         except ValueError:
             return None
         return None
@@ -314,10 +465,13 @@ def parse_text_record(fmt: str, line: str) -> tuple[float, int, int] | str | Non
         if ok is False:
             return "checksum"
         pgn = int(m.group(1), 16)
-        n = _nbytes(m.group(3))
+        data = _hex(m.group(3))
         if fmt == "pcdin":
-            return int(m.group(2), 32) / 1024 + PCDIN_EPOCH, pgn, n
-        return nan, pgn, n if n == int(m.group(2), 16) & 0x0F else -1
+            return int(m.group(2), 32) / 1024 + PCDIN_EPOCH, pgn, data
+        # Shipmodul: the data bytes in reverse order, their count in the attribute word
+        if data is None or len(data) != int(m.group(2), 16) & 0x0F:
+            return nan, pgn, None
+        return nan, pgn, data[::-1]
     m = _RE[fmt].match(line)
     if m is None:
         return None
@@ -327,22 +481,19 @@ def parse_text_record(fmt: str, line: str) -> tuple[float, int, int] | str | Non
             stamp = float(g[0])
         except ValueError:
             stamp = nan
-        n = _nbytes(g[2])
-        return stamp, pgn_of_can_id(int(g[1], 16)), n if n <= 8 else -1
+        data = _hex(g[2])
+        return stamp, pgn_of_can_id(int(g[1], 16)), data if data is None or len(data) <= 8 else None
     if fmt in ("candump1", "candump2"):
-        n = len(g[2].split())
-        return nan, pgn_of_can_id(int(g[0], 16)), min(int(g[1]), n) if n <= 8 else -1
+        return nan, pgn_of_can_id(int(g[0], 16)), _spaced(g[2], int(g[1]))
     if fmt == "n2k_ascii":
-        return int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), int(g[3], 16), _nbytes(g[4])
+        return int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), int(g[3], 16), _hex(g[4])
     if fmt == "n2k_ascii_raw":
-        return nan, int(g[0], 16), _nbytes(g[1])
+        return nan, int(g[0], 16), _hex(g[1])
     if fmt == "can_frame_ascii":
-        n = len(g[4].split())
         return (int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), pgn_of_can_id(int(g[3], 16)),
-                n if n <= 8 else -1)
+                _spaced(g[4]))
     # can_frame_ascii_raw
-    n = len(g[1].split())
-    return nan, pgn_of_can_id(int(g[0], 16)), n if n <= 8 else -1
+    return nan, pgn_of_can_id(int(g[0], 16)), _spaced(g[1])
 
 
 _DLE, _STX, _ETX = 0x10, 0x02, 0x03
@@ -382,8 +533,8 @@ def bdtp_frames(blob: bytes) -> Iterator[tuple[int, int, bytes | None]]:
         i = blob.find(b"\x10\x02", nxt)
 
 
-def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, int, bytes] | str]:
-    """Records of a binary format: ``(wire time [s] or NaN, PGN, data bytes, packet)``, or a
+def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, bytes] | str]:
+    """Records of a binary format: ``(wire time [s] or NaN, PGN, payload in wire order)``, or a
     reason string (``garbage``, ``truncated``, ``bad_frame``) for a damaged stretch."""
     nan = math.nan
     if fmt == "ebyte":
@@ -393,7 +544,7 @@ def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, int, byt
             ln = b & 0x0F
             if b & 0x80 and 1 <= ln <= 8 and i + 5 + ln <= n:
                 pkt = blob[i:i + 5 + ln]
-                yield nan, pgn_of_can_id(int.from_bytes(pkt[1:5], "big") & 0x1FFFFFFF), ln, pkt
+                yield nan, pgn_of_can_id(int.from_bytes(pkt[1:5], "big") & 0x1FFFFFFF), pkt[5:]
                 i += 5 + ln
                 junk = False
                 continue
@@ -421,7 +572,7 @@ def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, int, byt
                 i = k + 2
                 continue
             cid = int.from_bytes(pkt[5:9], "little") & 0x1FFFFFFF
-            yield nan, pgn_of_can_id(cid), min(pkt[9], 8), pkt
+            yield nan, pgn_of_can_id(cid), pkt[10:10 + min(pkt[9], 8)]
             i = k + 20
         return
     # bst_d0 / bst_95 in BDTP framing
@@ -445,13 +596,13 @@ def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, int, byt
                 yield "bad_frame"
                 continue
             ms = int.from_bytes(blk[9:13], "little")
-            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), len(blk) - 14, blk
+            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), blk[13:-1]
         else:
             if len(blk) < 9 or blk[1] != len(blk) - 3:
                 yield "bad_frame"
                 continue
             ms = int.from_bytes(blk[2:4], "little")
-            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), len(blk) - 9, blk
+            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), blk[8:-1]
     if blob[last:].strip(b"\x00"):
         yield "garbage"
 
@@ -532,7 +683,7 @@ def _unwrap(w: np.ndarray, period: float) -> np.ndarray:
 
 
 def _python_can_records(path: Path):
-    """Messages of a python-can log file as ``(stamp, PGN, data bytes, message)``."""
+    """Messages of a python-can log file as ``(stamp, PGN, data)``."""
     import can
 
     try:
@@ -551,7 +702,7 @@ def _python_can_records(path: Path):
             if not m.is_extended_id or m.is_error_frame or m.is_remote_frame:
                 yield "garbage"
                 continue
-            yield float(m.timestamp), pgn_of_can_id(m.arbitration_id), len(m.data), m
+            yield float(m.timestamp), pgn_of_can_id(m.arbitration_id), bytes(m.data)
     except Exception:  # python-can raises struct/zlib/value errors on a damaged file
         yield "damaged"
     finally:
@@ -573,9 +724,6 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     :class:`LogReadError` naming the file when the file is empty, not of the format, or has no
     usable frame.
     """
-    from nmea2000.decoder import NMEA2000Decoder
-    from nmea2000.input_formats import N2KFormat
-
     path = Path(path)
     blob = read_log_bytes(path)
     fmt = spec.n2k_format if spec is not None else "auto"
@@ -590,18 +738,15 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
                 f"{', '.join(FORMATS)})")
         fmt = found
     info = FORMATS[fmt]
-    dec = NMEA2000Decoder(N2KFormat(fmt), units="si",
-                          include_pgns=[*PGNS, SYSTEM_TIME_PGN])
     rejected: dict[str, int] = {}
     ignored: dict[int, int] = {}
-    seq_w: list[float] = []  # wire time of every data and System Time record (NaN: none)
-    data_pos: list[int] = []  # index in seq_w of each data record
-    sys_pos: list[tuple[int, float]] = []  # (index in seq_w, epoch [s]) of each System Time
-    systs: list[float] = []  # latest System Time before each data record (NaN: none yet)
-    rows: list[dict[str, float]] = []
-    sys_now = math.nan
+    wires: list[float] = []  # per record kept: wire time (NaN: none), PGN, 8-byte payload
+    pgns: list[int] = []
+    payloads: list[bytes] = []
     first_bad: int | None = None
     n_records = 0
+    wanted = {*PGNS, SYSTEM_TIME_PGN}
+    epoch_clock = info.clock == "epoch"
 
     def rej(reason: str, where: int) -> None:
         nonlocal first_bad
@@ -609,48 +754,19 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
         if first_bad is None:
             first_bad = where
 
-    def take(where: int, wire: float, pgn: int, nbytes: int, item) -> None:
-        nonlocal sys_now
-        if pgn not in PGNS and pgn != SYSTEM_TIME_PGN:
+    def take(where: int, wire: float, pgn: int, payload: bytes | None) -> None:
+        if pgn not in wanted:
             ignored[pgn] = ignored.get(pgn, 0) + 1
-            return
-        if nbytes < 0:
+        elif payload is None:
             rej("garbage", where)
-            return
-        if nbytes < 8:  # every PGN read here is a single 8-byte frame
+        elif len(payload) < 8:  # every PGN read here is a single 8-byte frame
             rej("truncated", where)
-            return
-        if info.clock == "epoch" and not (math.isfinite(wire) and abs(wire) <= MAX_EPOCH_S):
+        elif epoch_clock and not (math.isfinite(wire) and abs(wire) <= MAX_EPOCH_S):
             rej("no_time", where)
-            return
-        try:
-            msg = dec.decode(item)
-        except Exception:  # nmea2000 raises ValueError / canboat DecodeError on a bad frame
-            rej("bad_frame", where)
-            return
-        if msg is None:  # a fast-packet fragment waiting for the rest
-            return
-        if msg.PGN == SYSTEM_TIME_PGN:
-            e = _system_time(msg)
-            if math.isfinite(e):
-                sys_now = e
-                sys_pos.append((len(seq_w), e))
-                seq_w.append(wire)
-            return
-        try:
-            ch = _channels(msg)
-        except (TypeError, ValueError, AttributeError):
-            rej("bad_frame", where)
-            return
-        if ch is None:
-            return
-        if all(math.isnan(v) for v in ch.values()):
-            rejected["not_available"] = rejected.get("not_available", 0) + 1
-            return
-        data_pos.append(len(seq_w))
-        seq_w.append(wire)
-        systs.append(sys_now)
-        rows.append(ch)
+        else:
+            wires.append(wire)
+            pgns.append(pgn)
+            payloads.append(payload[:8])
 
     if not info.binary:
         text = blob.decode("ascii", errors="replace")
@@ -667,7 +783,7 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
             if isinstance(r, str):
                 rej(r, lineno)
                 continue
-            take(lineno, r[0], r[1], r[2], line)
+            take(lineno, r[0], r[1], r[2])
         what = f"{len(lines)} line(s)"
     else:
         recs = (_python_can_records(path) if fmt == "python_can"
@@ -681,7 +797,7 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
                 else:
                     rej(r, n_records)
                 continue
-            take(n_records, r[0], r[1], r[2], r[3])
+            take(n_records, r[0], r[1], r[2])
         what = f"{n_records} record(s)"
         if damaged:
             rej("damaged_file", n_records)
@@ -698,10 +814,28 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
             f"{path}: no usable NMEA 2000 frame ({fmt}) in {what}"
             + (f"; rejected {detail}{where}" if detail else "") + extra)
 
-    if not rows:
+    if not pgns:
         raise fail()
-    big_w = np.asarray(seq_w, dtype=float)
-    w = big_w[np.asarray(data_pos, dtype=int)]
+    pg = np.asarray(pgns, dtype=np.int64)
+    pay = np.frombuffer(b"".join(payloads), dtype=np.uint8).reshape(-1, 8)
+    chans, sys_epoch = decode_payloads(pg, pay)
+    w_all = np.asarray(wires, dtype=float)
+    is_sys = pg == SYSTEM_TIME_PGN
+    anyval = np.zeros(len(pg), dtype=bool)
+    for v in chans.values():
+        anyval |= np.isfinite(v)
+    n_na = int((~is_sys & ~anyval).sum())  # every field "not available"
+    if n_na:
+        rejected["not_available"] = rejected.get("not_available", 0) + n_na
+    data = ~is_sys & anyval
+    if not data.any():
+        raise fail()
+    # the System Time before each record (index of the last valid one)
+    sys_ok = is_sys & np.isfinite(sys_epoch)
+    last = np.maximum.accumulate(np.where(sys_ok, np.arange(len(pg)), -1))
+    systs = np.where(last >= 0, sys_epoch[np.maximum(last, 0)], np.nan)
+    w = w_all[data]
+    chans = {k: v[data] for k, v in chans.items()}
     clock = info.clock
     if fmt == "python_can" and np.nanmax(np.abs(w)) < 1e8:
         clock = "rel"  # python-can gives time since the start of the file (e.g. .asc, .trc)
@@ -710,33 +844,28 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
         t_abs = w
         t0_epoch = float(np.nanmin(t_abs))
     elif clock == "rel" and np.isfinite(w).any():
-        fin = np.isfinite(big_w)
-        unw = np.full(len(big_w), np.nan)
-        unw[fin] = _unwrap(big_w[fin], info.period)
-        w = unw[np.asarray(data_pos, dtype=int)]
+        fin = np.isfinite(w_all) & (data | sys_ok)
+        unw = np.full(len(w_all), np.nan)
+        unw[fin] = _unwrap(w_all[fin], info.period)
+        w = unw[data]
         keep = np.isfinite(w)
         _add_no_time(rejected, int((~keep).sum()))
-        rows = [r for r, k in zip(rows, keep, strict=True) if k]
+        chans = {k: v[keep] for k, v in chans.items()}
         t_abs = w[keep]
-        for pos, e in sys_pos:  # the first System Time on the same clock dates the log
-            if math.isfinite(unw[pos]):
-                t0_epoch = e - (float(unw[pos]) - float(np.min(t_abs)))
-                break
+        first_sys = np.flatnonzero(sys_ok & np.isfinite(unw))
+        if len(first_sys):  # the first System Time on the same clock dates the log
+            j = int(first_sys[0])
+            t0_epoch = float(sys_epoch[j]) - (float(unw[j]) - float(np.min(t_abs)))
     else:  # no wire time: the System Time broadcast on the bus
-        s = np.asarray(systs, dtype=float)
-        ok = np.isfinite(s)
+        s_d = systs[data]
+        ok = np.isfinite(s_d)
         if not ok.any():
             raise fail(f"; the {fmt} format has no time stamps and the log no System Time "
                        f"(PGN {SYSTEM_TIME_PGN})")
         _add_no_time(rejected, int((~ok).sum()))
-        rows = [r for r, k in zip(rows, ok, strict=True) if k]
-        t_abs = s[ok]
+        chans = {k: v[ok] for k, v in chans.items()}
+        t_abs = s_d[ok]
         t0_epoch = float(np.min(t_abs))
-    names = sorted({k for r in rows for k in r})
-    chans = {k: np.full(len(rows), np.nan) for k in names}
-    for j, r in enumerate(rows):
-        for k, v in r.items():
-            chans[k][j] = v
     # engine instances -> n or n_port/n_stbd
     eng = sorted(k for k in chans if k.startswith("_engine"))
     if eng == ["_engine0"]:
@@ -745,7 +874,7 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
         for k in eng:
             inst = int(k[len("_engine"):])
             chans[{0: "n_port", 1: "n_stbd"}.get(inst, f"n_{inst}")] = chans.pop(k)
-    if "psi_mag" in chans and "psi" not in chans:
+    if "psi_mag" in chans and not np.isfinite(chans.get("psi", np.array([np.nan]))).any():
         chans["psi"] = chans.pop("psi_mag")
     # fields the bus marked "not available" throughout (e.g. an unused angleOrder) are absent
     chans = {k: v for k, v in chans.items() if np.isfinite(v).any()}
