@@ -12,6 +12,7 @@ import time
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import browser
@@ -51,9 +52,33 @@ def test_demo_same_seed_same_model_files(demo_runs) -> None:
     assert files == ["nomoto1.json", "norrbin.json", "servo.json", "threedof.json"]
     for name in files:
         assert (a / "models" / name).read_bytes() == (b / "models" / name).read_bytes(), name
-    # the logs too (seeded noise, fixed file times)
-    for log in sorted((a / "logs").iterdir()):
-        assert log.read_bytes() == (b / "logs" / log.name).read_bytes(), log.name
+    # the logs too (seeded noise, fixed file times), the ROS 2 bag folder's files included
+    logs = sorted(p for p in (a / "logs").rglob("*") if p.is_file())
+    for log in logs:
+        rel = log.relative_to(a / "logs")
+        assert log.read_bytes() == (b / "logs" / rel).read_bytes(), rel
+
+
+@pytest.mark.slow
+def test_demo_writes_a_ros2_bag(demo_runs) -> None:
+    """With the usvid[ros] extra the first zig-zag is also a ROS 2 bag (MCAP storage) that reads
+    back, detected, as the NMEA logs' trial (float64 topics: the unquantised sensor values)."""
+    pytest.importorskip("rosbags")
+    from usvid.io import read_trial
+
+    a, _, _ = demo_runs
+    bag = a / "logs" / "zigzag_10_10_ros2"
+    assert sorted(p.name for p in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
+    tr = read_trial(bag)
+    assert tr.meta["format_detected"].endswith("format ros2_usv")
+    nmea = read_trial(a / "logs" / "zigzag_10_10.nmea", a / "logs" / "lanxin_nmea0183.yaml")
+    assert tr.meta["t0_utc"] == nmea.meta["t0_utc"]
+    # the same heading samples: NMEA 0183 carries 0.001 deg (0.5e-3 deg rounding + float)
+    h = tr.data[["t", "psi"]].dropna()
+    g = nmea.data[["t", "psi"]].dropna()
+    assert len(h) == len(g)
+    err = np.abs((h["psi"].to_numpy() - g["psi"].to_numpy() + np.pi) % (2 * np.pi) - np.pi)
+    assert np.max(err) <= np.radians(0.5e-3) + 1e-9
 
 
 @pytest.mark.slow

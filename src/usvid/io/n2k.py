@@ -28,9 +28,13 @@ day wrap at midnight and are unwrapped. A format without time
 stamps takes the time of the last System Time (PGN 126992, 1e-4 s) before each frame, and a
 relative clock gets its date from the first System Time (``meta["t0_utc"]``); a log with neither
 is a one-line error. Lines with the checksum of an NMEA 0183 sentence (PCDIN, MXPGN) are checked.
-Decoding goes through the ``nmea2000`` package (``NMEA2000Decoder`` bound to the format, SI
-units; its canboat backend reassembles fast-packet PGNs); ``python_can`` files are read by
-python-can's ``LogReader`` (a dependency of ``nmea2000``). ``pdgy_debug`` lines (``$PDGY``) hold
+The records of each format are framed as nmea2000's format decoders frame them (tested record
+by record against ``NMEA2000Decoder`` bound to the format); the payloads of the PGNs read here
+(all single-frame) are then decoded at once with numpy, from the field layouts of the package's
+canboat database and the valid ranges its decoder reports (:func:`valid_raw`; equal to the
+package's values, tested on random payloads) -- a plain loop over ``NMEA2000Decoder.decode``
+is several times slower. ``python_can`` files are read by python-can's ``LogReader`` (a
+dependency of ``nmea2000``). ``pdgy_debug`` lines (``$PDGY``) hold
 no PGN data (nmea2000 refuses them): such a log is a one-line error. Encoding goes through the
 same canboat database (``nmea2000.backend.DATABASE.encode``, the function nmea2000's own encoders
 call) plus ``can_id_compose`` and ``fast_packet_fragment``; the framing of each format follows
@@ -175,7 +179,9 @@ def _system_time(msg) -> float:
 
 
 def _channels(msg) -> dict[str, float] | None:
-    """Trial channels carried by one decoded message (None: not one of ours)."""
+    """Trial channels carried by one message decoded by the package (None: not one of ours):
+    the reference semantics that :func:`decode_payloads` reproduces on whole arrays (tested
+    equal on random payloads)."""
     pgn = msg.PGN
     f = _fields(msg)
     if pgn == 127250:
