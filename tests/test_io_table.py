@@ -287,3 +287,50 @@ def test_csv_quoted_line_break_and_unbalanced_quote(tmp_path) -> None:
     np.testing.assert_allclose(tr.t, [0.0, 0.1, 0.2, 0.3, 0.4], atol=1e-12)
     np.testing.assert_allclose(np.degrees(tr["psi"]), [1, 2, 3, 4, 5], atol=1e-9)
     assert not tr.rejected
+
+
+@pytest.mark.parametrize("variant", ["lf", "crlf", "blanks", "tab", "bom_skip", "missing"])
+def test_clean_csv_fast_path_equals_line_reader(tmp_path, monkeypatch, variant) -> None:
+    # the bytes fast path (pandas' C parser on the undecoded data) must read every clean table
+    # exactly as the line-by-line reader does; CRLF line ends, blanks after the delimiter, a
+    # BOM, skipped lines and blank lines before the header, and missing cells ("", "nan", "-")
+    # stay on the fast path (the line reader is made to fail to show it)
+    from usvid.io import table
+
+    d = "\t" if variant == "tab" else ","
+    pad = " " if variant == "blanks" else ""
+    rows = [d.join([f"{0.1 * i:.1f}", f"{pad}{3 * i}", f"{pad}{-0.5 * i}", f"{pad}{i % 7}"])
+            for i in range(50)]
+    if variant == "missing":
+        rows[3], rows[4], rows[5] = "0.3,,1,2", "0.4,nan,1,2", "0.5,1,-,2"
+    head = ["t", "psi", "r", "delta"]
+    lines = ([d.join(head)] if variant != "bom_skip"
+             else ["logger v1 export", "", d.join(head)]) + rows
+    eol = "\r\n" if variant == "crlf" else "\n"
+    blob = (b"\xef\xbb\xbf" if variant == "bom_skip" else b"") + (eol.join(lines) + eol).encode()
+    p = _write(tmp_path, "c.csv", blob, mode="wb")
+    spec = parse_spec({**_CSV_SPEC, "delimiter": d, "skip_rows": 1 if variant == "bom_skip" else 0})
+
+    def no_line_reader(*a, **k):
+        raise AssertionError("the line reader was used")
+
+    with monkeypatch.context() as m:
+        m.setattr(table, "_records", no_line_reader)
+        fast = read_trial(p, spec)
+    with monkeypatch.context() as m:
+        m.setattr(table, "_read_clean", lambda *a: None)
+        slow = read_trial(p, spec)
+    pd.testing.assert_frame_equal(fast.data, slow.data, check_exact=True)
+    assert fast.rejected == slow.rejected
+    assert [f.message for f in fast.findings] == [f.message for f in slow.findings]
+    assert len(fast) == 50 and np.isnan(fast.data["psi"]).sum() == (2 if variant == "missing"
+                                                                     else 0)
+
+
+def test_csv_lone_carriage_return_goes_to_line_reader(tmp_path) -> None:
+    # a carriage return inside a line is a line break to str.splitlines (the line reader) but
+    # not to pandas: the fast path must decline it, and both lines of it are counted
+    text = "t,psi,r,delta\n0,1,0,0\n0.1,2,0\r,0\n0.2,3,0,0\n"
+    tr = read_trial(_write(tmp_path, "cr.csv", text.encode(), mode="wb"), parse_spec(_CSV_SPEC))
+    np.testing.assert_allclose(tr.t, [0.0, 0.2], atol=1e-12)
+    assert tr.rejected == {"truncated": 2}
