@@ -3,6 +3,7 @@ the results of the in-process run (same seed), whatever the chunking."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 
@@ -193,3 +194,26 @@ def test_batch_on_real_hsva_logs_with_a_corrupt_copy(hsva_dir, tmp_path):
     # scheduler listens at port 9)
     again = batch(camp, tmp_path / "out", scheduler="tcp://127.0.0.1:9", progress=False)
     assert again["ran"] == [] and again["logs_ok"] == 6 and len(again["errors"]) == 1
+
+
+def test_course_keeping_with_disturbance_on_dask_equals_in_process(client, tmp_path):
+    # run i's disturbance is drawn from the stream (seed, i): the same noise, hence the same
+    # results, on 2 workers in chunks of 64 as in this process in one chunk
+    path, d = _model_file(tmp_path)
+    opts = {"t_end": 60.0, "target_deg": 0.0, "disturbance_deg": 2.0}  # keep the course
+    out = tmp_path / "ck.parquet"
+    s = montecarlo(path, "course-keeping", 200, out, vary=["K=normal:0.2,0.01"], seed=3,
+                   options=opts, chunk=64, client=client, progress=False)
+    assert s["chunks"] == 4 and s["disturbance_deg"] == 2.0
+    got = pd.read_parquet(out)
+    mc = MonteCarlo(d, "course-keeping", opts, vary=(Vary("K", "normal", 0.2, 0.01),), seed=3)
+    pd.testing.assert_frame_equal(got, run_montecarlo(mc, 200, chunk=200))  # identical
+    # the disturbance acts: in calm water the ship starting on course stays on it (IAE 0), in
+    # the disturbance it wanders off and is steered back (IAE > 0) in every run
+    calm = run_montecarlo(MonteCarlo(d, "course-keeping", {**opts, "disturbance_deg": 0.0},
+                                     vary=mc.vary, seed=3), 200, chunk=200)
+    assert (calm["K"] == got["K"]).all() and (calm["iae"] == 0).all()
+    assert (got["iae"] > 0).all() and (got["max_rudder_deg"] > 0).all()
+    # another seed: other noise, other results (the same parameters would need the same seed)
+    other = run_montecarlo(dataclasses.replace(mc, seed=4), 8, chunk=8)
+    assert not np.allclose(other["iae"], got["iae"][:8])
