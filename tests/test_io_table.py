@@ -334,3 +334,40 @@ def test_csv_lone_carriage_return_goes_to_line_reader(tmp_path) -> None:
     tr = read_trial(_write(tmp_path, "cr.csv", text.encode(), mode="wb"), parse_spec(_CSV_SPEC))
     np.testing.assert_allclose(tr.t, [0.0, 0.2], atol=1e-12)
     assert tr.rejected == {"truncated": 2}
+
+
+@pytest.mark.parametrize("eol", ["\n", "\r\n"])
+def test_whitespace_table_fast_path_equals_line_reader(tmp_path, monkeypatch, eol) -> None:
+    # whitespace-separated tables (the HSVA logs' layout: header lines, cp1252, padded columns)
+    # are read by pandas' C parser from the bytes exactly as the line reader reads them: tabs,
+    # runs of blanks, leading and trailing blanks, "nan" cells, LF or CRLF
+    from usvid.io import table
+
+    rows = [f"  {0.05 * i:.3f}\t {3 * i:>6}  {-0.5 * i:.2f} {'nan' if i == 7 else i % 7}  "
+            for i in range(60)]
+    blob = eol.join(["HSVA, exp\u00e9rimental data", " KVLCC2", *rows]).encode("cp1252") + b"\n"
+    p = _write(tmp_path, "w.dat", blob, mode="wb")
+    spec = parse_spec({**WS, "encoding": "cp1252"})
+
+    def no_line_reader(*a, **k):
+        raise AssertionError("the line reader was used")
+
+    with monkeypatch.context() as m:
+        m.setattr(table, "_records", no_line_reader)
+        fast = read_trial(p, spec)
+    with monkeypatch.context() as m:
+        m.setattr(table, "_read_clean", lambda *a: None)
+        slow = read_trial(p, spec)
+    pd.testing.assert_frame_equal(fast.data, slow.data, check_exact=True)
+    assert fast.rejected == slow.rejected == {}
+    assert len(fast) == 60 and int(np.isnan(fast.data["delta"]).sum()) == 1
+
+
+def test_whitespace_table_with_a_short_line_goes_to_line_reader(tmp_path) -> None:
+    # one line with a field missing: the per-line field count sends the table to the line
+    # reader, which rejects that line only (a total count could be balanced by a long line)
+    lines = _ws_lines(6)
+    lines[2] = "  0.10  2.0  2.0"
+    lines[4] = lines[4] + "  9.9"
+    tr = read_trial(_write(tmp_path, "s.dat", "h1\nh2\n" + "\n".join(lines) + "\n"), WS)
+    assert len(tr) == 4 and tr.rejected == {"truncated": 1, "field_count": 1}

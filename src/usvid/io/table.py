@@ -272,7 +272,7 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
 _OTHER_BREAKS = re.compile("[\r\x0b\x0c\x1c-\x1e\x85\u2028\u2029]")
 
 
-def _data_start(spec: FormatSpec, blob: bytes, d: str
+def _data_start(spec: FormatSpec, blob: bytes, d: str | None
                 ) -> tuple[int, int, list[str] | None] | None:
     """Where the data of ``blob`` begins: (byte offset, number of lines before it, header names
     or None), decoding only the lines before the data (``skip_rows``, blank or comment lines
@@ -299,18 +299,19 @@ def _data_start(spec: FormatSpec, blob: bytes, d: str
     return off, k, None
 
 
-def _clean_bytes(blob: bytes, off: int, a: np.ndarray, nl: int, spec: FormatSpec, d: str,
-                 ncols: int) -> bool:
+def _clean_bytes(blob: bytes, off: int, a: np.ndarray, nl: int, spec: FormatSpec,
+                 d: str | None, ncols: int) -> bool:
     """True when the data bytes ``blob[off:]`` (``a``: the same as uint8; ``nl`` line feeds)
     hold no quote character, no comment, ``ncols - 1`` delimiters per line, no control byte but
     tab, line feed and the carriage return of a CRLF line end, and (not ASCII) no undecodable
-    byte or Unicode line separator. Counted over the bytes (numpy; no copy, no decoding)."""
+    byte or Unicode line separator. Counted over the bytes (numpy; no copy, no decoding).
+    Whitespace-separated (``d`` None): the fields are counted by :func:`_ws_fields`."""
     if ncols < 2 or blob.find(b'"', off) >= 0 or blob.find(b"\x7f", off) >= 0:
         return False
     if spec.comment and blob.find(spec.comment.encode(spec.encoding), off) >= 0:
         return False
     nrows = nl + (0 if blob.endswith(b"\n") else 1)
-    if np.count_nonzero(a == ord(d)) != (ncols - 1) * nrows:
+    if d is not None and np.count_nonzero(a == ord(d)) != (ncols - 1) * nrows:
         return False
     low = np.count_nonzero(a < 32)
     if low != nl:
@@ -326,17 +327,28 @@ def _clean_bytes(blob: bytes, off: int, a: np.ndarray, nl: int, spec: FormatSpec
     return True
 
 
+def _ws_fields(a: np.ndarray, breaks: np.ndarray, nrows: int) -> np.ndarray:
+    """Fields of each of the ``nrows`` lines of whitespace-separated ASCII bytes ``a`` (uint8;
+    ``breaks``: positions of its line feeds), as :meth:`str.split` counts them."""
+    sep = (a == 32) | (a == 9) | (a == 10) | (a == 13)
+    start = ~sep  # first byte of a field: not a separator, after a separator or at the start
+    start[1:] &= sep[:-1]
+    return np.bincount(np.searchsorted(breaks, np.flatnonzero(start)), minlength=nrows)
+
+
 def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
     """The file parsed by pandas' C parser when its table is clean (see :func:`_clean_bytes`:
-    an ASCII-compatible encoding, a one-character delimiter, no quote, no control byte, no
-    comment, every data line with the same number of fields); else None (:func:`read_table`
+    an ASCII-compatible encoding, a one-character delimiter or whitespace (ASCII data), no
+    quote, no control byte, no comment, every data line with the same number of fields); else
+    None (:func:`read_table`
     then reads it line by line, counting and reporting every bad line). Only the lines before
     the data are decoded; pandas is handed the bytes."""
     d = spec.delimiter
-    if d is None or len(d) != 1 or d == '"':
+    if d is not None and (len(d) != 1 or d == '"'):
         return None
     try:
-        if "\n".encode(spec.encoding) != b"\n" or d.encode(spec.encoding) != d.encode("ascii"):
+        if "\n".encode(spec.encoding) != b"\n" or (
+                d is not None and d.encode(spec.encoding) != d.encode("ascii")):
             return None
     except (LookupError, UnicodeError):
         return None
@@ -345,15 +357,27 @@ def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
         return None
     off, i, names = start
     a = np.frombuffer(blob, dtype=np.uint8, offset=off)
-    nl = int(np.count_nonzero(a == 10))
-    nrows = nl + (0 if blob.endswith(b"\n") else 1)  # (lines; a last line break ends none)
-    end = blob.find(b"\n", off)
-    first = blob[off:end if end >= 0 else len(blob)]
-    ncols = len(names) if names is not None else first.count(d.encode("ascii")) + 1
+    if d is None:  # whitespace: ASCII only (str.split also splits at e.g. a no-break space)
+        if not blob.isascii() and not blob[off:].isascii():
+            return None
+        breaks = np.flatnonzero(a == 10)
+        nl = len(breaks)
+        nrows = nl + (0 if blob.endswith(b"\n") else 1)
+        fields = _ws_fields(a, breaks, nrows)
+        ncols = len(names) if names is not None else int(fields[0])
+        if not (fields == ncols).all():
+            return None
+    else:
+        nl = int(np.count_nonzero(a == 10))
+        nrows = nl + (0 if blob.endswith(b"\n") else 1)  # (lines; a last break ends none)
+        end = blob.find(b"\n", off)
+        first = blob[off:end if end >= 0 else len(blob)]
+        ncols = len(names) if names is not None else first.count(d.encode("ascii")) + 1
     if not _clean_bytes(blob, off, a, nl, spec, d, ncols):
         return None
     # (skipinitialspace costs pandas a quarter of its time; it is a no-op without blanks)
-    blanks = blob.find(b" ", off) >= 0 or (d != "\t" and blob.find(b"\t", off) >= 0)
+    blanks = d is not None and (blob.find(b" ", off) >= 0
+                                or (d != "\t" and blob.find(b"\t", off) >= 0))
     pos = _resolve(path, spec, names, ncols)
     usecols = sorted(set(pos.values()))
     dates = {p for n, p in pos.items() if spec.columns[n].unit == DATETIME}
@@ -362,7 +386,8 @@ def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
             warnings.simplefilter("error", pd.errors.ParserWarning)
             buf = io.BytesIO(blob)
             buf.seek(off)  # (pandas reads on from there: no copy of the data)
-            df = pd.read_csv(buf, sep=d, header=None, usecols=usecols, encoding=spec.encoding,
+            df = pd.read_csv(buf, sep=d if d is not None else r"\s+", header=None,
+                             usecols=usecols, encoding=spec.encoding,
                              dtype={p: str for p in dates} or None, keep_default_na=False,
                              na_values=_NA, skipinitialspace=blanks, engine="c",
                              skip_blank_lines=False, quoting=3)  # QUOTE_NONE
