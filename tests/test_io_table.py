@@ -287,3 +287,87 @@ def test_csv_quoted_line_break_and_unbalanced_quote(tmp_path) -> None:
     np.testing.assert_allclose(tr.t, [0.0, 0.1, 0.2, 0.3, 0.4], atol=1e-12)
     np.testing.assert_allclose(np.degrees(tr["psi"]), [1, 2, 3, 4, 5], atol=1e-9)
     assert not tr.rejected
+
+
+@pytest.mark.parametrize("variant", ["lf", "crlf", "blanks", "tab", "bom_skip", "missing"])
+def test_clean_csv_fast_path_equals_line_reader(tmp_path, monkeypatch, variant) -> None:
+    # the bytes fast path (pandas' C parser on the undecoded data) must read every clean table
+    # exactly as the line-by-line reader does; CRLF line ends, blanks after the delimiter, a
+    # BOM, skipped lines and blank lines before the header, and missing cells ("", "nan", "-")
+    # stay on the fast path (the line reader is made to fail to show it)
+    from usvid.io import table
+
+    d = "\t" if variant == "tab" else ","
+    pad = " " if variant == "blanks" else ""
+    rows = [d.join([f"{0.1 * i:.1f}", f"{pad}{3 * i}", f"{pad}{-0.5 * i}", f"{pad}{i % 7}"])
+            for i in range(50)]
+    if variant == "missing":
+        rows[3], rows[4], rows[5] = "0.3,,1,2", "0.4,nan,1,2", "0.5,1,-,2"
+    head = ["t", "psi", "r", "delta"]
+    lines = ([d.join(head)] if variant != "bom_skip"
+             else ["logger v1 export", "", d.join(head)]) + rows
+    eol = "\r\n" if variant == "crlf" else "\n"
+    blob = (b"\xef\xbb\xbf" if variant == "bom_skip" else b"") + (eol.join(lines) + eol).encode()
+    p = _write(tmp_path, "c.csv", blob, mode="wb")
+    spec = parse_spec({**_CSV_SPEC, "delimiter": d, "skip_rows": 1 if variant == "bom_skip" else 0})
+
+    def no_line_reader(*a, **k):
+        raise AssertionError("the line reader was used")
+
+    with monkeypatch.context() as m:
+        m.setattr(table, "_records", no_line_reader)
+        fast = read_trial(p, spec)
+    with monkeypatch.context() as m:
+        m.setattr(table, "_read_clean", lambda *a: None)
+        slow = read_trial(p, spec)
+    pd.testing.assert_frame_equal(fast.data, slow.data, check_exact=True)
+    assert fast.rejected == slow.rejected
+    assert [f.message for f in fast.findings] == [f.message for f in slow.findings]
+    assert len(fast) == 50 and np.isnan(fast.data["psi"]).sum() == (2 if variant == "missing"
+                                                                     else 0)
+
+
+def test_csv_lone_carriage_return_goes_to_line_reader(tmp_path) -> None:
+    # a carriage return inside a line is a line break to str.splitlines (the line reader) but
+    # not to pandas: the fast path must decline it, and both lines of it are counted
+    text = "t,psi,r,delta\n0,1,0,0\n0.1,2,0\r,0\n0.2,3,0,0\n"
+    tr = read_trial(_write(tmp_path, "cr.csv", text.encode(), mode="wb"), parse_spec(_CSV_SPEC))
+    np.testing.assert_allclose(tr.t, [0.0, 0.2], atol=1e-12)
+    assert tr.rejected == {"truncated": 2}
+
+
+@pytest.mark.parametrize("eol", ["\n", "\r\n"])
+def test_whitespace_table_fast_path_equals_line_reader(tmp_path, monkeypatch, eol) -> None:
+    # whitespace-separated tables (the HSVA logs' layout: header lines, cp1252, padded columns)
+    # are read by pandas' C parser from the bytes exactly as the line reader reads them: tabs,
+    # runs of blanks, leading and trailing blanks, "nan" cells, LF or CRLF
+    from usvid.io import table
+
+    rows = [f"  {0.05 * i:.3f}\t {3 * i:>6}  {-0.5 * i:.2f} {'nan' if i == 7 else i % 7}  "
+            for i in range(60)]
+    blob = eol.join(["HSVA, exp\u00e9rimental data", " KVLCC2", *rows]).encode("cp1252") + b"\n"
+    p = _write(tmp_path, "w.dat", blob, mode="wb")
+    spec = parse_spec({**WS, "encoding": "cp1252"})
+
+    def no_line_reader(*a, **k):
+        raise AssertionError("the line reader was used")
+
+    with monkeypatch.context() as m:
+        m.setattr(table, "_records", no_line_reader)
+        fast = read_trial(p, spec)
+    with monkeypatch.context() as m:
+        m.setattr(table, "_read_clean", lambda *a: None)
+        slow = read_trial(p, spec)
+    pd.testing.assert_frame_equal(fast.data, slow.data, check_exact=True)
+    assert fast.rejected == slow.rejected == {}
+    assert len(fast) == 60 and int(np.isnan(fast.data["delta"]).sum()) == 1
+
+
+def test_whitespace_table_with_a_short_line_goes_to_line_reader(tmp_path) -> None:
+    # one line with a field missing: the per-line field count sends the table to the line
+    # reader, which rejects that line only (a total count could be balanced by a long line)
+    lines = _ws_lines(6)
+    lines[2] = "  0.10  2.0  2.0"
+    lines[4] = lines[4] + "  9.9"
+    tr = read_trial(_write(tmp_path, "s.dat", "h1\nh2\n" + "\n".join(lines) + "\n"), WS)
+    assert len(tr) == 4 and tr.rejected == {"truncated": 1, "field_count": 1}

@@ -22,10 +22,12 @@ from usvid.commands._common import SchedulerOpt, WorkersOpt, emit_json
 def batch(campaign: Path, out: Path, *, scheduler: str | None = None,
           workers: int | None = None, progress: bool = True) -> dict[str, Any]:
     """Everything ``usvid batch`` does; returns its JSON object."""
-    from usvid.scale.batch import load_campaign, run_batch
+    from usvid.scale.batch import run_batch, stale_groups
     from usvid.scale.cluster import connect
 
-    load_campaign(campaign)  # a bad campaign file fails before a cluster is started
+    # (a bad campaign file fails before a cluster is started; nothing to run: none is started)
+    if not stale_groups(campaign, out):
+        return run_batch(campaign, out, progress=progress)
     with connect(scheduler, workers) as client:
         return run_batch(campaign, out, client=client, progress=progress)
 
@@ -51,4 +53,5 @@ def register(app: typer.Typer) -> None:
               f"{s['out']}")
         for e in s["errors"]:
             what = e["log"] or f"kind {e['kind']}"
-            print(f"  error: {e['group']}: {what}: {e['error']}")
+            msg = e["error"] if e["error"].startswith(what) else f"{what}: {e['error']}"
+            print(f"  error: {e['group']}: {msg}")

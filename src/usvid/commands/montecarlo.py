@@ -1,13 +1,14 @@
 """CLI: ``usvid montecarlo MODEL.json --manoeuvre zigzag|turning|course-keeping [options]
---runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] --out RESULTS.parquet
-[--scheduler ADDRESS] [--workers N] [--json]``.
+--runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] [--disturbance-deg SD]
+--out RESULTS.parquet [--scheduler ADDRESS] [--workers N] [--json]``.
 
 Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks on
 a Dask cluster (a local one by default, or the scheduler at ``--scheduler``), writes one row per
 run (sampled parameters [SI], ``success``, metrics) to a Parquet file atomically and prints the
 quantiles of each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``,
-``parameters``, ``uncertainty`` (where the joint draws come from), ``quantiles`` (per metric
-``q05``, ``q50``, ``q95``, ``mean``, ``n``), ``chunks``, ``workers``, ``wall_s``.
+``parameters``, ``uncertainty`` (where the joint draws come from), ``seed``,
+``disturbance_deg``, ``quantiles`` (per metric ``q05``, ``q50``, ``q95``, ``mean``, ``n``),
+``chunks``, ``workers``, ``wall_s``.
 """
 
 from __future__ import annotations
@@ -86,7 +87,8 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     write_atomic(out, buf.getvalue())
     return {"out": str(out), "runs": int(runs), "failed": int((~df["success"]).sum()),
             "manoeuvre": manoeuvre, "parameters": list(mc.parameters), "uncertainty": source,
-            "seed": int(seed), "quantiles": quantiles(df, mc.metrics),
+            "seed": int(seed), "disturbance_deg": float(mc.options.get("disturbance_deg", 0.0)),
+            "quantiles": quantiles(df, mc.metrics),
             "chunks": -(-runs // chunk), "workers": nworkers,
             "wall_s": round(time.perf_counter() - t0, 3)}
 
@@ -135,6 +137,9 @@ def register(app: typer.Typer) -> None:
         dt: Annotated[float, typer.Option("--dt", help="Integration step [s].")] = 0.02,
         speed: Annotated[float | None, typer.Option(
             "--speed", help="Approach speed [m/s] (default: the model's vessel.speed).")] = None,
+        disturbance_deg: Annotated[float, typer.Option(
+            "--disturbance-deg", help="Disturbance std [deg] (Mu et al. 2018 filter; run i's "
+            "noise seeded by (--seed, i)); 0 = calm.")] = 0.0,
         chunk: Annotated[int, typer.Option("--chunk", help="Runs per Dask task.")] = 4096,
         scheduler: SchedulerOpt = None,
         workers: WorkersOpt = None,
@@ -150,7 +155,8 @@ def register(app: typer.Typer) -> None:
             raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
         opts = {k: v for k, v in dict(delta_deg=delta_deg, psi_deg=psi_deg,
                                       target_deg=target_deg, kp=kp, ki=ki, kd=kd, t_end=t_end,
-                                      dt=dt, speed=speed).items() if v is not None}
+                                      dt=dt, speed=speed,
+                                      disturbance_deg=disturbance_deg).items() if v is not None}
         s = montecarlo(model_path, manoeuvre, runs, out, from_uncertainty=from_uncertainty,
                        vary=vary, seed=seed, options=opts, scheduler=scheduler,
                        workers=workers, chunk=chunk, progress=not as_json)

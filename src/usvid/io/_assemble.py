@@ -165,8 +165,9 @@ def assemble(
         bad = keep & ~anyval
         _add(rejected, "nan_row", int(bad.sum()))
         keep &= anyval
-    t = t[keep]
-    chans = {k: v[keep] for k, v in chans.items()}
+    if not keep.all():  # (no copy of a clean log)
+        t = t[keep]
+        chans = {k: v[keep] for k, v in chans.items()}
     if len(t) == 0:
         detail = ", ".join(f"{k}: {n}" for k, n in rejected.items()) or "no data records"
         raise LogReadError(f"{path}: no usable records ({detail})")
@@ -203,9 +204,9 @@ def assemble(
                 )
             )
 
-    # identical times -> one row
-    uniq, inv = np.unique(t, return_inverse=True)
-    if len(uniq) < len(t):
+    # identical times -> one row (t is in time order here: a duplicate follows its twin)
+    if len(t) > 1 and (np.diff(t) == 0).any():
+        uniq, inv = np.unique(t, return_inverse=True)
         if count_duplicates:
             _add(rejected, "duplicate_time", len(t) - len(uniq))
         merged = {}
@@ -255,7 +256,8 @@ def bad_stamps(t: np.ndarray) -> np.ndarray:
     stamp: on either side of it the running median follows the records.
     """
     n = len(t)
-    if n < BAD_STAMP_WINDOW:
+    if n < BAD_STAMP_WINDOW or (np.diff(t) >= 0).all():
+        # (in time order the running median of each stamp is the stamp itself)
         return np.zeros(n, dtype=bool)
     h = BAD_STAMP_WINDOW // 2
     pad = np.r_[np.full(h, t[0]), t, np.full(h, t[-1])]

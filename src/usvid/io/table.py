@@ -30,8 +30,6 @@ from usvid.trial import Finding, Trial
 
 #: A line with one of these is garbage (control bytes other than tab, undecodable bytes).
 _CTRL_RE = re.compile("[\x00-\x08\x0a-\x1f\x7f\ufffd]")
-#: Control bytes of a garbage line (all below 32 but tab and line feed, and DEL).
-_CTRL_BYTES = bytes([*(b for b in range(32) if b not in (9, 10)), 127])
 #: Cells read as missing (not as bad values).
 _NA = ["", "nan", "NaN", "NA", "None", "-"]
 
@@ -199,6 +197,9 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     """
     path = Path(path)
     blob = read_log_bytes(path)
+    fast = _read_clean(path, spec, blob)
+    if fast is not None:
+        return fast
     text = blob.decode(spec.encoding, errors="replace")
     if text.startswith("\ufeff"):  # byte-order mark (Excel's "CSV UTF-8"): not part of the data
         text = text[1:]
@@ -224,9 +225,6 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
             raise LogReadError(f"{path} line {i + 1}: expected a header row, found end of file")
         names = _split(lines[i], spec.delimiter)
         i += 1
-    fast = _read_clean(path, spec, text, blob, lines, i, names)
-    if fast is not None:
-        return fast
     rows: list[list[str]] = []
     linenos: list[int] = []
     garbage = 0
@@ -269,52 +267,129 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings)
 
 
-def _has_control(text: str, raw: bytes) -> bool:
-    """True when the data may hold a garbage character: a control byte in the raw bytes, or an
-    undecodable byte or a Unicode line separator in the decoded text."""
-    if len(raw.translate(None, _CTRL_BYTES)) != len(raw):  # (a C loop, no copy of the test)
-        return True
-    return not raw.isascii() and any(ch in text for ch in ("\ufffd", "\x85", "\u2028",
-                                                           "\u2029"))
+#: Line breaks of :meth:`str.splitlines` other than "\n" (and "\r\n"): a line before the data
+#: holding one is left to the line reader.
+_OTHER_BREAKS = re.compile("[\r\x0b\x0c\x1c-\x1e\x85\u2028\u2029]")
 
 
-def _read_clean(path: Path, spec: FormatSpec, text: str, blob: bytes, lines: list[str], i: int,
-                names: list[str] | None) -> Trial | None:
-    """The data lines ``lines[i:]`` parsed by pandas' C parser when the table is clean: an
-    ASCII-compatible encoding, a one-character delimiter, no quote character, no control byte,
-    no comment and every line with the same number of fields (counted by the delimiters); else
-    None (the line-by-line reader then counts and reports every bad line)."""
+def _data_start(spec: FormatSpec, blob: bytes, d: str | None
+                ) -> tuple[int, int, list[str] | None] | None:
+    """Where the data of ``blob`` begins: (byte offset, number of lines before it, header names
+    or None), decoding only the lines before the data (``skip_rows``, blank or comment lines
+    before the header, the header) as :func:`read_table` does; None when that is not plain (a
+    line break other than LF/CRLF there, or no data line after it)."""
+    want_header = spec.header if spec.header is not None else spec.uses_names
+    off, k = 0, 0
+    while k < spec.skip_rows or want_header:
+        end = blob.find(b"\n", off)
+        if end < 0:  # the file ends before its data: the line reader says so
+            return None
+        s = blob[off:end].decode(spec.encoding, errors="replace")
+        if k == 0 and s.startswith("\ufeff"):  # byte-order mark: not part of the data
+            s = s[1:]
+        s = s[:-1] if s.endswith("\r") else s
+        if _OTHER_BREAKS.search(s):
+            return None
+        off, k = end + 1, k + 1
+        if k <= spec.skip_rows:
+            continue
+        st = s.strip()
+        if st and not (spec.comment and st.startswith(spec.comment)):
+            return off, k, _split(s, d)
+    return off, k, None
+
+
+def _clean_bytes(blob: bytes, off: int, a: np.ndarray, nl: int, spec: FormatSpec,
+                 d: str | None, ncols: int) -> bool:
+    """True when the data bytes ``blob[off:]`` (``a``: the same as uint8; ``nl`` line feeds)
+    hold no quote character, no comment, ``ncols - 1`` delimiters per line, no control byte but
+    tab, line feed and the carriage return of a CRLF line end, and (not ASCII) no undecodable
+    byte or Unicode line separator. Counted over the bytes (numpy; no copy, no decoding).
+    Whitespace-separated (``d`` None): the fields are counted by :func:`_ws_fields`."""
+    if ncols < 2 or blob.find(b'"', off) >= 0 or blob.find(b"\x7f", off) >= 0:
+        return False
+    if spec.comment and blob.find(spec.comment.encode(spec.encoding), off) >= 0:
+        return False
+    nrows = nl + (0 if blob.endswith(b"\n") else 1)
+    if d is not None and np.count_nonzero(a == ord(d)) != (ncols - 1) * nrows:
+        return False
+    low = np.count_nonzero(a < 32)
+    if low != nl:
+        cr = np.flatnonzero(a == 13)
+        if len(cr) and (cr[-1] + 1 >= len(a) or not (a[cr + 1] == 10).all()):
+            return False  # a carriage return that does not end a line
+        if low != nl + len(cr) + np.count_nonzero(a == 9):
+            return False
+    if not blob.isascii():
+        text = blob[off:].decode(spec.encoding, errors="replace")
+        if any(ch in text for ch in ("\ufffd", "\x85", "\u2028", "\u2029")):
+            return False
+    return True
+
+
+def _ws_fields(a: np.ndarray, breaks: np.ndarray, nrows: int) -> np.ndarray:
+    """Fields of each of the ``nrows`` lines of whitespace-separated ASCII bytes ``a`` (uint8;
+    ``breaks``: positions of its line feeds), as :meth:`str.split` counts them."""
+    sep = (a == 32) | (a == 9) | (a == 10) | (a == 13)
+    start = ~sep  # first byte of a field: not a separator, after a separator or at the start
+    start[1:] &= sep[:-1]
+    return np.bincount(np.searchsorted(breaks, np.flatnonzero(start)), minlength=nrows)
+
+
+def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
+    """The file parsed by pandas' C parser when its table is clean (see :func:`_clean_bytes`:
+    an ASCII-compatible encoding, a one-character delimiter or whitespace (ASCII data), no
+    quote, no control byte, no comment, every data line with the same number of fields); else
+    None (:func:`read_table`
+    then reads it line by line, counting and reporting every bad line). Only the lines before
+    the data are decoded; pandas is handed the bytes."""
     d = spec.delimiter
-    if d is None or len(d) != 1 or d == '"' or i >= len(lines):
+    if d is not None and (len(d) != 1 or d == '"'):
         return None
     try:
-        if "\n".encode(spec.encoding) != b"\n" or d.encode(spec.encoding) != d.encode("ascii"):
+        if "\n".encode(spec.encoding) != b"\n" or (
+                d is not None and d.encode(spec.encoding) != d.encode("ascii")):
             return None
     except (LookupError, UnicodeError):
         return None
-    nrows = len(lines) - i
-    ncols = len(names) if names is not None else lines[i].count(d) + 1
-    off = 0  # the body's first byte: after i line breaks (a BOM is in the first line)
-    for _ in range(i):
-        off = blob.find(b"\n", off) + 1
-        if off == 0:
-            return None
-    raw = blob[off:]
-    # (a blank line has no delimiter: with ncols >= 2 the count below or the parser's field
-    # check then fails, and the line reader takes over)
-    if (ncols < 2 or b'"' in raw or (spec.comment and spec.comment.encode(spec.encoding) in raw)
-            or raw.count(d.encode("ascii")) != (ncols - 1) * nrows or _has_control(text, raw)):
+    start = _data_start(spec, blob, d)
+    if start is None or start[0] >= len(blob):
         return None
+    off, i, names = start
+    a = np.frombuffer(blob, dtype=np.uint8, offset=off)
+    if d is None:  # whitespace: ASCII only (str.split also splits at e.g. a no-break space)
+        if not blob.isascii() and not blob[off:].isascii():
+            return None
+        breaks = np.flatnonzero(a == 10)
+        nl = len(breaks)
+        nrows = nl + (0 if blob.endswith(b"\n") else 1)
+        fields = _ws_fields(a, breaks, nrows)
+        ncols = len(names) if names is not None else int(fields[0])
+        if not (fields == ncols).all():
+            return None
+    else:
+        nl = int(np.count_nonzero(a == 10))
+        nrows = nl + (0 if blob.endswith(b"\n") else 1)  # (lines; a last break ends none)
+        end = blob.find(b"\n", off)
+        first = blob[off:end if end >= 0 else len(blob)]
+        ncols = len(names) if names is not None else first.count(d.encode("ascii")) + 1
+    if not _clean_bytes(blob, off, a, nl, spec, d, ncols):
+        return None
+    # (skipinitialspace costs pandas a quarter of its time; it is a no-op without blanks)
+    blanks = d is not None and (blob.find(b" ", off) >= 0
+                                or (d != "\t" and blob.find(b"\t", off) >= 0))
     pos = _resolve(path, spec, names, ncols)
     usecols = sorted(set(pos.values()))
     dates = {p for n, p in pos.items() if spec.columns[n].unit == DATETIME}
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
-            df = pd.read_csv(io.BytesIO(raw), sep=d, header=None, usecols=usecols,
-                             encoding=spec.encoding,
+            buf = io.BytesIO(blob)
+            buf.seek(off)  # (pandas reads on from there: no copy of the data)
+            df = pd.read_csv(buf, sep=d if d is not None else r"\s+", header=None,
+                             usecols=usecols, encoding=spec.encoding,
                              dtype={p: str for p in dates} or None, keep_default_na=False,
-                             na_values=_NA, skipinitialspace=True, engine="c",
+                             na_values=_NA, skipinitialspace=blanks, engine="c",
                              skip_blank_lines=False, quoting=3)  # QUOTE_NONE
     except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning):
         return None

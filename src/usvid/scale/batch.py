@@ -44,7 +44,7 @@ from usvid.models.registry import names as kind_names
 from usvid.prep import audit, prepare
 from usvid.scale.cluster import map_ordered
 
-__all__ = ["Group", "load_campaign", "run_batch", "run_group"]
+__all__ = ["Group", "load_campaign", "run_batch", "run_group", "stale_groups"]
 
 METHODS = ("ls", "rls", "oe")
 
@@ -222,13 +222,9 @@ def _parquet(rows: list[dict[str, Any]], columns: list[str]) -> bytes:
     return buf.getvalue()
 
 
-def run_batch(campaign: str | Path, out: str | Path, *, client: Any = None,
-              progress: bool = True) -> dict[str, Any]:
-    """Run the campaign's changed groups (as Dask tasks on ``client``, else in this process),
-    write the results into ``out`` and return the summary (the ``--json`` object)."""
-    groups = load_campaign(campaign)
-    out = Path(out)
-    state = out / "groups"
+def _plan(groups: list[Group], state: Path) -> tuple[dict[str, GroupResult], list[Group]]:
+    """The kept results of the groups whose fingerprint is unchanged (by name), and the groups
+    to run (new, changed, or with an unreadable state file in ``state``)."""
     done: dict[str, GroupResult] = {}
     todo = []
     for g in groups:
@@ -242,6 +238,23 @@ def run_batch(campaign: str | Path, out: str | Path, *, client: Any = None,
             except (OSError, ValueError, TypeError):
                 pass  # unreadable state: run the group again
         todo.append(g)
+    return done, todo
+
+
+def stale_groups(campaign: str | Path, out: str | Path) -> list[str]:
+    """Names of the campaign's groups that :func:`run_batch` into ``out`` would run (new or
+    changed inputs); empty when a re-run has nothing to do (no cluster is then needed)."""
+    return [g.name for g in _plan(load_campaign(campaign), Path(out) / "groups")[1]]
+
+
+def run_batch(campaign: str | Path, out: str | Path, *, client: Any = None,
+              progress: bool = True) -> dict[str, Any]:
+    """Run the campaign's changed groups (as Dask tasks on ``client``, else in this process),
+    write the results into ``out`` and return the summary (the ``--json`` object)."""
+    groups = load_campaign(campaign)
+    out = Path(out)
+    state = out / "groups"
+    done, todo = _plan(groups, state)
     if client is None:
         results = [run_group(g) for g in todo]
     else:

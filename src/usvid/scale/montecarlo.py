@@ -12,8 +12,12 @@ core (:func:`usvid.sim.simulate`) and measured with the kernel's online trackers
   ``initial_turning_time_s`` (execute to first reversal) and ``reversal_2_s`` [s];
 * ``turning``: ``advance_m``, ``transfer_m``, ``tactical_diameter_m`` [m]
   (:func:`usvid.manoeuvres.metrics.turning_metrics` per run);
-* ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder_deg`` [deg], in calm
-  water (a disturbance's noise stream is tied to the lane, not to the run).
+* ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder_deg`` [deg].
+
+Option ``disturbance_deg`` [deg] (default 0: calm water) adds the rudder-equivalent coloured-noise
+disturbance of Mu et al. (2018) (:class:`usvid.manoeuvres.logic.Disturbance`, as ``usvid
+autopilot`` and ``usvid sim`` use it) to every manoeuvre; run i draws its noise from the stream
+``(seed, i)``, so its realisation, like its parameters, does not depend on the chunking.
 
 A run that diverges keeps its row with ``success`` false and NaN metrics.
 """
@@ -32,7 +36,7 @@ import pandas as pd
 
 from usvid.errors import UsvidError
 from usvid.io.modelfile import model_from_dict
-from usvid.manoeuvres.logic import PID, CourseChange, Turning, ZigZag
+from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
 from usvid.manoeuvres.metrics import turning_metrics
 from usvid.scale.cluster import map_ordered
 from usvid.sim.runs import default_t_end
@@ -86,7 +90,8 @@ class MonteCarlo:
 
     ``options``: ``delta_deg``, ``psi_deg`` [deg] (zig-zag, turning), ``target_deg`` [deg],
     ``kp`` [rad/rad], ``ki`` [1/s], ``kd`` [s] (course-keeping), ``t_end`` [s], ``dt`` [s],
-    ``speed`` [m/s]. ``names``/``mean``/``cov``: the jointly normal parameters (SI), may be
+    ``speed`` [m/s], ``disturbance_deg`` [deg] (standard deviation of the rudder-equivalent
+    disturbance; 0 = calm). ``names``/``mean``/``cov``: the jointly normal parameters (SI), may be
     empty; ``vary``: further independent distributions (they override a jointly drawn name).
     """
 
@@ -103,6 +108,11 @@ class MonteCarlo:
         if self.manoeuvre not in MANOEUVRES:
             raise UsvidError(f"--manoeuvre {self.manoeuvre!r}: expected one of "
                              f"{', '.join(MANOEUVRES)}")
+        d = self.options.get("disturbance_deg", 0.0)
+        if not (isinstance(d, (int, float)) and math.isfinite(d) and d >= 0):
+            raise UsvidError(f"--disturbance-deg must be >= 0 deg (got {d!r})")
+        if not 0 <= int(self.seed) < 2**53:  # (the kernel's noise streams: whole floats)
+            raise UsvidError(f"--seed must be in 0..2^53-1 (got {self.seed})")
         vm = model_from_dict(self.model)
         known = {f.name for f in dataclasses.fields(vm.dynamics)}
         for name in (*self.names, *(v.name for v in self.vary)):
@@ -166,6 +176,9 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     t_end = o.get("t_end") or default_t_end(vm, u0)
     rows: dict[str, Any] = {"run": np.arange(lo, hi)}
     rows.update(params)
+    sd = math.radians(float(o.get("disturbance_deg", 0.0)))
+    dist = (Disturbance(intensity=sd, seed=int(mc.seed), stream=np.arange(lo, hi, dtype=float))
+            if sd > 0 else None)  # run i: noise stream (seed, i), whatever the chunk
     delta = math.radians(o.get("delta_deg", 10.0 if mc.manoeuvre == "zigzag" else 35.0))
     with np.errstate(all="ignore"):
         if mc.manoeuvre == "zigzag":
@@ -173,7 +186,7 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
             logic = ZigZag(np.full(B, delta), psi_sw)
             nsteps = max(1, round(t_end / dt))
             res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=nsteps,
-                           channels=("psi",))
+                           channels=("psi",), disturbance=dist)
             ov = np.degrees(res.zigzag_online["overshoot"])
             rt = res.zigzag_online["reversal_t"]
             metrics = {"overshoot_1_deg": ov[:, 0], "overshoot_2_deg": ov[:, 1],
@@ -182,7 +195,7 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
         elif mc.manoeuvre == "turning":
             logic = Turning(np.full(B, delta))
             res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=5,
-                           channels=("x", "y", "psi", "delta"))
+                           channels=("x", "y", "psi", "delta"), disturbance=dist)
             tm = []
             for i in range(B):  # metrics per run (fits of the steady circle)
                 try:
@@ -196,7 +209,8 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
             ki = float(o.get("ki", 0.0))
             logic = CourseChange(target=math.radians(o.get("target_deg", 100.0)),
                                  controller=PID(kp=float(o.get("kp", 0.7)), ki=ki,
-                                                kd=float(o.get("kd", 1.0))))
+                                                kd=float(o.get("kd", 1.0))),
+                                 disturbance=dist)
             res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0,
                            psi0=np.zeros(B), record_every=max(1, round(t_end / dt)),
                            channels=("psi",))
