@@ -330,7 +330,13 @@ class ModelEstimator(FittedAttributes):
         dead time when the trials log both ``delta_cmd`` and ``delta`` (on the
         :data:`SERVO_WINDOW_S` of each trial with the most rudder movement), else an ideal
         servo at the vessel's helm rate (``helm_rate_deg_s``), the rate fitted by "oe-zigzag"
-        or the rate measured on the rudder ramps.
+        or the rate measured on the rudder ramps. For kinds with state estimation (``mmg``,
+        a physics model whose rudder force follows the rudder angle itself) fitted on the
+        measured rudder (not "oe-zigzag", whose replays use the ideal servo), zig-zag trials
+        without a logged order give the helm instead: a critically damped second-order servo
+        at that rate with the dead time after each heading crossing
+        (:func:`usvid.identify.servo.helm_from_zigzags`), so that a simulated zig-zag
+        reverses the rudder as the trials did.
     oe_channels : tuple of str
         Outputs the output-error fit compares (default the kind's outputs).
     particulars : dict
