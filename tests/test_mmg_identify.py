@@ -179,3 +179,57 @@ def test_simulate_rps_option(tmp_path, capsys):
                                   "vessel": {"length": 7.0, "speed": 1.0}}))
     assert main(["simulate", "turning", str(nomoto), "--rps", "9"]) == 2
     assert "--rps" in capsys.readouterr().err
+
+
+def test_helm_of_zigzag_reversals_is_recovered():
+    from usvid.identify.servo import HELM_DELAYS, helm_from_zigzags
+    from usvid.models.servo import SecondOrderServo
+
+    # rudder reversals of +-20 deg made by a known helm (15.8 deg/s, omega_n 8 rad/s, 0.36 s
+    # dead time after the heading crossing at t = 0), simulated by the core's servo, with
+    # 0.1 deg white noise: the grid search finds the dead time and omega_n again
+    rate = math.radians(15.8)
+    true = SecondOrderServo(omega_n=8.0, zeta=1.0, delay=0.36, max_rate=rate)
+    rng = np.random.default_rng(3)
+    rev = []
+    for side in (1.0, -1.0, 1.0, -1.0):
+        t = np.arange(-0.5, 4.5, 0.05)
+        d0, d1 = math.radians(20.0) * side, -math.radians(20.0) * side
+        x, w, out, h = d0, 0.0, [], 0.001
+        for s in np.arange(-0.5, 4.5, h):
+            c = d1 if s >= true.delay else d0
+            w = float(np.clip(w + h * true.omega_n ** 2 * (c - x) - h * 2 * true.omega_n * w,
+                              -rate, rate))
+            x += h * w
+            out.append(x)
+        d = np.interp(t, np.arange(-0.5, 4.5, h), out) + rng.normal(0, math.radians(0.1),
+                                                                     t.size)
+        rev.append((t + 100.0, d, 100.0))  # any time origin
+    fit = helm_from_zigzags(rev, rate)
+    assert fit is not None and fit.n_reversals == 4
+    # one grid step of the dead-time search (0.02 s)
+    assert fit.servo.delay == pytest.approx(0.36, abs=HELM_DELAYS[1] + 1e-9)
+    # omega_n within one grid neighbour (6, 8, 10 rad/s differ by < 0.05 s of lag)
+    assert 6.0 <= fit.servo.omega_n <= 10.0
+    assert fit.servo.max_rate == rate and fit.servo.zeta == 1.0
+    assert math.degrees(fit.rms) < 0.3  # the noise is 0.1 deg
+    assert helm_from_zigzags([], rate) is None
+
+
+def test_hsva_helm_reacts_after_the_crossing(hsva_dir):
+    from usvid.identify.estimator import _reversal_windows
+    from usvid.identify.servo import helm_from_zigzags
+    from usvid.io import read_trial
+
+    # the HSVA autopilot reverses the rudder about 0.2-0.3 s after the heading crossing and the
+    # ramp reaches the 15.8 deg/s helm rate after a further ~0.3 s: 20 reversals of the three
+    # training zig-zags give 0.36 s dead time (omega_n 8 rad/s), rudder rms 0.52 deg, against
+    # 3.7 deg for an ideal servo without dead time (the servo identify gives an mmg model)
+    rate = math.radians(15.8)
+    trials = [read_trial(hsva_dir / f"HSVA_CPMC_KVLCC2_Z_{n}.dat", "hsva_kvlcc2")
+              for n in ("10_05", "15_05", "20_05")]
+    rev = _reversal_windows(trials, rate)
+    fit = helm_from_zigzags(rev, rate)
+    assert fit.n_reversals == 20
+    assert fit.servo.delay == pytest.approx(0.36, abs=0.05)
+    assert math.degrees(fit.rms) < 0.7

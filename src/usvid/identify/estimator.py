@@ -54,9 +54,9 @@ from usvid.identify.metrics import fit_metrics
 from usvid.identify.output_error import OEResult, refine_output_error
 from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
-from usvid.identify.servo import identify_second_order_servo
+from usvid.identify.servo import helm_from_zigzags, identify_second_order_servo
 from usvid.io.modelfile import model_to_dict
-from usvid.manoeuvres import find_manoeuvres, rudder_rate
+from usvid.manoeuvres import find_manoeuvres, measured_metrics, rudder_rate
 from usvid.models.kind import ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
@@ -208,6 +208,33 @@ def _approach_speed(trials: Sequence[Trial], vessel: Vessel) -> float | None:
     return float(np.median(vals)) if vals else None
 
 
+def _reversal_windows(trials: Sequence[Trial], rate: float
+                      ) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """The rudder records around the measured zig-zag reversals of ``trials`` (for
+    :func:`usvid.identify.servo.helm_from_zigzags`): from 0.5 s before each heading crossing
+    until the swing at ``rate`` [rad/s] plus 2 s, or 0.5 s before the next crossing."""
+    out = []
+    for tr in trials:
+        if not (tr.has("delta") and tr.has("psi")):
+            continue
+        t, d = tr.t, tr["delta"]
+        for m in measured_metrics(tr):
+            if m["kind"] != "zigzag":
+                continue
+            tc = list(m.get("reversal_times_s") or [])
+            for k, c in enumerate(tc):
+                i = int(np.searchsorted(t, c))
+                if i >= t.size:
+                    break
+                t_end = c + 2.0 * abs(float(d[i])) / rate + 2.0
+                if k + 1 < len(tc):
+                    t_end = min(t_end, tc[k + 1] - 0.5)
+                sel = (t >= c - 0.5) & (t <= t_end)
+                if sel.sum() > 10:
+                    out.append((t[sel], d[sel], float(c)))
+    return out
+
+
 @dataclass
 class IdentifiedModel:
     """An identified model: parameters [SI, the model file's names], standard errors, 95 %
@@ -303,7 +330,13 @@ class ModelEstimator(FittedAttributes):
         dead time when the trials log both ``delta_cmd`` and ``delta`` (on the
         :data:`SERVO_WINDOW_S` of each trial with the most rudder movement), else an ideal
         servo at the vessel's helm rate (``helm_rate_deg_s``), the rate fitted by "oe-zigzag"
-        or the rate measured on the rudder ramps.
+        or the rate measured on the rudder ramps. For kinds with state estimation (``mmg``,
+        a physics model whose rudder force follows the rudder angle itself) fitted on the
+        measured rudder (not "oe-zigzag", whose replays use the ideal servo), zig-zag trials
+        without a logged order give the helm instead: a critically damped second-order servo
+        at that rate with the dead time after each heading crossing
+        (:func:`usvid.identify.servo.helm_from_zigzags`), so that a simulated zig-zag
+        reverses the rudder as the trials did.
     oe_channels : tuple of str
         Outputs the output-error fit compares (default the kind's outputs).
     particulars : dict
@@ -575,6 +608,15 @@ class ModelEstimator(FittedAttributes):
             source = "measured rudder ramps"
         if rate is None:
             return IdealServo(), {}
+        if self.kind_.state_estimation and zz_rate is None:
+            helm = helm_from_zigzags(_reversal_windows(trials, rate), rate)
+            if helm is not None:
+                s = helm.servo
+                return s, {"kind": "second_order", "max_rate_deg_s": math.degrees(rate),
+                           "rate_from": source, "omega_n": s.omega_n, "zeta": s.zeta,
+                           "delay": s.delay, "identified_from": "zig-zag reversals",
+                           "n_reversals": helm.n_reversals,
+                           "rms_deg": math.degrees(helm.rms)}
         return IdealServo(max_rate=rate), {"kind": "ideal", "max_rate_deg_s": math.degrees(rate),
                                            "rate_from": source}
 

@@ -276,3 +276,72 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
                                             strict=True)},
         arx=arx, delay_scan=scan, fit=fit_metrics(y, sim), method=method,
         arx_delay_scan=arx_scan)
+
+
+#: Candidate natural frequencies [rad/s] and dead times [s] of :func:`helm_from_zigzags`.
+HELM_OMEGA = (2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0)
+HELM_DELAYS = tuple(round(0.02 * k, 2) for k in range(76))  # 0 .. 1.5 s
+
+
+@dataclass
+class HelmFit:
+    """The helm of zig-zag trials without a logged order (:func:`helm_from_zigzags`):
+    ``servo`` (second order, zeta 1, at the given rate limit), ``rms`` [rad] of the rudder over
+    the reversal windows, ``n_reversals`` used."""
+
+    servo: SecondOrderServo
+    rms: float
+    n_reversals: int
+
+
+def helm_from_zigzags(reversals: list[tuple[np.ndarray, np.ndarray, float]], rate: float, *,
+                      max_angle: float | None = None, h: float = 0.005) -> HelmFit | None:
+    """The helm of a zig-zag autopilot from its rudder record at the reversals.
+
+    A zig-zag's order is known without a logged ``delta_cmd``: it reverses to the opposite
+    amplitude when the heading deviation crosses the switching angle (IMO MSC.137(76)). Each
+    reversal is ``(t, delta, t_cross)``: time [s] and rudder [rad] over a window from before
+    the crossing instant ``t_cross`` [s] until the rudder has settled (before the next
+    reversal); the order is the rudder held before the window, then the rudder held at its
+    end. The servo ``delta'' + 2 omega_n delta' + omega_n^2 delta = omega_n^2 delta_cmd(t -
+    tau)`` (critically damped: the ramps show no overshoot) with ``|delta'| <= rate`` [rad/s]
+    (the vessel's helm rate) is fitted by a grid search over omega_n (:data:`HELM_OMEGA`
+    [rad/s]) and the dead time tau (:data:`HELM_DELAYS` [s]) minimising the rudder RMS over
+    all windows (integrated at ``h`` [s] as the core does: rate clipped). The dead time
+    includes the helmsman's (autopilot's) reaction to the crossing. None without reversals.
+    """
+    wins = [(np.asarray(t, float), np.asarray(d, float), float(tc)) for t, d, tc in reversals
+            if len(t) > 10]
+    if not wins:
+        return None
+    T = max(float(t[-1] - tc) for t, _, tc in wins)
+    t0 = min(float(t[0] - tc) for t, _, tc in wins)
+    grid = np.arange(t0, T + h, h)
+    nw = len(wins)
+    d0 = np.array([d[0] for _, d, _ in wins])
+    d1 = np.array([np.median(d[-max(len(d) // 10, 1):]) for _, d, _ in wins])
+    meas = np.full((nw, grid.size), np.nan)
+    for i, (t, d, tc) in enumerate(wins):
+        sel = (grid >= t[0] - tc) & (grid <= t[-1] - tc)
+        meas[i, sel] = np.interp(grid[sel], t - tc, d)
+    wn = np.repeat(np.asarray(HELM_OMEGA, float), len(HELM_DELAYS))[:, None]
+    tau = np.tile(np.asarray(HELM_DELAYS, float), len(HELM_OMEGA))[:, None]
+    x = np.tile(d0, (wn.shape[0], 1))  # (candidates, windows)
+    w = np.zeros_like(x)
+    sse = np.zeros(x.shape[0])
+    cnt = 0
+    for k, s in enumerate(grid):
+        cmd = np.where(s >= tau, d1, d0)
+        a = wn * wn * (cmd - x) - 2.0 * wn * w
+        w = np.clip(w + h * a, -rate, rate)
+        x = x + h * w
+        m = meas[:, k]
+        ok = np.isfinite(m)
+        if ok.any():
+            sse += np.sum((x[:, ok] - m[ok]) ** 2, axis=1)
+            cnt += int(ok.sum())
+    b = int(np.argmin(sse))
+    kw = {} if max_angle is None else {"max_angle": max_angle}
+    servo = SecondOrderServo(omega_n=float(wn[b, 0]), zeta=1.0, delay=float(tau[b, 0]),
+                             max_rate=rate, **kw)
+    return HelmFit(servo, math.sqrt(sse[b] / max(cnt, 1)), nw)
