@@ -33,6 +33,24 @@ from usvid.models.kind import Block
 ALPHA = 1e-3
 #: Variance inflation factor above which a coefficient is reported as poorly separable.
 VIF_WARN = 30.0
+#: Twin thrusters: hull coefficients held at their priors (prior weight ALPHA_HELD, the data's
+#: information times 1e4). Such vessels carry no sway log; the sway velocity estimated from
+#: GNSS positions (which update slower than the rows) is too poor for the sway equation
+#: (least squares on the Dalian USV's sine run gives Y_v > 0), so the sway equation and the
+#: v-terms of surge and yaw keep their priors (Kijima 1990 / 0) and the data determine the
+#: resistance R_0, X_rr and the yaw damping N_r, N_rrr.
+TWIN_HELD = ("X_vv", "X_vr", "X_vvvv", *_m.Y_REGRESSORS, "N_v", "N_vvv", "N_vvr", "N_vrr")
+ALPHA_HELD = 1e4
+
+
+def held_names(fixed: Mapping[str, Any]) -> tuple[str, ...]:
+    """Fitted names output error keeps at their equation-error (prior) values for the held
+    particulars ``fixed``: :data:`TWIN_HELD` for the twin variant, none otherwise."""
+    if fixed.get("variant") == "twin" and fixed.get("pwm_neutral") is not None:
+        return TWIN_HELD
+    return TWIN_HELD if fixed.get("variant") == "twin" else ("thrust_asymmetry",)
+
+
 #: Kinematic viscosity of water [m^2/s] for the R_0 prior (15 deg C fresh water).
 NU_WATER = 1.14e-6
 
@@ -59,6 +77,14 @@ def prior_hull(p: _m.MMGParameters, U: float) -> dict[str, float]:
     out.update({k: pri[k] for k in ("Y_v", "Y_r", "N_v", "N_r")})
     out["R_0"] = 1.3 * CF * S / (p.L * p.d)
     return out
+
+
+def pwm_to_law(c: Any, neutral: float, span: float) -> np.ndarray:
+    """Twin thrusters commanded by PWM: pulse widths c [us] -> the pod thrust law's command
+    ``sgn(s) sqrt(|s|)`` at the level ``s = clip((c - neutral)/span, -1, 1)`` (so that
+    ``T = pod_d |n| n = pod_d s``, the declared linear map; the kernel's ``_pwm_n``)."""
+    s = np.clip((np.asarray(c, float) - neutral) / span, -1.0, 1.0)
+    return np.sign(s) * np.sqrt(np.abs(s))
 
 
 def _series_arrays(s: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -99,8 +125,14 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
             npo, nst = a["n_port"], a["n_stbd"]
             if npo is None or nst is None:
                 raise UsvidError("model 'mmg' (twin variant) needs channels n_port, n_stbd")
+            if fixed.get("pwm_neutral") is not None:
+                npo, nst = (pwm_to_law(c, float(fixed["pwm_neutral"]),
+                                       float(fixed.get("pwm_span") or 500.0))
+                            for c in (npo, nst))
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
                                     n_port=npo, n_stbd=nst)
+            if fixed.get("pwm_neutral") is not None:
+                bl[2] = _asymmetry_column(p, bl[2], a, npo, nst)
         else:
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
                                     delta, n)
@@ -111,6 +143,8 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
             parts[i].append((b.Phi[keep], b.y[keep]))
         rows.append(int(keep.sum()))
     names = (_m.X_REGRESSORS, _m.Y_REGRESSORS, _m.N_REGRESSORS)
+    if p.variant == "twin" and fixed.get("pwm_neutral") is not None:
+        names = (names[0], names[1], (*names[2], "thrust_asymmetry"))
     U0 = float(np.median(np.concatenate([np.hypot(_series_arrays(s)["u"],
                                                   _series_arrays(s)["v"]) for s in series])))
     prior = prior_hull(p, U0)
@@ -119,12 +153,26 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
         Phi = np.concatenate([q[0] for q in pr])
         y = np.concatenate([q[1] for q in pr])
         _diagnose(eq, Phi, nm)
-        w = np.sqrt(ALPHA * np.maximum(np.sum(Phi * Phi, axis=0), 1e-300))
+        alpha = np.array([ALPHA_HELD if p.variant == "twin" and k in TWIN_HELD else ALPHA
+                          for k in nm])
+        w = np.sqrt(alpha * np.maximum(np.sum(Phi * Phi, axis=0), 1e-300))
         Phi_r = np.diag(w)
-        y_r = w * np.array([prior[k] for k in nm])
+        y_r = w * np.array([prior.get(k, 0.0) for k in nm])
         out.append(Block(eq, np.vstack([Phi, Phi_r]), np.concatenate([y, y_r]), nm,
                          rows + [len(nm)]))
     return out
+
+
+def _asymmetry_column(p: _m.MMGParameters, blk: Any, a: Mapping[str, np.ndarray],
+                      npo: np.ndarray, nst: np.ndarray) -> Any:
+    """The N regression of PWM-commanded twin thrusters with the thrust asymmetry a: the
+    moment ``a (T_port + T_stbd) y_P L`` of thrusters giving (1 +- a) of the declared thrust
+    (non-dimensional by 0.5 rho L^2 d U^2, as the N block) as one more regressor."""
+    f = _m.forces(p, a["u"], a["v"], a["r"], n_port=npo, n_stbd=nst)
+    U2 = np.maximum(a["u"] ** 2 + a["v"] ** 2, (_m.U_MIN_FROUDE ** 2) * _m.G * p.L)
+    col = (f["T"] + f["T_stbd"]) * p.y_P * p.L / (0.5 * p.rho * p.L ** 2 * p.d * U2)
+    return _m.RegressionBlock(blk.equation, np.column_stack([blk.Phi, col]), blk.y,
+                              (*blk.names, "thrust_asymmetry"))
 
 
 def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
@@ -152,5 +200,8 @@ def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
 
 def to_params(theta: Mapping[str, float], fixed: Mapping[str, Any], form: str,
               h: float) -> dict[str, float]:
-    """The hull coefficients are the regression coefficients."""
-    return {k: float(theta[k]) for k in _m.HULL_COEFFICIENTS}
+    """The hull coefficients are the regression coefficients (and the twin PWM map's thrust
+    asymmetry where it was regressed; 0 otherwise, held by :func:`held_names`)."""
+    out = {k: float(theta[k]) for k in _m.HULL_COEFFICIENTS}
+    out["thrust_asymmetry"] = float(theta.get("thrust_asymmetry", 0.0))
+    return out
