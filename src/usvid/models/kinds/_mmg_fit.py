@@ -111,6 +111,7 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
     """
     p = physics_of(fixed)
     parts: list[list[Any]] = [[], [], []]
+    diff_thrust: list[np.ndarray] = []
     rows: list[int] = []
     for s in series:
         a = _series_arrays(s)
@@ -132,7 +133,8 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
                                     n_port=npo, n_stbd=nst)
             if fixed.get("pwm_neutral") is not None:
-                bl[2] = _asymmetry_column(p, bl[2], a, npo, nst)
+                bl[2], dT = _asymmetry_column(p, bl[2], a, npo, nst)
+                diff_thrust.append(_moving_mean(dT, max(int(round(DIFF_SMOOTH_S / h)), 1)))
         else:
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
                                     delta, n)
@@ -142,6 +144,8 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
         for i, b in enumerate(bl):
             parts[i].append((b.Phi[keep], b.y[keep]))
         rows.append(int(keep.sum()))
+    if diff_thrust:
+        _diagnose_twin(np.concatenate(diff_thrust))
     names = (_m.X_REGRESSORS, _m.Y_REGRESSORS, _m.N_REGRESSORS)
     if p.variant == "twin" and fixed.get("pwm_neutral") is not None:
         names = (names[0], names[1], (*names[2], "thrust_asymmetry"))
@@ -164,15 +168,53 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
 
 
 def _asymmetry_column(p: _m.MMGParameters, blk: Any, a: Mapping[str, np.ndarray],
-                      npo: np.ndarray, nst: np.ndarray) -> Any:
+                      npo: np.ndarray, nst: np.ndarray) -> tuple[Any, np.ndarray]:
     """The N regression of PWM-commanded twin thrusters with the thrust asymmetry a: the
     moment ``a (T_port + T_stbd) y_P L`` of thrusters giving (1 +- a) of the declared thrust
-    (non-dimensional by 0.5 rho L^2 d U^2, as the N block) as one more regressor."""
+    (non-dimensional by 0.5 rho L^2 d U^2, as the N block) as one more regressor; and the
+    differential thrust T_port - T_stbd [N] (for :func:`_diagnose_twin`)."""
     f = _m.forces(p, a["u"], a["v"], a["r"], n_port=npo, n_stbd=nst)
     U2 = np.maximum(a["u"] ** 2 + a["v"] ** 2, (_m.U_MIN_FROUDE ** 2) * _m.G * p.L)
     col = (f["T"] + f["T_stbd"]) * p.y_P * p.L / (0.5 * p.rho * p.L ** 2 * p.d * U2)
-    return _m.RegressionBlock(blk.equation, np.column_stack([blk.Phi, col]), blk.y,
-                              (*blk.names, "thrust_asymmetry"))
+    return (_m.RegressionBlock(blk.equation, np.column_stack([blk.Phi, col]), blk.y,
+                               (*blk.names, "thrust_asymmetry")), f["T"] - f["T_stbd"])
+
+
+#: Twin thrusters: moving-mean window [s] of the differential thrust in the separability check
+#: (the controller's sample-to-sample command jitter is filtered by the yaw dynamics).
+DIFF_SMOOTH_S = 5.0
+#: Robust spread / |median| of the smoothed differential thrust below which it is "nearly
+#: constant" (a steady turn) and the yaw parameters cannot be separated.
+DIFF_CV_WARN = 1.0
+
+
+def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    k = np.arange(x.size)
+    lo, hi = np.maximum(k - n // 2, 0), np.minimum(k + n - n // 2, x.size)
+    return (c[hi] - c[lo]) / (hi - lo)
+
+
+def _diagnose_twin(dT: np.ndarray) -> None:
+    """Warn when the (smoothed) differential thrust T_port - T_stbd [N] is nearly constant:
+    robust spread (1.4826 median absolute deviation) below DIFF_CV_WARN times |median|. Such a
+    run (a steady turn) shows the yaw moment balance at one turning rate only: the yaw damping
+    N_r, N_rrr, the thrust asymmetry and the assumed thrust map cannot be separated, and the
+    response to other differential thrusts is extrapolated."""
+    dT = dT[np.isfinite(dT)]
+    if dT.size == 0:
+        return
+    med = float(np.median(dT))
+    spread = 1.4826 * float(np.median(np.abs(dT - med)))
+    if spread < DIFF_CV_WARN * abs(med):
+        warnings.warn(
+            f"mmg twin thrusters: the differential thrust is nearly constant (smoothed over "
+            f"{DIFF_SMOOTH_S:g} s: median {med:.3g} N, spread {spread:.3g} N): the data cannot "
+            "separate the yaw damping N_r, N_rrr from the thrust asymmetry and the thrust map "
+            "(only the yaw moment balance at this turning rate is determined); the model's "
+            "response to other differential thrusts is extrapolated", CollinearityWarning,
+            stacklevel=4)
+
 
 
 def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
