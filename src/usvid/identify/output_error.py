@@ -101,6 +101,9 @@ class OEProblem:
             self.held = ()
             self._to_params = dict
             self._to_fit = dict
+        held_by = getattr(kind.dynamics, "held_names", None)  # e.g. the MMG twin variant's
+        if held_by is not None:                                # sway coefficients
+            self.held = tuple(self.held) + tuple(held_by(self.fixed))
         self.init_names = tuple(c for c in ("r", "psi", "u", "v") if c in kind.outputs)
 
     def fit_values(self, params: Mapping[str, float]) -> np.ndarray:

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.identify.estimator import DEFAULT_STEP
+from usvid.identify.estimator import DEFAULT_STEP, pwm_commands
 from usvid.identify.series import trial_series
 from usvid.manoeuvres import find_manoeuvres, manoeuvre_metrics
 from usvid.manoeuvres.detect import APPROACH_S, Segment
@@ -289,6 +289,7 @@ def validate_trial(model: VesselModel, trial: Trial, *, psi_switch: float | None
     detected zig-zag switching angle. A step that cannot be done (no manoeuvre, a channel the
     model needs is missing) leaves its part empty and says why in ``messages``."""
     name = trial.name or (trial.sources[0] if trial.sources else "?")
+    trial = pwm_commands(trial)  # PWM-commanded thrusters: the commands the model replays
     if not trial.is_uniform or (trial.has("lat") and not trial.has("x")) or not trial.has("U"):
         trial = prepare(trial, derivatives=False)
     out = TrialValidation(trial=name, manoeuvre="other",

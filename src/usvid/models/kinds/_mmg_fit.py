@@ -33,6 +33,24 @@ from usvid.models.kind import Block
 ALPHA = 1e-3
 #: Variance inflation factor above which a coefficient is reported as poorly separable.
 VIF_WARN = 30.0
+#: Twin thrusters: hull coefficients held at their priors (prior weight ALPHA_HELD, the data's
+#: information times 1e4). Such vessels carry no sway log; the sway velocity estimated from
+#: GNSS positions (which update slower than the rows) is too poor for the sway equation
+#: (least squares on the Dalian USV's sine run gives Y_v > 0), so the sway equation and the
+#: v-terms of surge and yaw keep their priors (Kijima 1990 / 0) and the data determine the
+#: resistance R_0, X_rr and the yaw damping N_r, N_rrr.
+TWIN_HELD = ("X_vv", "X_vr", "X_vvvv", *_m.Y_REGRESSORS, "N_v", "N_vvv", "N_vvr", "N_vrr")
+ALPHA_HELD = 1e4
+
+
+def held_names(fixed: Mapping[str, Any]) -> tuple[str, ...]:
+    """Fitted names output error keeps at their equation-error (prior) values for the held
+    particulars ``fixed``: :data:`TWIN_HELD` for the twin variant, none otherwise."""
+    if fixed.get("variant") == "twin" and fixed.get("pwm_neutral") is not None:
+        return TWIN_HELD
+    return TWIN_HELD if fixed.get("variant") == "twin" else ("thrust_asymmetry",)
+
+
 #: Kinematic viscosity of water [m^2/s] for the R_0 prior (15 deg C fresh water).
 NU_WATER = 1.14e-6
 
@@ -61,6 +79,14 @@ def prior_hull(p: _m.MMGParameters, U: float) -> dict[str, float]:
     return out
 
 
+def pwm_to_law(c: Any, neutral: float, span: float) -> np.ndarray:
+    """Twin thrusters commanded by PWM: pulse widths c [us] -> the pod thrust law's command
+    ``sgn(s) sqrt(|s|)`` at the level ``s = clip((c - neutral)/span, -1, 1)`` (so that
+    ``T = pod_d |n| n = pod_d s``, the declared linear map; the kernel's ``_pwm_n``)."""
+    s = np.clip((np.asarray(c, float) - neutral) / span, -1.0, 1.0)
+    return np.sign(s) * np.sqrt(np.abs(s))
+
+
 def _series_arrays(s: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     def pick(*names: str) -> np.ndarray | None:
         for n in names:
@@ -85,6 +111,7 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
     """
     p = physics_of(fixed)
     parts: list[list[Any]] = [[], [], []]
+    diff_thrust: list[np.ndarray] = []
     rows: list[int] = []
     for s in series:
         a = _series_arrays(s)
@@ -99,8 +126,15 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
             npo, nst = a["n_port"], a["n_stbd"]
             if npo is None or nst is None:
                 raise UsvidError("model 'mmg' (twin variant) needs channels n_port, n_stbd")
+            if fixed.get("pwm_neutral") is not None:
+                npo, nst = (pwm_to_law(c, float(fixed["pwm_neutral"]),
+                                       float(fixed.get("pwm_span") or 500.0))
+                            for c in (npo, nst))
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
                                     n_port=npo, n_stbd=nst)
+            if fixed.get("pwm_neutral") is not None:
+                bl[2], dT = _asymmetry_column(p, bl[2], a, npo, nst)
+                diff_thrust.append(_moving_mean(dT, max(int(round(DIFF_SMOOTH_S / h)), 1)))
         else:
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
                                     delta, n)
@@ -110,7 +144,11 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
         for i, b in enumerate(bl):
             parts[i].append((b.Phi[keep], b.y[keep]))
         rows.append(int(keep.sum()))
+    if diff_thrust:
+        _diagnose_twin(np.concatenate(diff_thrust))
     names = (_m.X_REGRESSORS, _m.Y_REGRESSORS, _m.N_REGRESSORS)
+    if p.variant == "twin" and fixed.get("pwm_neutral") is not None:
+        names = (names[0], names[1], (*names[2], "thrust_asymmetry"))
     U0 = float(np.median(np.concatenate([np.hypot(_series_arrays(s)["u"],
                                                   _series_arrays(s)["v"]) for s in series])))
     prior = prior_hull(p, U0)
@@ -119,12 +157,64 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
         Phi = np.concatenate([q[0] for q in pr])
         y = np.concatenate([q[1] for q in pr])
         _diagnose(eq, Phi, nm)
-        w = np.sqrt(ALPHA * np.maximum(np.sum(Phi * Phi, axis=0), 1e-300))
+        alpha = np.array([ALPHA_HELD if p.variant == "twin" and k in TWIN_HELD else ALPHA
+                          for k in nm])
+        w = np.sqrt(alpha * np.maximum(np.sum(Phi * Phi, axis=0), 1e-300))
         Phi_r = np.diag(w)
-        y_r = w * np.array([prior[k] for k in nm])
+        y_r = w * np.array([prior.get(k, 0.0) for k in nm])
         out.append(Block(eq, np.vstack([Phi, Phi_r]), np.concatenate([y, y_r]), nm,
                          rows + [len(nm)]))
     return out
+
+
+def _asymmetry_column(p: _m.MMGParameters, blk: Any, a: Mapping[str, np.ndarray],
+                      npo: np.ndarray, nst: np.ndarray) -> tuple[Any, np.ndarray]:
+    """The N regression of PWM-commanded twin thrusters with the thrust asymmetry a: the
+    moment ``a (T_port + T_stbd) y_P L`` of thrusters giving (1 +- a) of the declared thrust
+    (non-dimensional by 0.5 rho L^2 d U^2, as the N block) as one more regressor; and the
+    differential thrust T_port - T_stbd [N] (for :func:`_diagnose_twin`)."""
+    f = _m.forces(p, a["u"], a["v"], a["r"], n_port=npo, n_stbd=nst)
+    U2 = np.maximum(a["u"] ** 2 + a["v"] ** 2, (_m.U_MIN_FROUDE ** 2) * _m.G * p.L)
+    col = (f["T"] + f["T_stbd"]) * p.y_P * p.L / (0.5 * p.rho * p.L ** 2 * p.d * U2)
+    return (_m.RegressionBlock(blk.equation, np.column_stack([blk.Phi, col]), blk.y,
+                               (*blk.names, "thrust_asymmetry")), f["T"] - f["T_stbd"])
+
+
+#: Twin thrusters: moving-mean window [s] of the differential thrust in the separability check
+#: (the controller's sample-to-sample command jitter is filtered by the yaw dynamics).
+DIFF_SMOOTH_S = 5.0
+#: Robust spread / |median| of the smoothed differential thrust below which it is "nearly
+#: constant" (a steady turn) and the yaw parameters cannot be separated.
+DIFF_CV_WARN = 1.0
+
+
+def _moving_mean(x: np.ndarray, n: int) -> np.ndarray:
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    k = np.arange(x.size)
+    lo, hi = np.maximum(k - n // 2, 0), np.minimum(k + n - n // 2, x.size)
+    return (c[hi] - c[lo]) / (hi - lo)
+
+
+def _diagnose_twin(dT: np.ndarray) -> None:
+    """Warn when the (smoothed) differential thrust T_port - T_stbd [N] is nearly constant:
+    robust spread (1.4826 median absolute deviation) below DIFF_CV_WARN times |median|. Such a
+    run (a steady turn) shows the yaw moment balance at one turning rate only: the yaw damping
+    N_r, N_rrr, the thrust asymmetry and the assumed thrust map cannot be separated, and the
+    response to other differential thrusts is extrapolated."""
+    dT = dT[np.isfinite(dT)]
+    if dT.size == 0:
+        return
+    med = float(np.median(dT))
+    spread = 1.4826 * float(np.median(np.abs(dT - med)))
+    if spread < DIFF_CV_WARN * abs(med):
+        warnings.warn(
+            f"mmg twin thrusters: the differential thrust is nearly constant (smoothed over "
+            f"{DIFF_SMOOTH_S:g} s: median {med:.3g} N, spread {spread:.3g} N): the data cannot "
+            "separate the yaw damping N_r, N_rrr from the thrust asymmetry and the thrust map "
+            "(only the yaw moment balance at this turning rate is determined); the model's "
+            "response to other differential thrusts is extrapolated", CollinearityWarning,
+            stacklevel=4)
+
 
 
 def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
@@ -152,5 +242,8 @@ def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
 
 def to_params(theta: Mapping[str, float], fixed: Mapping[str, Any], form: str,
               h: float) -> dict[str, float]:
-    """The hull coefficients are the regression coefficients."""
-    return {k: float(theta[k]) for k in _m.HULL_COEFFICIENTS}
+    """The hull coefficients are the regression coefficients (and the twin PWM map's thrust
+    asymmetry where it was regressed; 0 otherwise, held by :func:`held_names`)."""
+    out = {k: float(theta[k]) for k in _m.HULL_COEFFICIENTS}
+    out["thrust_asymmetry"] = float(theta.get("thrust_asymmetry", 0.0))
+    return out

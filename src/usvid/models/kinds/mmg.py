@@ -19,6 +19,7 @@ particulars, added masses and the propeller/rudder interaction coefficients are 
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -40,7 +41,13 @@ from usvid.models.kinds import _mmg_fit
 IDX_N_NOM = _m.N_PACKED
 #: Packed row of the twin thrusters' differential speed per radian of steering [rps/rad].
 IDX_STEER = _m.N_PACKED + 1
-N_ROWS = _m.N_PACKED + 2
+#: Packed rows of the twin thrusters' PWM map: neutral pulse width [us] and 1/span [1/us] (0:
+#: the commands are the thrust law's own unit, no map).
+IDX_PWM0 = _m.N_PACKED + 2
+IDX_PWM_K = _m.N_PACKED + 3
+#: Packed row of the twin PWM map's thrust asymmetry a [-] (port (1 + a), starboard (1 - a)).
+IDX_ASYM = _m.N_PACKED + 4
+N_ROWS = _m.N_PACKED + 5
 
 _POSITIVE = ("L", "B", "d", "m", "I_zG", "rho")
 
@@ -101,9 +108,21 @@ MMG = dataclasses.make_dataclass(
                         "holding the approach speed)", fit=False, default=None, ge=0.0)),
        ("steer_gain", Any, param("rps/rad", "twin thrusters: differential shaft speed per "
                                  "radian of rudder-equivalent steering", fit=False,
-                                 default=0.0))],
+                                 default=0.0)),
+       ("pwm_neutral", Any, param("us", "twin thrusters commanded by PWM pulse widths: the "
+                                  "neutral pulse width (null: the commands n_port, n_stbd are "
+                                  "the thrust law's own unit)", fit=False, default=None)),
+       ("pwm_span", Any, param("us", "twin thrusters commanded by PWM: pulse-width deviation of "
+                               "full thrust (level s = (pwm - pwm_neutral)/pwm_span in -1..1; "
+                               "thrust pod_d s with thrust_law 'pod', pod_c 0)", fit=False,
+                               default=500.0, gt=0.0)),
+       ("thrust_asymmetry", Any, param("-", "twin thrusters commanded by PWM: thrust asymmetry "
+                                       "a, port thrust (1 + a) pod_d s, starboard (1 - a) "
+                                       "pod_d s (identified; held at 0 otherwise)", fit=True,
+                                       default=0.0, ge=-0.5, le=0.5))],
     bases=(Dynamics,),
     namespace={"kind": "mmg", "validate": _validate, "lanes": _lanes, "physics": _physics,
+               "held_names": staticmethod(_mmg_fit.held_names),
                "__doc__": "MMG model parameters (Yasukawa & Yoshimura 2015): particulars SI, "
                           "coefficients non-dimensional as in the paper "
                           "(:mod:`usvid.models.mmg`)."},
@@ -116,6 +135,24 @@ def from_physics(p: _m.MMGParameters, **extra: Any) -> Any:
     """The kind's parameter set of an :class:`usvid.models.mmg.MMGParameters` (``extra``:
     ``n`` [rps], ``steer_gain`` [rps/rad])."""
     return MMG(**p.to_dict(), **extra)
+
+
+@numba.njit(cache=True, inline="always")
+def _pwm_n(c, c0, k, g):
+    """Thrust-law command of a PWM pulse width c [us] (neutral c0 [us], k = 1/span [1/us],
+    thruster gain g = 1 +- thrust_asymmetry): ``sgn(s) sqrt(g |s|)`` with the level
+    ``s = clip((c - c0) k, -1, 1)``, so that the pod law ``T = d |n| n`` (c = 0) gives the
+    declared linear map ``T = g d s``."""
+    s = min(max((c - c0) * k, -1.0), 1.0)
+    return math.copysign(math.sqrt(g * abs(s)), s)
+
+
+pwm_to_law = _mmg_fit.pwm_to_law
+
+
+def law_to_pwm(n: Any, neutral: float, span: float) -> Any:
+    """Inverse of :func:`pwm_to_law` (within the full-thrust range)."""
+    return neutral + span * np.sign(n) * np.asarray(n, float) ** 2
 
 
 @numba.njit(cache=True, inline="always")
@@ -133,6 +170,9 @@ def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - 
     else:
         npo = nn + p[IDX_STEER] * delta if np.isnan(n_port) else n_port
         nst = nn - p[IDX_STEER] * delta if np.isnan(n_stbd) else n_stbd
+        if p[IDX_PWM_K] > 0.0:
+            npo = _pwm_n(npo, p[IDX_PWM0], p[IDX_PWM_K], 1.0 + p[IDX_ASYM])
+            nst = _pwm_n(nst, p[IDX_PWM0], p[IDX_PWM_K], 1.0 - p[IDX_ASYM])
         du, dv, dr = _m.mmg_twin_accelerations(p, u, v, r, npo, nst)
     return (u, v, r, du, dv, dr, 0.0)
 
@@ -192,8 +232,18 @@ def pack(d: Any, speed: Any) -> np.ndarray:
         ph = lane.physics()
         out[:_m.N_PACKED, b] = _m.pack(ph)
         U = float(sp[b]) if sp is not None else float(1.0 if speed is None else speed)
-        out[IDX_N_NOM, b] = lane.n if lane.n is not None else equilibrium_rps(ph, U)
+        pwm = ph.variant == "twin" and lane.pwm_neutral is not None
+        if lane.n is not None:
+            out[IDX_N_NOM, b] = lane.n
+        elif pwm:
+            out[IDX_N_NOM, b] = law_to_pwm(equilibrium_rps(ph, U), float(lane.pwm_neutral),
+                                           float(lane.pwm_span))
+        else:
+            out[IDX_N_NOM, b] = equilibrium_rps(ph, U)
         out[IDX_STEER, b] = lane.steer_gain
+        out[IDX_PWM0, b] = float(lane.pwm_neutral) if pwm else 0.0
+        out[IDX_PWM_K, b] = 1.0 / float(lane.pwm_span) if pwm else 0.0
+        out[IDX_ASYM, b] = float(lane.thrust_asymmetry) if pwm else 0.0
     return out
 
 
@@ -208,7 +258,10 @@ def straight_speed(d: Any) -> Any:
     lanes = d.lanes()
     if any(lane.n is None for lane in lanes):
         return None
-    out = np.array([straight_speed_of(lane.physics(), float(lane.n)) for lane in lanes])
+    out = np.array([straight_speed_of(lane.physics(), float(
+        pwm_to_law(lane.n, float(lane.pwm_neutral), float(lane.pwm_span))
+        if lane.pwm_neutral is not None and lane.variant == "twin" else lane.n))
+        for lane in lanes])
     return float(out[0]) if len(lanes) == 1 and np.ndim(d.n) == 0 else out
 
 
@@ -229,6 +282,11 @@ EXTRA_KEYS: dict[str, str] = {
     "water_density": "rho [kg/m^3]",
     "mmg_variant": "0 rudder, 1 pod, 2 twin",
     "thruster_spacing": "twin: distance between the thrusters [m] (y_P = spacing / (2 L))",
+    "pwm_neutral": "twin commanded by PWM: neutral pulse width [us] (declares the PWM map)",
+    "pwm_span": "twin PWM map: pulse-width deviation of full thrust [us] (default 500)",
+    "thrust_full": "twin PWM map: each thruster's thrust at full PWM [N]",
+    "nominal_command": "twin PWM map: nominal pulse width [us] (default: median of the data)",
+    "steer_gain": "twin: differential command per radian of rudder-equivalent steering",
 }
 
 #: Interaction and open-water coefficients without a regression on the particulars: Y&Y
@@ -314,7 +372,8 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     Dp = get("propeller_diameter")
     if Dp is None:
         Dp = 0.65 * d
-        missing.append(f"propeller_diameter = {Dp:.4g} m (0.65 d)")
+        if not (variant == "twin" and get("pwm_neutral") is not None):  # unused by the map
+            missing.append(f"propeller_diameter = {Dp:.4g} m (0.65 d)")
     out["D_p"] = Dp
     if variant == "rudder":
         AR = get("rudder_area")
@@ -349,6 +408,10 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
         generic = [k for k in generic if k in ("k_0", "k_1", "k_2", "t_P", "w_P0", "x_P",
                                                "C_1", "C_2_plus", "C_2_minus")]
         out["f_alpha"] = 0.0
+    pwm = variant == "twin" and get("pwm_neutral") is not None
+    if pwm:
+        _twin_pwm(out, extra, data)
+        generic = []
     if out["f_alpha"] is None:
         out["f_alpha"] = 0.0
     scale = _kt_scale(out, data)
@@ -365,6 +428,8 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
         warnings.warn("mmg particulars not given (format spec vessel block): "
                       + "; ".join(missing), ParticularsWarning, stacklevel=3)
     out.pop("kt_scale_from_thrust", None)
+    if pwm:
+        return out
     n = get("shaft_speed_rps")
     if n is None:
         ns = [np.asarray(s["n"], float) for s in data if "n" in s]
@@ -373,6 +438,42 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
         n = float(np.median(np.concatenate(ns))) if ns else None
     out["n"] = n
     return out
+
+
+def _twin_pwm(out: dict[str, Any], extra: Mapping[str, Any],
+              data: Sequence[Mapping[str, np.ndarray]]) -> None:
+    """The declared thrust map of PWM-commanded twin thrusters (format spec ``vessel.extra``):
+    each thruster's thrust ``T = thrust_full s`` [N] at the level ``s = (pwm - pwm_neutral) /
+    pwm_span`` (clipped to -1..1), as the pod law ``T = pod_d |n| n`` with ``pod_c = 0`` on
+    ``n = sgn(s) sqrt(|s|)`` (:func:`pwm_to_law`); gross thrust, no wake or thrust deduction
+    (the map is the thrust at the trials' speeds). ``thrust_full`` [N] is required (the MMG
+    masses are in kg, so the thrust must be in newtons). Nominal command ``n``: the median
+    mean pulse width of the data; ``steer_gain`` [us/rad]: half the largest differential
+    pulse width of the data per 35 deg (as the catamaran kind)."""
+    full = extra.get("thrust_full")
+    if full is None:
+        raise UsvidError("model 'mmg' (twin thrusters commanded by PWM) needs "
+                         "vessel.extra.thrust_full [N] (each thruster's thrust at full PWM) in "
+                         "the format spec, or --vessel thrust_full=N")
+    out.update(thrust_law="pod", pod_c=0.0, pod_d=float(full),
+               pwm_neutral=float(extra["pwm_neutral"]),
+               pwm_span=float(extra.get("pwm_span") or 500.0))
+    cp = [np.asarray(s["pwm_port" if "pwm_port" in s else "n_port"], float) for s in data
+          if ("pwm_port" in s or "n_port" in s) and ("pwm_stbd" in s or "n_stbd" in s)]
+    cs = [np.asarray(s["pwm_stbd" if "pwm_stbd" in s else "n_stbd"], float) for s in data
+          if ("pwm_port" in s or "n_port" in s) and ("pwm_stbd" in s or "n_stbd" in s)]
+    if not cp:
+        raise UsvidError("model 'mmg' (twin variant) needs the thruster commands pwm_port, "
+                         "pwm_stbd (or n_port, n_stbd) in the logs")
+    a, b = np.concatenate(cp), np.concatenate(cs)
+    n = extra.get("nominal_command")
+    out["n"] = float(n) if n is not None else float(np.nanmedian(0.5 * (a + b)))
+    g = extra.get("steer_gain")
+    out["steer_gain"] = (float(g) if g is not None
+                         else float(np.nanmax(np.abs(a - b))) / 2.0 / math.radians(35.0))
+    if "thruster_spacing" not in extra and "y_P" not in extra:
+        raise UsvidError("model 'mmg' (twin variant) needs vessel.extra.thruster_spacing [m] "
+                         "(distance between the two thrusters) in the format spec")
 
 
 def _kt_scale(fixed: Mapping[str, Any], data: Sequence[Mapping[str, np.ndarray]]
