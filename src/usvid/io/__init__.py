@@ -150,11 +150,6 @@ def _matching_spec(p: Path, fs: FormatSpec, kind: str | None) -> FormatSpec:
         if kind else f"{p}: is {what}, but format spec {fs.source} is for {want}")
 
 
-def _identity_spec(reader: str) -> FormatSpec:
-    """Spec for tables written by usvid (header names are Trial channels, SI units)."""
-    return FormatSpec(reader=reader, header=True, delimiter=",", source="<usvid table>")
-
-
 def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = None) -> Trial:
     """Read one log into a :class:`Trial` (SI units, radians; lat/lon in degrees).
 

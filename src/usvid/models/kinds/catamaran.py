@@ -149,10 +149,6 @@ def pack(d: Catamaran, speed: Any) -> np.ndarray:
                  d.steer_gain, 1.0 / m11, 1.0 / m22, 1.0 / m33, *thrust_row(_law(d.thrust))])
 
 
-def initial(d: Catamaran, values: Mapping[str, Any]) -> np.ndarray:
-    return rows([values.get("u", 0.0), values.get("v", 0.0), values.get("r", 0.0)])
-
-
 def straight_speed(d: Catamaran) -> Any:
     """Straight-line speed [m/s] at the nominal command: 2 T(cmd) / d11 (thrust independent of
     the speed)."""
@@ -252,7 +248,6 @@ KIND = ModelKind(
     inputs=("delta", "n_port", "n_stbd"),
     rhs=rhs,
     pack=pack,
-    initial=initial,
     speed=straight_speed,
     outputs=("u", "v", "r", "psi"),
     regression=Regression(_fossen.blocks, _fossen.to_params, _fossen.coefficients,
