@@ -222,9 +222,7 @@ def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
         if "n_port" not in s or "n_stbd" not in s:
             raise IdentificationError("model 'catamaran' needs channels n_port and n_stbd")
         tp, ts = model.thruster_thrust(s["n_port"]), model.thruster_thrust(s["n_stbd"])
-    s["tau_u"] = tp + ts
-    arm = fixed.get("arm")
-    s["tau_r"] = (tp - ts) * (float(arm) if arm is not None else 0.5 * float(fixed["b"]))
+    s["tau_u"], s["tau_r"] = tp + ts, (tp - ts) * float(model.half_spacing)
 
 
 def channels(d: Catamaran, rec: dict[str, np.ndarray]) -> None:
