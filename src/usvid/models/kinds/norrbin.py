@@ -38,6 +38,25 @@ class Norrbin(Dynamics):
     delta0: Any = param("rad", "rudder offset", default=0.0)
     kind: ClassVar[str] = "norrbin"
 
+    def steady_yaw_rate(self, delta: float) -> float:
+        """Steady yaw rate [rad/s]: the real root of ``n1 r + n3 r^3 = K (delta + delta0)``.
+
+        Scalars only. With n1 < 0 and n3 > 0 there may be three roots (the loop of a
+        course-unstable vessel); the one with the sign of ``K (delta + delta0)`` and the largest
+        magnitude is returned (the stable turn). With n1 = n3 = 0 there is none: +-inf.
+        """
+        rhs_ = float(self.K) * (float(delta) + float(self.delta0))
+        n1, n3 = float(self.n1), float(self.n3)
+        if n3 == 0.0:
+            if n1 == 0.0:
+                return math.copysign(math.inf, rhs_) if rhs_ != 0.0 else 0.0
+            return rhs_ / n1
+        roots = np.roots([n3, 0.0, n1, -rhs_])
+        real = roots[np.abs(roots.imag) < 1e-9 * max(1.0, np.max(np.abs(roots)))].real
+        same = real[np.sign(real) == np.sign(rhs_)] if rhs_ != 0 else real
+        pick = same if same.size else real
+        return float(pick[np.argmax(np.abs(pick))])
+
 
 @numba.njit(cache=True, inline="always")
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
