@@ -62,13 +62,6 @@ def pole_placement(K: Any, T: Any, bandwidth: float, *, zeta: float = 1.0,
     return float(kp), float(ki), float(kd)
 
 
-def closed_loop_poles(K: float, T: float, kp: float, ki: float, kd: float) -> np.ndarray:
-    """Poles of ``m psi''' + (d + kd) psi'' + kp psi' + ki psi = 0`` (the PID loop on the
-    Nomoto form without servo; m = T/K, d = 1/K), for checking a design [rad/s]."""
-    m, d = T / K, 1.0 / K
-    return np.roots([m, d + kd, kp, ki])
-
-
 def default_bandwidth(eq: Any, servo: Any, *, zeta: float = 0.8, integral: bool = False,
                       min_gain_margin_db: float = 6.0, min_phase_margin_deg: float = 45.0,
                       dt: float = 0.02) -> float:

@@ -278,10 +278,6 @@ class Campaign:
     truth_definition: str = TRUTH_DEFINITION
 
     @property
-    def propeller(self) -> Any:
-        return self.model.dynamics.thrust
-
-    @property
     def x_l(self) -> float:
         return float(self.model.dynamics.x_l)
 

@@ -243,7 +243,6 @@ class LeastSquares(FittedAttributes):
             raise IdentificationError(f"`cond_max` must be > 1 (got {cond_max!r})")
         self.cond_max = float(cond_max)
         self.ci = ci
-        self._fitted = False
 
     def fit(self, X: Any, y: Any, names: Sequence[str] | None = None, *,
             y_name: str = "y") -> LeastSquares:
@@ -274,7 +273,6 @@ class LeastSquares(FittedAttributes):
         self.n_samples_ = n
         self.names_ = nm
         self.rank_ = p
-        self._fitted = True
         return self
 
     def predict(self, X: Any) -> np.ndarray:

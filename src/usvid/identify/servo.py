@@ -123,12 +123,6 @@ def _validate(delta_cmd: Any, delta: Any, dt: float) -> tuple[np.ndarray, np.nda
     return u, y
 
 
-def _arx_regressors(u: np.ndarray, y: np.ndarray, d: int, k0: int
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    X, t, _ = arx_regressors(u, y, 2, 2, 1 + d, start=k0)
-    return X, t
-
-
 def _physical(theta: np.ndarray, dt: float) -> np.ndarray:
     """(a1, a2, b1, b2) -> (omega_n, zeta, gain) via ZOH d2c (nan when not a 2nd-order servo)."""
     a1, a2, b1, b2 = theta
@@ -209,11 +203,11 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
             f"{max_delay} s at dt = {dt} s (need at least {k0 + 20})")
     arx_cost = np.empty(dmax + 1)
     for d in range(dmax + 1):
-        X, t = _arx_regressors(u, y, d, k0)
+        X, t, _ = arx_regressors(u, y, 2, 2, 1 + d, start=k0)  # ARX(2, 2), dead time d
         theta, *_ = np.linalg.lstsq(X, t, rcond=None)
         arx_cost[d] = rmse(t, X @ theta)
     d_arx = int(np.argmin(arx_cost))
-    X, t = _arx_regressors(u, y, d_arx, k0)
+    X, t, _ = arx_regressors(u, y, 2, 2, 1 + d_arx, start=k0)
     ls = LeastSquares().fit(X, t, names=["a1", "a2", "b1", "b2"], y_name="delta")
     arx = {"params": dict(zip(ls.names_, ls.coef_.tolist(), strict=True)),
            "std_errors": dict(zip(ls.names_, ls.std_errors_.tolist(), strict=True)),

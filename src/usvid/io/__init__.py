@@ -158,11 +158,6 @@ def _matching_spec(p: Path, fs: FormatSpec, kind: str | None) -> FormatSpec:
         if kind else f"{p}: is {what}, but format spec {fs.source} is for {want}")
 
 
-def _identity_spec(reader: str) -> FormatSpec:
-    """Spec for tables written by usvid (header names are Trial channels, SI units)."""
-    return FormatSpec(reader=reader, header=True, delimiter=",", source="<usvid table>")
-
-
 def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = None) -> Trial:
     """Read one log into a :class:`Trial` (SI units, radians; lat/lon in degrees).
 
@@ -192,29 +187,21 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
         tr = read_trial(p, fs)
         tr.meta["format_detected"] = note
         return tr
-    if reader == "rosbag":
-        return read_rosbag(p, fs)
-    if reader == "ulog":
-        return read_ulog(p, fs)
-    if reader == "dataflash":
-        return read_dataflash(p, fs)
-    if reader == "tlog":
-        return read_tlog(p, fs)
-    if reader == "nmea0183":
-        return read_nmea0183(p, fs)
-    if reader == "nmea2000":
-        return read_nmea2000(p, fs)
+    if reader in _MESSAGE_READERS:
+        return _MESSAGE_READERS[reader](p, fs)
     if fs is None:
         if reader == "excel":
             raise FormatSpecError(f"{p}: an Excel log needs a format spec (--format SPEC)")
         fs = _usvid_table_spec(p, reader)
-    if reader == "table":
-        return read_table(p, fs)
-    if reader == "excel":
-        return read_excel(p, fs)
-    if reader == "parquet":
-        return read_parquet(p, fs)
+    if reader in _TABLE_READERS:
+        return _TABLE_READERS[reader](p, fs)
     raise FormatSpecError(f"unknown reader {reader!r}")  # unreachable: validated by the spec
+
+
+#: Reader of each ``spec.reader`` (those that need no spec, then the tables).
+_MESSAGE_READERS = {"rosbag": read_rosbag, "ulog": read_ulog, "dataflash": read_dataflash,
+                    "tlog": read_tlog, "nmea0183": read_nmea0183, "nmea2000": read_nmea2000}
+_TABLE_READERS = {"table": read_table, "excel": read_excel, "parquet": read_parquet}
 
 
 def _usvid_table_spec(p: Path, reader: str) -> FormatSpec:

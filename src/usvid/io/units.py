@@ -76,19 +76,6 @@ ALIASES: dict[str, str] = {
     "degrees": "deg",
 }
 
-#: Dimension of the SI unit of each Trial-contract channel.
-SI_DIMENSION: dict[str, str] = {
-    "s": "time",
-    "m": "length",
-    "rad": "angle",
-    "deg": "angle",
-    "rad/s": "angular_rate",
-    "m/s": "speed",
-    "rps": "revolution_rate",
-    "N": "force",
-    "N*m": "moment",
-}
-
 #: The special unit for date-time columns.
 DATETIME = "datetime"
 

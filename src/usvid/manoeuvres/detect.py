@@ -6,26 +6,18 @@ identification, validation and the report). Time [s], angles [rad], rates [rad/s
 other than a rudder angle (a thruster differential) in its own unit. IMO MSC.137(76) and ITTC
 7.5-04-02-01 measure a manoeuvre from the *execute*, the instant the rudder order is given: a
 log's manoeuvres are read from the rudder order when it is logged, else from the rudder angle
-(:func:`turning_command`); a simulation's execute is its logic's start.
+(:func:`turning_command`); a simulation's execute is its logic's start. Each quantity is
+defined once, in the docstring of its function:
 
-* **rudder execute and side** (:func:`find_execute`): the rudder before the first deflection,
-  ``delta_0``, is its median over the :data:`APPROACH_S` seconds before the execute; the side
-  is the sign of the deflection from ``delta_0`` (+1 starboard). The execute is where the rising
-  edge leaves ``delta_0``: the straight line through the first sample beyond 50 % of the plateau
-  level and the last sample before it within 10 %, extended back to ``delta_0`` (a rate-limited
-  ramp gives its start exactly, a sampled step the last sample before the step).
-* **plateau level and rudder amplitude** (:func:`plateau_level`, :func:`rudder_amplitude`): the
-  median of the deflection samples beyond half the largest deflection (noise-robust; the largest
-  sample of a noisy record is biased high). A zig-zag's amplitude is the mean of its starboard
-  and port plateau levels (half the distance between them: a rudder zero offset cancels).
-* **rudder rate** (:func:`rudder_rate`): the median |d delta/dt| on the ramps.
-* **switching angle** (:func:`nominal_switch`; measured by :func:`find_manoeuvres`): the median
-  deviation of the heading (smoothed over 2 s) from the heading at the execute where the rudder
-  (order) leaves its plateaux, rounded down to a standard angle.
-* **zig-zag reversals** (:func:`zigzag_crossings`): the alternate crossings of
-  ``+psi_switch, -psi_switch, ...`` by the heading deviation, interpolated between samples.
-* **steady turn** (:func:`steady_turn`): the last 360 deg of a turning circle, or the part after
-  the 180 deg instant; its mean yaw rate, speed and rudder.
+* **rudder execute and side** (from ``delta_0``, the rudder over the :data:`APPROACH_S` before
+  the execute): :func:`find_execute`;
+* **plateau level and rudder amplitude**: :func:`plateau_level`, :func:`rudder_amplitude`;
+* **rudder rate**: :func:`rudder_rate`;
+* **switching angle**: the median deviation of the heading (smoothed over 2 s) from the heading
+  at the execute where the rudder (order) leaves its plateaux (:func:`find_manoeuvres`), taken
+  to a nominal angle by :func:`nominal_switch`;
+* **zig-zag reversals**: :func:`zigzag_crossings`;
+* **steady turn**: :func:`steady_turn`.
 
 Finding manoeuvres (:func:`find_manoeuvres`). The rudder (or, without a rudder, the thruster
 differential port - starboard, the catamaran paper: tau_r = (T_port - T_stbd) b/2) is cut into
@@ -537,8 +529,7 @@ def reversal_time(t: np.ndarray, c: np.ndarray, p: _Pulse) -> float:
     the ramp away from the plateau (:func:`ramp_start` on ``level - sign c``), so that a
     rate-limited rudder gives the reversal order, not the end of the plateau."""
     mag = p.level - p.sign * c
-    on = np.flatnonzero(np.abs(p.sign * c[p.i0:p.i1] - p.level) <= 0.1 * p.level)
-    last = p.i0 + int(on[-1]) if on.size else p.i1 - 1
+    last = _plateau_end(c, p)
     away = np.flatnonzero(mag[last:] >= 0.5 * p.level)
     if not away.size:
         return float(t[min(p.i1, len(t) - 1)])

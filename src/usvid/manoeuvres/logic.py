@@ -16,7 +16,6 @@ constant over the step, as a digital controller at the step rate would).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -206,11 +205,3 @@ class Commanded:
                 raise SimulationError(f"Commanded.{name} has non-finite values")
         if (self.n_port is None) != (self.n_stbd is None):
             raise SimulationError("Commanded: give both n_port and n_stbd, or neither")
-
-
-Logic = Turning | ZigZag | CourseChange | Commanded
-
-
-def deg(x: float) -> float:
-    """Degrees -> radians helper for callers (``deg(10)``)."""
-    return math.radians(x)

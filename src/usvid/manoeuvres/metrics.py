@@ -120,11 +120,22 @@ def _html_table(title: str, d: dict[str, Any]) -> str:
     return f"<table><caption>{html.escape(title)}</caption>{rows}</table>"
 
 
+class _Metrics:
+    """``to_dict()``: the CLI keys first (the leading fields), then the extras; NaN stays NaN
+    (the JSON writer maps it to null). ``_repr_html_``: a two-column table (Jupyter)."""
+
+    def _repr_html_(self) -> str:
+        return _html_table(type(self).__name__, self.to_dict())
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)  # type: ignore[call-overload]
+
+
 # --------------------------------------------------------------------------------------------
 # zig-zag
 # --------------------------------------------------------------------------------------------
 @dataclass
-class ZigZagMetrics:
+class ZigZagMetrics(_Metrics):
     """Zig-zag metrics (definitions in the module docstring). Times [s], angles [deg].
 
     NaN (``None`` in JSON) marks a quantity the record is too short to show.
@@ -142,16 +153,6 @@ class ZigZagMetrics:
     delta_amp_deg: float = math.nan
     psi_switch_deg: float = math.nan
     initial_turning_distance_m: float = math.nan
-
-    def _repr_html_(self) -> str:
-        """The metrics as a two-column table (Jupyter)."""
-        return _html_table(type(self).__name__, self.to_dict())
-
-    def to_dict(self) -> dict[str, Any]:
-        """The CLI keys (``overshoot_deg``, ``period_s``, ``initial_turning_time_s``,
-        ``time_to_check_yaw_s``) first, then the extras. NaN stays NaN (the JSON writer maps it
-        to null)."""
-        return asdict(self)
 
 
 def zigzag_metrics(
@@ -281,7 +282,7 @@ def zigzag_metrics(
 # turning circle
 # --------------------------------------------------------------------------------------------
 @dataclass
-class TurningMetrics:
+class TurningMetrics(_Metrics):
     """Turning-circle metrics (definitions in the module docstring). Lengths [m], positive."""
 
     advance_m: float
@@ -296,14 +297,6 @@ class TurningMetrics:
     time_to_180_s: float = math.nan
     steady_window_deg: float = math.nan
     steady_diameter_method: str = "circle_fit"
-
-    def _repr_html_(self) -> str:
-        """The metrics as a two-column table (Jupyter)."""
-        return _html_table(type(self).__name__, self.to_dict())
-
-    def to_dict(self) -> dict[str, Any]:
-        """The CLI keys first (``advance_m`` ... ``steady_speed_m_s``), then the extras."""
-        return asdict(self)
 
 
 def fit_circle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:

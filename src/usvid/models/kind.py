@@ -80,13 +80,6 @@ class ParamSpec:
     def required(self) -> bool:
         return self.default is REQUIRED
 
-    def bounds_text(self) -> str:
-        parts = []
-        for op, v in (("> ", self.gt), (">= ", self.ge), ("< ", self.lt), ("<= ", self.le)):
-            if v is not None:
-                parts.append(f"{op}{v:g}")
-        return ", ".join(parts)
-
     def check(self, owner: str, value: Any) -> None:
         """Raise :class:`UsvidError` naming ``owner.name`` when ``value`` (scalar or batch array)
         is not finite or out of bounds."""
@@ -281,9 +274,10 @@ class ModelKind:
     pack : callable ``(dynamics, speed) -> (n_params, B) array``
         The parameter rows (with derived constants) for the core; ``speed`` [m/s] (scalar or
         (B,)) is the approach speed (the constant speed of response kinds).
-    initial : callable ``(dynamics, values) -> (n_states, B) array``
+    initial : callable ``(dynamics, values) -> (n_states, B) array``, optional
         The kind's states from measured ``values`` (``u``, ``v``, ``r`` [SI], ``rdot``,
-        ``delta`` [rad], scalars or (B,) arrays; absent ones 0).
+        ``delta`` [rad], scalars or (B,) arrays; absent ones 0). Default: each state the value
+        of its own name.
     speed : callable ``(dynamics) -> float or (B,) array``, optional
         Straight-line speed [m/s] under the nominal inputs (None for constant-speed kinds).
     outputs : tuple of str
@@ -317,8 +311,8 @@ class ModelKind:
     inputs: tuple[str, ...]
     rhs: Any
     pack: Callable[[Dynamics, Any], np.ndarray]
-    initial: Callable[[Dynamics, Mapping[str, Any]], np.ndarray]
     outputs: tuple[str, ...]
+    initial: Callable[[Dynamics, Mapping[str, Any]], np.ndarray] = None  # type: ignore[assignment]
     speed_row: int = -1
     speed: Callable[[Dynamics], Any] | None = None
     regression: Regression | None = None
@@ -337,6 +331,9 @@ class ModelKind:
         bad = set(self.inputs) - set(INPUTS)
         if bad:
             raise ValueError(f"kind {self.name}: unknown inputs {sorted(bad)}")
+        if self.initial is None:
+            object.__setattr__(self, "initial", lambda d, values: rows(
+                [values.get(s, 0.0) for s in self.states]))
 
     @property
     def constant_speed(self) -> bool:
@@ -386,10 +383,6 @@ class ModelKind:
             dz[b] = out[3:3 + self.n_states]
         return (uvr[:, 0].reshape(shape), uvr[:, 1].reshape(shape), uvr[:, 2].reshape(shape),
                 dz.reshape((*shape, self.n_states)))
-
-    def make(self, **params: Any) -> Dynamics:
-        """The parameter set of this kind (validated)."""
-        return self.dynamics(**params)
 
     def table_row(self) -> str:
         """The README row: ``| name | equation | parameters (units) |``."""

@@ -42,8 +42,3 @@ class VesselModel:
     def kind(self) -> str:
         """The kind name ("nomoto1", "norrbin", "threedof", ...)."""
         return self.dynamics.kind
-
-    @property
-    def is_response(self) -> bool:
-        """True for the constant-speed yaw response models (Nomoto, Norrbin)."""
-        return kind_of(self.dynamics).constant_speed

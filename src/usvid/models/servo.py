@@ -17,28 +17,39 @@ from usvid.models._validate import check_params
 DEFAULT_MAX_ANGLE = math.radians(35.0)
 
 
+class _Limits:
+    """The angle and rate limits every servo has (checked with its own parameters)."""
+
+    max_angle: float
+    max_rate: float
+
+    def _check(self, values: dict[str, float], positive: tuple[str, ...] = (),
+               nonnegative: tuple[str, ...] = ()) -> None:
+        check_params("servo", {**values, "max_angle": self.max_angle},
+                     positive=(*positive, "max_angle"), nonnegative=nonnegative)
+        if not np.all(np.asarray(self.max_rate) > 0):
+            raise UsvidError(f"servo.max_rate must be > 0 (got {self.max_rate!r})")
+
+    def delay_samples(self, dt: float) -> int:
+        """Dead time in whole samples of dt [s] (0 without a dead time)."""
+        return 0
+
+
 @dataclass
-class IdealServo:
+class IdealServo(_Limits):
     """delta = saturate(delta_cmd): no dynamics, only the angle limit (and rate limit if finite)."""
 
     max_angle: float = DEFAULT_MAX_ANGLE
     max_rate: float = math.inf
 
     kind = "ideal"
-    state_names = ()
 
     def __post_init__(self) -> None:
-        check_params("servo", {"max_angle": self.max_angle}, positive=("max_angle",))
-        if not np.all(np.asarray(self.max_rate) > 0):
-            raise_bad_rate(self.max_rate)
-
-    def delay_samples(self, dt: float) -> int:
-        """Dead time in samples of dt [s] (always 0)."""
-        return 0
+        self._check({})
 
 
 @dataclass
-class FirstOrderServo:
+class FirstOrderServo(_Limits):
     """First order: ``T delta' = delta_cmd - delta`` (Mu et al. 2018 eq. 11), then the limits.
 
     T [s] >= 0 (T = 0 is the ideal servo).
@@ -49,21 +60,13 @@ class FirstOrderServo:
     max_rate: float = math.inf
 
     kind = "first_order"
-    state_names = ("delta",)
 
     def __post_init__(self) -> None:
-        check_params("servo", {"T": self.T, "max_angle": self.max_angle},
-                     nonnegative=("T",), positive=("max_angle",))
-        if not np.all(np.asarray(self.max_rate) > 0):
-            raise_bad_rate(self.max_rate)
-
-    def delay_samples(self, dt: float) -> int:
-        """Dead time in samples of dt [s] (always 0)."""
-        return 0
+        self._check({"T": self.T}, nonnegative=("T",))
 
 
 @dataclass
-class SecondOrderServo:
+class SecondOrderServo(_Limits):
     """Second order with gain and dead time (Mu et al. 2018 eq. 12 and section 5.1.3; Mu et al. 2016
     eq. 22).
 
@@ -81,16 +84,11 @@ class SecondOrderServo:
     max_rate: float = math.inf
 
     kind = "second_order"
-    state_names = ("delta", "delta_dot")
 
     def __post_init__(self) -> None:
-        check_params("servo",
-                     {"omega_n": self.omega_n, "zeta": self.zeta, "gain": self.gain,
-                      "delay": self.delay, "max_angle": self.max_angle},
-                     positive=("omega_n", "gain", "max_angle"),
-                     nonnegative=("zeta", "delay"))
-        if not np.all(np.asarray(self.max_rate) > 0):
-            raise_bad_rate(self.max_rate)
+        self._check({"omega_n": self.omega_n, "zeta": self.zeta, "gain": self.gain,
+                     "delay": self.delay}, positive=("omega_n", "gain"),
+                    nonnegative=("zeta", "delay"))
 
     @classmethod
     def from_transfer_function(cls, b0: float, a1: float, a0: float, delay: float = 0.0,
@@ -121,10 +119,6 @@ class SecondOrderServo:
 def mu2018_servo() -> SecondOrderServo:
     """The identified Lanxin servo of Mu et al. 2018 (section 5.1.3, +-35 deg, 1 s dead time)."""
     return SecondOrderServo.from_transfer_function(1.95, 2.38125, 1.95, delay=1.0)
-
-
-def raise_bad_rate(value: float) -> None:
-    raise UsvidError(f"servo.max_rate must be > 0 (got {value!r})")
 
 
 Servo = IdealServo | FirstOrderServo | SecondOrderServo

@@ -24,10 +24,10 @@ from importlib import resources
 import numpy as np
 
 from usvid.errors import UsvidError
+from usvid.models.thrust import G, froude_number
 
 ArrayLike = float | np.ndarray
 
-G = 9.81  # [m/s^2]
 KNOT = 1852.0 / 3600.0  # [m/s]
 
 #: Length of the Ma et al. model [m].
@@ -113,11 +113,6 @@ def rms_objective(a: TurningDiameterCoeffs | ArrayLike, Fr: ArrayLike, delta: Ar
                          f"(got shapes {Fr.shape}, {np.shape(delta)}, {DL.shape})")
     pred = relative_turning_diameter(Fr, delta, a)
     return np.asarray(np.sqrt(np.mean((DL - pred) ** 2, axis=-1)))[()]
-
-
-def froude_number(V: ArrayLike, L: ArrayLike, g: float = G) -> np.ndarray:
-    """``Fr = V / sqrt(g L)`` [-]; V [m/s], L [m], g [m/s^2] (Ma et al., after eq. 1)."""
-    return np.asarray(np.asarray(V, dtype=float) / np.sqrt(g * np.asarray(L, dtype=float)))[()]
 
 
 def turning_diameter(V: ArrayLike, delta: ArrayLike, L: ArrayLike,

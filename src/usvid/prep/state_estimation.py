@@ -49,13 +49,10 @@ the position reference point (the GNSS antenna): no lever arm, no current.
 
 Noise defaults, from the data (each overridable in SI units):
 
-* measurement noise std of each channel from the scatter of its third divided differences: for
-  four consecutive samples ``(t_i, y_i)``, ``d = sum w_i y_i / sqrt(sum w_i^2)`` with
-  ``w_i = 1 / prod_{j != i} (t_i - t_j)`` annihilates any quadratic in t (the smooth motion) and
-  has variance sigma^2 for white noise of std sigma, whatever the spacing; sigma is
-  ``1.4826 median |d|`` (robust to outliers). This measures the *white* part of the noise only:
-  slow GNSS wander (metre-level, minutes) is indistinguishable from motion and is followed by the
-  estimate (it appears as a velocity error of order wander / correlation time).
+* measurement noise std of each channel from the scatter of its third divided differences
+  (:func:`white_noise_std`). This measures the *white* part of the noise only: slow GNSS wander
+  (metre-level, minutes) is indistinguishable from motion and is followed by the estimate (it
+  appears as a velocity error of order wander / correlation time).
 * process noise densities q_u, q_v, q_r by maximising the innovation likelihood (Schweppe 1965;
   prediction-error decomposition, Harvey 1989)
   ``log L = -1/2 sum (log(2 pi S_k) + nu_k^2 / S_k)`` over log10 q: a grid in steps of two

@@ -27,7 +27,6 @@ import numpy as np
 
 from usvid import __version__
 from usvid.identify.validation import TrialValidation, ValidationResult, replay_band
-from usvid.models.registry import get as get_kind
 from usvid.models.registry import kind_of
 from usvid.report.run import save_run, write_report
 
@@ -63,7 +62,7 @@ def _entry(row: TrialValidation, band: dict[str, Any] | None) -> dict[str, Any]:
 
 def _model_block(model: Any, file: str | None, names: Sequence[str] | None,
                  cov: np.ndarray | None) -> dict[str, Any]:
-    kind = get_kind(kind_of(model.dynamics).name)
+    kind = kind_of(model.dynamics)
     ident = getattr(model, "identification", None) or {}
     params = {p.name: float(getattr(model.dynamics, p.name))
               for p in type(model.dynamics).param_specs() if p.fit}

@@ -58,11 +58,6 @@ class Windows:
         return int(next(iter(self.outputs.values())).shape[1])
 
 
-def decimate(series: Mapping[str, np.ndarray], m: int) -> dict[str, np.ndarray]:
-    """Every m-th sample of each 1-D array of a series dict."""
-    return {k: np.asarray(v)[::m] for k, v in series.items() if np.ndim(v) == 1}
-
-
 def make_windows(series: Sequence[Mapping[str, np.ndarray]], h: float,
                  window_s: float | None, overlap: float = 0.0) -> Windows:
     """Cut uniformly sampled records into windows of ``window_s`` seconds (``None``: one window
@@ -169,4 +164,4 @@ def replay_windows(model: VesselModel, win: Windows,
     return {c: out.channels[c] for c in chans}
 
 
-__all__ = ["Windows", "decimate", "make_windows", "replay_windows", "window_lanes"]
+__all__ = ["Windows", "make_windows", "replay_windows", "window_lanes"]

@@ -25,9 +25,6 @@ import numpy as np
 from usvid.errors import UsvidError
 from usvid.models.kind import Block, FitSpace
 
-COEFFICIENTS = ("a_vr", "a_u", "a_tau", "b_ur", "b_v", "c_uv", "c_r", "c_tau")
-FIT = ("m11", "m22", "m33", "d11", "d22", "d33")
-
 
 def fossen_from_regression(a_vr: float, a_u: float, a_tau: float, b_v: float, c_r: float,
                            c_tau: float) -> dict[str, float]:

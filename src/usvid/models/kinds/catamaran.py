@@ -149,10 +149,6 @@ def pack(d: Catamaran, speed: Any) -> np.ndarray:
                  d.steer_gain, 1.0 / m11, 1.0 / m22, 1.0 / m33, *thrust_row(_law(d.thrust))])
 
 
-def initial(d: Catamaran, values: Mapping[str, Any]) -> np.ndarray:
-    return rows([values.get("u", 0.0), values.get("v", 0.0), values.get("r", 0.0)])
-
-
 def straight_speed(d: Catamaran) -> Any:
     """Straight-line speed [m/s] at the nominal command: 2 T(cmd) / d11 (thrust independent of
     the speed)."""
@@ -226,9 +222,7 @@ def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
         if "n_port" not in s or "n_stbd" not in s:
             raise IdentificationError("model 'catamaran' needs channels n_port and n_stbd")
         tp, ts = model.thruster_thrust(s["n_port"]), model.thruster_thrust(s["n_stbd"])
-    s["tau_u"] = tp + ts
-    arm = fixed.get("arm")
-    s["tau_r"] = (tp - ts) * (float(arm) if arm is not None else 0.5 * float(fixed["b"]))
+    s["tau_u"], s["tau_r"] = tp + ts, (tp - ts) * float(model.half_spacing)
 
 
 def channels(d: Catamaran, rec: dict[str, np.ndarray]) -> None:
@@ -252,7 +246,6 @@ KIND = ModelKind(
     inputs=("delta", "n_port", "n_stbd"),
     rhs=rhs,
     pack=pack,
-    initial=initial,
     speed=straight_speed,
     outputs=("u", "v", "r", "psi"),
     regression=Regression(_fossen.blocks, _fossen.to_params, _fossen.coefficients,

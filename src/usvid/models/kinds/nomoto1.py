@@ -40,10 +40,6 @@ class Nomoto1(Dynamics):
                         default=0.0)
     kind: ClassVar[str] = "nomoto1"
 
-    def steady_yaw_rate(self, delta: Any) -> np.ndarray:
-        """Steady yaw rate [rad/s] at a constant rudder angle delta [rad]: K (delta + delta0)."""
-        return np.asarray(self.K) * (np.asarray(delta) + np.asarray(self.delta0))
-
 
 @numba.njit(cache=True, inline="always")
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
@@ -54,10 +50,6 @@ def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - 
 
 def pack(d: Nomoto1, speed: Any) -> np.ndarray:
     return rows([d.K, d.T, d.delta0, speed, 1.0 / np.asarray(d.T, float)])
-
-
-def initial(d: Nomoto1, values: Mapping[str, Any]) -> np.ndarray:
-    return rows([values.get("r", 0.0)])
 
 
 def _blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any], form: str,
@@ -108,7 +100,6 @@ KIND = ModelKind(
     rhs=rhs,
     transfer=transfer,
     pack=pack,
-    initial=initial,
     outputs=("psi", "r"),
     regression=Regression(_blocks, _to_params, forms=("continuous", "arx"),
                           needs=("delta",)),

@@ -42,10 +42,6 @@ class Nomoto2(Dynamics):
     delta0: Any = param("rad", "rudder offset", default=0.0)
     kind: ClassVar[str] = "nomoto2"
 
-    def steady_yaw_rate(self, delta: Any) -> np.ndarray:
-        """Steady yaw rate [rad/s] at a constant rudder angle delta [rad]: K (delta + delta0)."""
-        return np.asarray(self.K) * (np.asarray(delta) + np.asarray(self.delta0))
-
 
 @numba.njit(cache=True, inline="always")
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract

@@ -70,10 +70,6 @@ def pack(d: Norrbin, speed: Any) -> np.ndarray:
     return rows([d.K, d.T, d.n1, d.n3, d.delta0, speed, 1.0 / np.asarray(d.T, float)])
 
 
-def initial(d: Norrbin, values: Mapping[str, Any]) -> np.ndarray:
-    return rows([values.get("r", 0.0)])
-
-
 def _blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any], form: str,
             h: float) -> list[Block]:
     parts = [(np.column_stack([s["r_s"], s["r_s"] ** 3, s["delta_s"], np.ones(len(s["t"]))]),
@@ -118,7 +114,6 @@ KIND = ModelKind(
     rhs=rhs,
     transfer=transfer,
     pack=pack,
-    initial=initial,
     outputs=("psi", "r"),
     regression=Regression(_blocks, _to_params, needs=("delta",)),
     fit_space=FitSpace(("k", "m1", "m3", "delta0"), _to_fit, _from_fit),

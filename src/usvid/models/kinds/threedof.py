@@ -170,10 +170,6 @@ def pack(d: ThreeDOF, speed: Any) -> np.ndarray:
                  *thrust_row(d.thrust, T0)])
 
 
-def initial(d: ThreeDOF, values: Mapping[str, Any]) -> np.ndarray:
-    return rows([values.get("u", 0.0), values.get("v", 0.0), values.get("r", 0.0)])
-
-
 def straight_speed(d: ThreeDOF) -> Any:
     """Straight-line speed [m/s] at the nominal shaft speed: root of T(u) = d11 u (bisection)."""
     if d.thrust is None:
@@ -265,7 +261,6 @@ KIND = ModelKind(
     inputs=("delta", "n"),
     rhs=rhs,
     pack=pack,
-    initial=initial,
     speed=straight_speed,
     outputs=("u", "v", "r", "psi"),
     regression=Regression(_fossen.blocks, _fossen.to_params, _fossen.coefficients,
