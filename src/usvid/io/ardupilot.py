@@ -389,7 +389,11 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                 if typ not in checked:
                     _check_mav(path, spec, m, getters)
                     checked.add(typ)
-                stamps[typ].append(int(round(m._timestamp * 1e6)) * 1000)
+                ts = m._timestamp  # [s]: a damaged header gives any float
+                if not (math.isfinite(ts) and 0 <= ts < 9e9):
+                    state.reject("bad_data")
+                    continue
+                stamps[typ].append(int(round(ts * 1e6)) * 1000)
                 for col, st in getters:
                     values[col.name].append(_mav_raw(m, st, col))
             left = mlog.mav.buf_len() if hasattr(mlog.mav, "buf_len") else 0
