@@ -180,6 +180,9 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
             if dt.itemsize != body:
                 raise LogReadError(f"{path}: FMT of {name}: format '{fmt.format}' is "
                                    f"{dt.itemsize} bytes but the message is {body}")
+            if len(fmt.columns) > len(dt.names or ()):
+                raise LogReadError(f"{path}: FMT of {name}: {len(fmt.columns)} columns for "
+                                   f"the {len(dt.names or ())} fields of format '{fmt.format}'")
             rows = np.ascontiguousarray(buf[offs[:, None] + 3 + np.arange(body)])
             arr = rows.view(dt).ravel()
             out = {}
