@@ -582,10 +582,9 @@ def test_write_rosbag_never_deletes_a_folder(tmp_path) -> None:
     OutputError and the folder is untouched; into an empty folder or a new name it works; a
     ROS 1 bag (a file) replaces an earlier file atomically."""
     pytest.importorskip("rosbags")
+    from test_io_message_logs import small_trial
     from usvid.files import OutputError
     from usvid.io.rosbag import write_rosbag
-
-    from test_io_message_logs import small_trial
 
     tr = small_trial(T=2.0)  # 20 rows, every channel of the ros2_usv preset
     mine = tmp_path / "bag"
