@@ -34,8 +34,11 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import os
 import re
 import struct
+import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -93,6 +96,24 @@ def _quiet() -> contextlib.ExitStack:
     return stack
 
 
+@contextlib.contextmanager
+def _fd2_captured(out: list[str]):
+    """Capture what compiled code writes to file descriptor 2 (pymavlink's Cython DataFlash
+    indexer prints one ``bad header`` line per damaged byte there, past ``sys.stderr``) into
+    ``out``, so the command line keeps its one-line errors. Process-wide while it lasts."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            out.append(tmp.read().decode("utf-8", "replace"))
+
+
 def _np_dtype(msg_struct: str) -> np.dtype:
     """numpy dtype of a DataFlash struct layout (``"<QBiiffH"``, strings ``"16s"``)."""
     fields = []
@@ -128,13 +149,14 @@ def _df_index(path: Path) -> tuple[Any, ReadState]:
     from pymavlink import DFReader
 
     state = ReadState()
-    with _quiet() as q:
+    c_text: list[str] = []
+    with _quiet() as q, _fd2_captured(c_text):
         try:
             dfr = DFReader.DFReader_binary(str(path))
         except Exception as exc:  # pymavlink raises struct/Index/Key errors on damaged logs
             raise LogReadError(f"{path}: not a readable DataFlash log ({type(exc).__name__}: "
                                f"{' '.join(str(exc).split())[:120]})") from None
-    text = q.buf.getvalue()  # type: ignore[attr-defined]
+    text = q.buf.getvalue() + "".join(c_text)  # type: ignore[attr-defined]
     nbad = text.count("bad header")
     if nbad:
         state.reject("bad_header", nbad)
