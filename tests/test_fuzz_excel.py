@@ -47,7 +47,7 @@ def _xlsx(rng: random.Random) -> bytes:
     name = rng.choice(XML)
     b = bytearray(parts[name])
     for _ in range(rng.randint(1, 3)):
-        i = rng.randrange(len(b))
+        i = rng.randrange(len(b) + 1)
         if rng.random() < 0.6:
             b[i:i] = rng.choice(HOSTILE)
         else:

@@ -393,7 +393,12 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
     seen: dict[str, int] = {}
     checked: set[str] = set()
     with _quiet():
-        mlog = mavutil.mavlink_connection(str(path), notimestamps=False, robust_parsing=True)
+        try:
+            mlog = mavutil.mavlink_connection(str(path), notimestamps=False,
+                                              robust_parsing=True)
+        except Exception as exc:  # noqa: BLE001 - pymavlink on a damaged first packet
+            raise LogReadError(f"{path}: not a readable MAVLink telemetry log "
+                               f"({type(exc).__name__})") from None
         try:
             while True:
                 try:
