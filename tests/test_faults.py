@@ -356,6 +356,29 @@ for cmd in ("fit-turning-diameter", "demo"):
         CASES.append((f"{cmd}-seed={seed}", lambda ws, c=cmd, s=seed: (
             [c, "--seed", s] + (["--out", str(ws.out / f"demo-seed{s}")] if c == "demo"
                                 else []), "--seed")))
+for seed in ("-1", str(2**32)):  # the other commands that take a seed
+    CASES.append((f"autopilot-seed={seed}", lambda ws, s=seed: (
+        ["autopilot", str(ws.p("lanxin.json")), "--seed", s], "--seed")))
+    CASES.append((f"course-keeping-seed={seed}", lambda ws, s=seed: (
+        ["simulate", "course-keeping", str(ws.p("lanxin.json")), "--seed", s], "--seed")))
+    CASES.append((f"montecarlo-seed={seed}", lambda ws, s=seed: (
+        ["montecarlo", str(ws.p("lanxin.json")), "--manoeuvre", "zigzag", "--runs", "2",
+         "--seed", s, "--out", str(ws.out / "mc.parquet")], "--seed")))
+CASES.append(("fit-turning-diameter-table-too-few", lambda ws: (
+    ["fit-turning-diameter", ws.write("few.csv", "Fr,delta_rad,DL_test\n0.1,0.5,3\n")],
+    "few.csv")))
+# usage errors (click): one line, exit 2, naming the option or argument
+for cid, argv, culprit in (
+        ("usage-missing-argument", ["identify"], "logs"),
+        ("usage-wrong-type", ["simulate", "zigzag", "MODEL", "--t-end", "abc"], "--t-end"),
+        ("usage-wrong-int", ["autopilot", "MODEL", "--seed", "1.5"], "--seed"),
+        ("usage-unknown-option", ["audit", "LOG", "--bogus"], "--bogus"),
+        ("usage-unknown-command", ["frobnicate"], "frobnicate"),
+        ("usage-bad-choice", ["autopilot", "MODEL", "--method", "magic"], "--method"),
+        ("usage-missing-value", ["identify", "LOG", "--out"], "--out")):
+    CASES.append((cid, lambda ws, a=argv, c=culprit: (
+        [str(ws.p("lanxin.json")) if x == "MODEL" else str(ws.p("log.csv")) if x == "LOG"
+         else x for x in a], c)))
 for tid, text in (("garbage", "a,b\nx,y\n"), ("empty", ""), ("inf", "Fr,delta_rad,DL_test\n"
                                                                   "inf,0.1,3\n0.2,inf,2\n"),
                   ("huge", "Fr,delta_rad,DL_test\n" + "1e308,1e308,1e308\n" * 3)):
@@ -537,6 +560,53 @@ def test_full_disk_file_size_limit(ws: WS, tmp_path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_stale_temporary_files_of_an_output_are_cleaned(tmp_path) -> None:
+    """A SIGKILL between writing and renaming leaves ``.NAME.XXXXXXXX.tmp``: the next write of
+    NAME removes those older than the process, and nothing else (other names, fresh files)."""
+    from usvid.files import PROCESS_START
+
+    old = [tmp_path / ".m.json.abcd1234.tmp", tmp_path / ".m.json.zz_9ZZ9z.tmp"]
+    keep = [tmp_path / ".n.json.abcd1234.tmp", tmp_path / ".m.json.abc.tmp",
+            tmp_path / "m.json.abcd1234.tmp", tmp_path / ".m.json.fresh123.tmp"]
+    for p in old + keep:
+        p.write_text("partial")
+    for p in old + keep[:3]:
+        os.utime(p, (PROCESS_START - 60, PROCESS_START - 60))
+    write_atomic(tmp_path / "m.json", "{}")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["m.json"] + [p.name for p in keep])
+
+
+def test_write_rosbag_never_deletes_a_folder(tmp_path) -> None:
+    """A ROS 2 bag is a folder: writing one where a non-empty folder exists is a one-line
+    OutputError and the folder is untouched; into an empty folder or a new name it works; a
+    ROS 1 bag (a file) replaces an earlier file atomically."""
+    pytest.importorskip("rosbags")
+    from test_io_message_logs import small_trial
+    from usvid.files import OutputError
+    from usvid.io.rosbag import write_rosbag
+
+    tr = small_trial(T=2.0)  # 20 rows, every channel of the ros2_usv preset
+    mine = tmp_path / "bag"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match="bag: a folder with files already exists"):
+        write_rosbag(tr, mine)
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    (tmp_path / "empty").mkdir()
+    for name in ("empty", "new"):
+        out = write_rosbag(tr, tmp_path / name, storage="sqlite3")
+        assert read_trial(out, "ros2_usv").t.size == 20
+    with pytest.raises(OutputError, match="a folder with files"):  # not over an earlier bag
+        write_rosbag(tr, tmp_path / "new")
+    b = write_rosbag(tr, tmp_path / "log.bag", storage="ros1")
+    write_rosbag(tr, b, storage="ros1")
+    assert read_trial(b, "ros2_usv").t.size == 20
+    with pytest.raises(OutputError, match="is a folder"):
+        write_rosbag(tr, mine, storage="ros1")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag", "empty", "log.bag", "new"]
+
+
 def test_check_outputs_api(tmp_path) -> None:
     a = tmp_path / "a.csv"
     a.write_text("x")
@@ -713,3 +783,23 @@ def test_math_is_fine() -> None:
     findings: list = []
     t2, _, breaks = _time_integrity(Path("x.csv"), t, {"x": x}, {}, findings)
     assert breaks == [] and np.allclose(np.diff(t2), 0.1) and math.isclose(t2[50], 5.0)
+
+
+def test_damaged_dataflash_log_prints_no_library_noise(tmp_path, capfd) -> None:
+    """pymavlink's compiled DataFlash indexer prints one 'bad header' line per damaged byte on
+    file descriptor 2: the reader captures them (counted as rejected bad_header records), so
+    the command line prints no library noise."""
+    pytest.importorskip("pymavlink")
+    from test_io_message_logs import small_trial
+    from usvid.io.ardupilot import write_dataflash
+
+    p = write_dataflash(small_trial(T=1.0), tmp_path / "log.bin")
+    b = p.read_bytes()
+    i = b.index(b"\xa3\x95", len(b) // 2)  # a message header in the middle
+    p.write_bytes(b[:i] + b"\0" * 5 + b[i:])  # five stray bytes before it
+    tr = read_trial(p, "ardupilot_rover")
+    assert tr.rejected.get("bad_header", 0) >= 5
+    capfd.readouterr()
+    code = main(["audit", str(p), "--format", "ardupilot_rover"])
+    err = capfd.readouterr().err
+    assert code in (0, 3) and "bad header" not in err, err[:500]

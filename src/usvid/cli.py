@@ -68,6 +68,10 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 _register_all()
 
 
+#: click's base exception as typer uses it (its own copy of click in recent versions)
+_CLICK_ERROR = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+
+
 def _interrupted(exc: BaseException) -> bool:
     """True when ``exc`` is, or was raised while handling, a KeyboardInterrupt (Ctrl-C inside a
     compiled kernel can surface as another exception whose context is the interrupt)."""
@@ -103,14 +107,27 @@ def _main(argv: list[str] | None) -> int:
         sys.exit(code)
 
     try:
-        app(args=argv, prog_name="usvid", standalone_mode=True)
-    except SystemExit as exc:  # typer/click end here in standalone mode
-        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        # not standalone: click's usage errors come here (one line below), not as a usage box
+        rv = app(args=argv, prog_name="usvid", standalone_mode=False)
+        code = rv if isinstance(rv, int) and not isinstance(rv, bool) else 0  # typer.Exit(code)
         if code == 130:  # typer turns Ctrl-C into exit code 130, silently
+            return done(130, "usvid: interrupted")
+        return done(code)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+        if code == 130:
             print("usvid: interrupted", file=sys.stderr)
         if argv is not None:
             return code
         raise
+    except _CLICK_ERROR as exc:  # wrong option type, missing argument, unknown option
+        if type(exc).__name__ == "NoArgsIsHelpError":  # plain `usvid`: the help, as before
+            return done(exc.exit_code, exc.format_message())
+        where = f" (see '{exc.ctx.command_path} --help')" if getattr(exc, "ctx", None) else ""
+        return done(exc.exit_code if exc.exit_code else 2,
+                    "usvid: error: " + " ".join(exc.format_message().split()) + where)
+    except typer.Abort:
+        return done(130, "usvid: interrupted")
     except UsvidError as exc:
         return done(2, "usvid: error: " + " ".join(str(exc).split()))
     except KeyboardInterrupt:

@@ -10,7 +10,12 @@ nothing of usvid but :mod:`usvid.errors`. Every file usvid writes goes through
 - :func:`write_atomic` ``(path, data, inputs=())``: temporary file in the same folder, ``fsync``,
   rename; an OS error (permission, no space, read-only file system, name too long, a parent that
   is not a folder, file size limit) becomes one :class:`OutputError` line naming the path and
-  the reason, and nothing is left under the final name nor a temporary file beside it.
+  the reason, and nothing is left under the final name nor a temporary file beside it. A
+  temporary file of the same output left by an earlier run killed with SIGKILL (older than this
+  process) is removed on the next write.
+- :func:`publish` ``(tmp, path)``: rename a finished file or folder written beside ``path``
+  into place (a writer that makes a folder, such as a ROS 2 bag); never deletes a non-empty
+  folder.
 - :func:`claim_output_dir` ``(path, force)``: create a run folder, or accept one usvid created
   (it holds the marker file ``.usvid-run``) or an empty one; a non-empty folder usvid did not
   create is refused unless ``force``. usvid never deletes files in a claimed folder.
@@ -24,7 +29,9 @@ import errno
 import json
 import math
 import os
+import re
 import tempfile
+import time
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -172,6 +179,54 @@ def _make_parent(path: Path) -> None:
         raise _fail(path, exc) from None
 
 
+#: When this process started using usvid [s since the epoch]: temporary files of an output
+#: older than this were left by an earlier run (a SIGKILL between writing and renaming).
+PROCESS_START = time.time()
+
+
+def _clean_stale_temps(path: Path) -> None:
+    """Remove our own temporary files of ``path`` (``.NAME.XXXXXXXX.tmp``, as
+    :func:`write_atomic` names them) last modified before this process started: a process
+    killed with SIGKILL between creating and renaming one leaves it. Another live writer's
+    temporary file is newer (it is being written) and is left alone; errors are ignored."""
+    pat = re.compile(re.escape(f".{path.name[:80]}.") + r"[A-Za-z0-9_]{8}\.tmp")
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:
+        return
+    for e in entries:
+        if not pat.fullmatch(e.name):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False) and e.stat(
+                    follow_symlinks=False).st_mtime < PROCESS_START:
+                os.unlink(e.path)
+        except OSError:
+            pass
+
+
+def publish(tmp: str | Path, path: str | Path) -> Path:
+    """Move a finished file or folder ``tmp`` (written beside ``path``) to ``path`` with one
+    atomic rename. A file replaces a file; a folder takes the place of nothing or of an empty
+    folder: an existing non-empty folder (a user's data, an earlier bag) is never deleted, it
+    is an :class:`OutputError`. OS errors are one-line :class:`OutputError` naming ``path``."""
+    tmp, path = Path(tmp), Path(path)
+    if tmp.is_dir():
+        if path.is_dir() and any(path.iterdir()):
+            raise OutputError(f"{path}: a folder with files already exists (not replaced: "
+                              "remove it or choose another name)")
+        if path.exists() and not path.is_dir():
+            raise OutputError(f"{path}: cannot write a folder (a file has that name)")
+    elif path.is_dir():
+        raise OutputError(f"{path}: cannot write (is a folder)")
+    try:
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise _fail(path, exc) from None
+    _fsync_dir(path.parent)
+    return path
+
+
 def write_atomic(path: str | Path, data: str | bytes, *,
                  inputs: Iterable[str | Path | None] = ()) -> Path:
     """Write ``data`` (text as UTF-8, or bytes) to ``path`` atomically; returns the path.
@@ -185,6 +240,7 @@ def write_atomic(path: str | Path, data: str | bytes, *,
     path = Path(path)
     check_outputs([path], inputs, probe=False)
     _make_parent(path)
+    _clean_stale_temps(path)
     mode = "wb" if isinstance(data, bytes) else "w"
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name[:80]}.", suffix=".tmp", dir=path.parent)

@@ -18,6 +18,7 @@ from typing import Annotated, Any
 
 import typer
 
+from usvid.commands._common import check_seed
 from usvid.errors import UsvidError
 
 
@@ -64,6 +65,7 @@ def autopilot_cmd(
     from usvid.control import design_autopilot
     from usvid.io.modelfile import load_model
 
+    check_seed(seed)
     if not (math.isfinite(dt) and 0 < dt <= 1.0):
         raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
     if not (math.isfinite(horizon) and 0 < horizon <= 3600):

@@ -15,6 +15,7 @@ from typing import Annotated
 import typer
 
 from usvid.commands._common import check_seed, emit_json
+from usvid.errors import UsvidError
 
 
 def register(app: typer.Typer) -> None:
@@ -37,7 +38,10 @@ def register(app: typer.Typer) -> None:
 
         check_seed(seed)
         Fr, delta, DL = load_turning_table(table, length=length)
-        fits = fit_turning_diameter(Fr, delta, DL, seed=seed)
+        try:
+            fits = fit_turning_diameter(Fr, delta, DL, seed=seed)
+        except UsvidError as exc:  # name the table the data came from
+            raise UsvidError(f"{table or 'Ma et al. Table 2'}: {exc}") from None
         if json_out:
             emit_json({k: v.to_dict() for k, v in fits.items()})
             return

@@ -21,7 +21,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from usvid.commands._common import SchedulerOpt, WorkersOpt, emit_json
+from usvid.commands._common import SchedulerOpt, WorkersOpt, check_seed, emit_json
 from usvid.errors import UsvidError
 from usvid.files import write_atomic
 
@@ -153,6 +153,7 @@ def register(app: typer.Typer) -> None:
                              f"{', '.join(MANOEUVRES)}")
         if not (0 < dt <= 1.0):
             raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
+        check_seed(seed)
         opts = {k: v for k, v in dict(delta_deg=delta_deg, psi_deg=psi_deg,
                                       target_deg=target_deg, kp=kp, ki=ki, kd=kd, t_end=t_end,
                                       dt=dt, speed=speed,

@@ -24,6 +24,7 @@ from typing import Annotated, Any
 
 import typer
 
+from usvid.commands._common import check_seed
 from usvid.errors import SimulationError, UsvidError
 
 
@@ -253,6 +254,7 @@ def course_cmd(
     """Course change 0 -> target with a PD/PID autopilot: ITAE, IAE, largest rudder angle."""
     from usvid.sim.runs import default_ki, run_course
 
+    check_seed(seed)
     if not (math.isfinite(noise) and noise >= 0):
         raise UsvidError(f"--noise must be >= 0 deg (got {noise!r})")
     model, u0 = _setup(model_path, dt, speed, t_end=t_end)

@@ -35,6 +35,7 @@ clusters and Student-t intervals with (windows - 1) degrees of freedom.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import html
 import math
@@ -585,7 +586,7 @@ class ModelEstimator(FittedAttributes):
                 u = np.interp(idx, idx[ok], u[ok])
                 y = np.interp(idx, idx[ok], y[ok])
                 sl = _most_active(u, dt, SERVO_WINDOW_S)
-                fits.append((identify_second_order_servo(u[sl], y[sl], dt), tr.name))
+                fits.append((_servo_fit(u[sl], y[sl], dt), tr.name))
             except UsvidError as exc:
                 errors.append(f"{tr.name}: {exc}")
         if fits:
@@ -709,6 +710,27 @@ class ModelEstimator(FittedAttributes):
     def to_dict(self) -> dict[str, Any]:
         """The model file (dict) of the fitted model."""
         return self.result_.to_dict()
+
+
+#: Servo fits by their input (digest of the command and response windows and the step):
+#: several kinds fitted to the same trials (the demo, :func:`compare_kinds`) fit the servo once.
+_SERVO_FITS: dict[bytes, Any] = {}
+_SERVO_FITS_MAX = 32
+
+
+def _servo_fit(u: np.ndarray, y: np.ndarray, dt: float) -> Any:
+    """:func:`identify_second_order_servo` of ``(u, y, dt)`` (a copy of an earlier fit of the
+    same arrays when there is one: the fit is deterministic)."""
+    key = hashlib.sha256(np.ascontiguousarray(u, dtype=float).tobytes() + b"|"
+                         + np.ascontiguousarray(y, dtype=float).tobytes() + b"|"
+                         + np.float64(dt).tobytes()).digest()
+    fit = _SERVO_FITS.get(key)
+    if fit is None:
+        fit = identify_second_order_servo(u, y, dt)
+        while len(_SERVO_FITS) >= _SERVO_FITS_MAX:
+            _SERVO_FITS.pop(next(iter(_SERVO_FITS)))
+        _SERVO_FITS[key] = fit
+    return copy.deepcopy(fit)
 
 
 def _replay_metrics(model: VesselModel, win: Windows) -> dict[str, Any]:

@@ -2,7 +2,8 @@
 
 Shared by every reader, so that all of them treat bad records the same way:
 
-- records without a finite time are rejected (``rejected["nan_time"]``);
+- records without a finite time (or beyond MAX_ABS_TIME_S) are rejected
+  (``rejected["nan_time"]``);
 - records with no finite channel value are rejected (``rejected["nan_row"]``);
 - time going backwards: with ``non_monotonic: sort`` (the default) the records are sorted by time
   (stable) and a warning finding ``non_monotonic_time`` counts the records that were out of order;
@@ -81,7 +82,7 @@ def check_xlsx_bounds(path: Path) -> None:
 
     try:
         zf = zipfile.ZipFile(path)
-    except (zipfile.BadZipFile, OSError, ValueError):
+    except Exception:  # BadZipFile, OSError, NotImplementedError (zip version), ...
         return
     row_re = re.compile(rb'<(?:\w+:)?row\b[^>]*?\sr="([^"]*)"')
     cell_re = re.compile(rb'<(?:\w+:)?c\b[^>]*?\sr="([A-Za-z]*)([^"]*)"')
@@ -115,6 +116,11 @@ def check_xlsx_bounds(path: Path) -> None:
                     ref = (col + row)[:30].decode(errors="replace")
                     raise LogReadError(f"{path}: {info.filename}: cell r=\"{ref}\" is beyond "
                                        f"Excel's {XLSX_MAX_ROW} rows x {XLSX_MAX_COL} columns")
+
+
+#: Largest time stamp magnitude [s] taken as a time (31,700 years; epoch seconds are 1.7e9):
+#: beyond it differences of stamps overflow or lose every digit.
+MAX_ABS_TIME_S = 1e12
 
 
 def ignored_finding(path: Path, code: str, what: str, ignored: dict, *,
@@ -156,7 +162,8 @@ def assemble(
     chans = {k: np.asarray(v, dtype=float) for k, v in channels.items()}
     nm = non_monotonic or (spec.non_monotonic if spec is not None else "sort")
 
-    keep = np.isfinite(t)
+    with np.errstate(invalid="ignore"):  # beyond MAX_ABS_TIME_S differences overflow: no time
+        keep = np.isfinite(t) & (np.abs(t) <= MAX_ABS_TIME_S)
     _add(rejected, "nan_time", int((~keep).sum()))
     if chans:
         anyval = np.zeros(len(t), dtype=bool)

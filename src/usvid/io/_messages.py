@@ -172,8 +172,11 @@ def epoch_meta(t0_epoch_s: float | None) -> dict:
     """``t0_epoch`` / ``t0_utc`` meta entries for an absolute start time [s since 1970]."""
     if t0_epoch_s is None or not math.isfinite(t0_epoch_s):
         return {}
-    return {"t0_epoch": float(t0_epoch_s),
-            "t0_utc": datetime.fromtimestamp(t0_epoch_s, tz=UTC).isoformat()}
+    try:
+        utc = datetime.fromtimestamp(t0_epoch_s, tz=UTC).isoformat()
+    except (ValueError, OverflowError, OSError):  # a damaged clock: beyond years 1..9999
+        return {}
+    return {"t0_epoch": float(t0_epoch_s), "t0_utc": utc}
 
 
 @dataclass

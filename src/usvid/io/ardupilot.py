@@ -34,8 +34,11 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import os
 import re
 import struct
+import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -93,6 +96,24 @@ def _quiet() -> contextlib.ExitStack:
     return stack
 
 
+@contextlib.contextmanager
+def _fd2_captured(out: list[str]):
+    """Capture what compiled code writes to file descriptor 2 (pymavlink's Cython DataFlash
+    indexer prints one ``bad header`` line per damaged byte there, past ``sys.stderr``) into
+    ``out``, so the command line keeps its one-line errors. Process-wide while it lasts."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            out.append(tmp.read().decode("utf-8", "replace"))
+
+
 def _np_dtype(msg_struct: str) -> np.dtype:
     """numpy dtype of a DataFlash struct layout (``"<QBiiffH"``, strings ``"16s"``)."""
     fields = []
@@ -128,13 +149,14 @@ def _df_index(path: Path) -> tuple[Any, ReadState]:
     from pymavlink import DFReader
 
     state = ReadState()
-    with _quiet() as q:
+    c_text: list[str] = []
+    with _quiet() as q, _fd2_captured(c_text):
         try:
             dfr = DFReader.DFReader_binary(str(path))
         except Exception as exc:  # pymavlink raises struct/Index/Key errors on damaged logs
             raise LogReadError(f"{path}: not a readable DataFlash log ({type(exc).__name__}: "
                                f"{' '.join(str(exc).split())[:120]})") from None
-    text = q.buf.getvalue()  # type: ignore[attr-defined]
+    text = q.buf.getvalue() + "".join(c_text)  # type: ignore[attr-defined]
     nbad = text.count("bad header")
     if nbad:
         state.reject("bad_header", nbad)
@@ -180,6 +202,9 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
             if dt.itemsize != body:
                 raise LogReadError(f"{path}: FMT of {name}: format '{fmt.format}' is "
                                    f"{dt.itemsize} bytes but the message is {body}")
+            if len(fmt.columns) > len(dt.names or ()):
+                raise LogReadError(f"{path}: FMT of {name}: {len(fmt.columns)} columns for "
+                                   f"the {len(dt.names or ())} fields of format '{fmt.format}'")
             rows = np.ascontiguousarray(buf[offs[:, None] + 3 + np.arange(body)])
             arr = rows.view(dt).ravel()
             out = {}
@@ -368,7 +393,12 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
     seen: dict[str, int] = {}
     checked: set[str] = set()
     with _quiet():
-        mlog = mavutil.mavlink_connection(str(path), notimestamps=False, robust_parsing=True)
+        try:
+            mlog = mavutil.mavlink_connection(str(path), notimestamps=False,
+                                              robust_parsing=True)
+        except Exception as exc:  # noqa: BLE001 - pymavlink on a damaged first packet
+            raise LogReadError(f"{path}: not a readable MAVLink telemetry log "
+                               f"({type(exc).__name__})") from None
         try:
             while True:
                 try:
@@ -389,7 +419,11 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                 if typ not in checked:
                     _check_mav(path, spec, m, getters)
                     checked.add(typ)
-                stamps[typ].append(int(round(m._timestamp * 1e6)) * 1000)
+                ts = m._timestamp  # [s]: a damaged header gives any float
+                if not (math.isfinite(ts) and 0 <= ts < 9e9):
+                    state.reject("bad_data")
+                    continue
+                stamps[typ].append(int(round(ts * 1e6)) * 1000)
                 for col, st in getters:
                     values[col.name].append(_mav_raw(m, st, col))
             left = mlog.mav.buf_len() if hasattr(mlog.mav, "buf_len") else 0

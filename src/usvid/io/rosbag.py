@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import LogReadError
+from usvid.files import OutputError, check_outputs, os_reason, publish
 from usvid.io._messages import (
     ReadState,
     Series,
@@ -299,7 +300,9 @@ TOPICS = {
 
 def write_rosbag(trial: Trial, path: str | Path, *, storage: str = "mcap",
                  t0_utc: str | None = None) -> Path:
-    """Write a Trial as a ROS bag in the ``ros2_usv`` preset's layout (atomically).
+    """Write a Trial as a ROS bag in the ``ros2_usv`` preset's layout (atomically: written in a
+    temporary folder beside ``path``, then renamed; an existing non-empty folder at ``path`` is
+    an :class:`usvid.files.OutputError`, never deleted).
 
     ``storage``: ``"mcap"`` or ``"sqlite3"`` (a ROS 2 bag folder ``path``) or ``"ros1"`` (a ROS 1
     ``.bag`` file). Channels -> topics (REP 103 frames, SI): ``lat``/``lon`` [deg] ->
@@ -323,8 +326,12 @@ def write_rosbag(trial: Trial, path: str | Path, *, storage: str = "mcap",
     e0_ns = int(round(log_start_epoch(trial, t0_utc) * 1e9))
     t_ns = e0_ns + np.round(trial.t * 1e9).astype(np.int64)
     msgs = _messages(trial, ts, t_ns, ros1)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    check_outputs([path] if ros1 else [], probe=False)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name[:80]}.", dir=path.parent))
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write ({os_reason(exc)})") from None
     target = tmp / ("log.bag" if ros1 else "bag")
     try:
         if ros1:
@@ -344,9 +351,7 @@ def write_rosbag(trial: Trial, path: str | Path, *, storage: str = "mcap",
                          for k in msgs}
                 for key, stamp, msg in _ordered(msgs):
                     w.write(conns[key], stamp, ts.serialize_cdr(msg, TOPICS[key][1]))
-        if path.is_dir():
-            shutil.rmtree(path)
-        os.replace(target, path)
+        publish(target, path)  # never deletes an existing folder at path
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return path

@@ -135,7 +135,7 @@ def read_ulog(path: str | Path, spec: FormatSpec) -> Trial:
                     f"instance {inst} has no data in the log")
             raise missing_topic(path, spec, col, list(formats), what="message")
         names = _names(col, d)
-        if any(n not in d for n in names):
+        if any(n not in d for n in [*names, "timestamp"]):
             shown = sorted(k for k in d if k != "timestamp")
             raise missing_field(path, spec, col, "uORB topic", shown)
         raw = np.column_stack([np.asarray(d[n], dtype=float) for n in names])
