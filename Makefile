@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 TSTAMP := $(VENV)/.installed-test
 
-.PHONY: demo test bench lint clean browser
+.PHONY: demo test fuzz bench lint clean browser
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,10 @@ demo: $(STAMP)
 # the suite runs on every core (pytest-xdist; one test file per worker keeps module fixtures whole)
 test: $(TSTAMP) browser
 	$(BIN)/python -m pytest -n auto --dist loadfile
+
+# the loaders' Hypothesis fuzzing at depth: 10,000 examples per loader (make test runs 2,500)
+fuzz: $(TSTAMP)
+	USVID_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -n auto -m fuzz
 
 # Headless Chromium (Debian's package) for the report's browser test; best effort: where it cannot
 # be installed (not root, no apt) the browser test is skipped with the reason.

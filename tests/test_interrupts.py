@@ -141,15 +141,24 @@ def test_identify_killed_at_random_moments(log, tmp_path, sig) -> None:
 
 def _check_parses(out: Path, seen: dict) -> int:
     """Every file under a final name in the demo folder ``out`` parses: logs read back with
-    their reader, format specs and model files load, ``run.json`` parses, ``report.html`` ends;
-    names starting with a dot (the temporary files) are skipped. Files already checked (same
+    their reader (a ROS 2 bag folder as one log), format specs and model files load, ``run.json``
+    parses, ``report.html`` ends; names starting with a dot (the temporary files) are skipped. Files already checked (same
     size and time) are not read again. Returns the number of files checked now."""
     n = 0
     if not out.exists():
         return n
     for p in sorted(out.rglob("*")):
         rel = p.relative_to(out)
-        if any(part.startswith(".") for part in rel.parts) or not p.is_file():
+        if any(part.startswith(".") for part in rel.parts):
+            continue
+        if p.is_dir() and (p / "metadata.yaml").exists():  # a ROS 2 bag: published as one folder
+            key = (str(rel), p.stat().st_mtime_ns)
+            if key not in seen:
+                read_trial(p)
+                seen[key] = True
+                n += 1
+            continue
+        if not p.is_file() or (p.parent / "metadata.yaml").exists():
             continue
         st = p.stat()
         key = (str(rel), st.st_size, st.st_mtime_ns)
