@@ -307,9 +307,9 @@ class ModelKind:
         of a linear or linearisable response kind (:mod:`usvid.models.export`).
     switch_row, switch_values : int, tuple of float
         A row of the packed parameters that selects a branch of ``rhs`` (e.g. the thrust law's
-        mode) and its usual values (at most 4): the core's vectorised step is compiled once per
-        value with that row a constant, so that it evaluates only that branch (lanes of other
-        values are integrated lane by lane). -1: none.
+        mode) and its most used values (at most 3): the core's vectorised step is compiled
+        once more per value with that row a constant, so that it evaluates only that branch
+        (lanes of other values take the generic vectorised step). -1: none.
     """
 
     name: str

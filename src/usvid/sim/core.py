@@ -103,7 +103,7 @@ NS = 1  # number of kind states
 TRIG = False  # the kind reads cos/sin of the steering angle
 SWR = -1  # the kind's switch row of P (ModelKind.switch_row; -1: none)
 SWV = np.array([np.nan])  # its values with a vector step of their own (ModelKind.switch_values)
-NSW = 1  # number of vector steps (at most 4)
+NSW = 1  # number of vector steps (at most 4: one per switch value, then the generic one)
 
 
 def rhs(P, b, Z, D, delta, cd, sd, n, n_port, n_stbd):  # pragma: no cover - placeholder
@@ -389,9 +389,10 @@ def _vstep(V, zn, w0, w1, w2, h, frac):
 
 
 def _vsteps(V, zn, w0, w1, w2, h, frac, swi):
-    """:func:`_vstep` of the chunk's switch value ``swi`` (index into :data:`SWV`): compiled
-    once per value with the switch row of the parameters a constant, so that the vector code
-    holds only the right-hand side's branch of that value (e.g. one thrust law, not all)."""
+    """:func:`_vstep` of the chunk's switch value ``swi`` (index into :data:`SWV`; NSW - 1:
+    the generic step): compiled once per value with the switch row of the parameters a
+    constant, so that the vector code holds only the right-hand side's branch of that value
+    (e.g. one thrust law, not all)."""
     if swi == 0 or NSW == 1:
         _vstep0(V, zn, w0, w1, w2, h, frac)
     elif swi == 1 or NSW == 2:
@@ -674,20 +675,16 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         V[(VL + LACT) * CH + j] = 1.0
         act[j] = True
     nact = W
-    # the vector step of the chunk's switch value; lanes of mixed or other values take the
-    # per-lane path
-    swi = 0
+    # the vector step of the chunk's switch value (the generic one for mixed or other values)
+    swi = NSW - 1
     if SWR >= 0 and W > 0:
         sv0 = P[lo, SWR]
-        swi = -1
-        for i in range(NSW):
+        for i in range(NSW - 1):
             if SWV[i] == sv0:
                 swi = i
         for j in range(W):
             if P[lo + j, SWR] != sv0:
-                swi = -1
-        if swi < 0:
-            simd = False
+                swi = NSW - 1
     # lanes whose logic or inputs act at every step are never quiet
     busy = series or lk == COURSE or (lk == COMMANDED and s4_ >= 0)
     for k in range(nmax + 1):
@@ -993,16 +990,16 @@ def kernel(kind: ModelKind) -> Any:
              BU=kind.body[0], BV=kind.body[1], BR=kind.body[2], SPEED_ROW=kind.speed_row,
              ZU=3 + max(kind.body[0], 0), ZV=3 + max(kind.body[1], 0), ZR=3 + kind.body[2])
     values = tuple(float(v) for v in kind.switch_values) if kind.switch_row >= 0 else ()
-    if len(values) > 4:
-        raise ValueError(f"kind {kind.name}: at most 4 switch values")
+    if len(values) > 3:
+        raise ValueError(f"kind {kind.name}: at most 3 switch values")
     g.update(SWR=kind.switch_row if values else -1, SWV=np.array(values or (np.nan,)),
-             NSW=max(1, len(values)))
+             NSW=len(values) + 1)
     g["_ptup"] = _ptup_fn(g, kind.n_params)
     for name in _TEMPLATES:
         _specialise(g, name, f"{name}__{key}")
     # the vector steps (compiled lazily like the rest, after the helpers above): one per switch
-    # value with the switch row a literal, else one
-    for i, value in enumerate(values or (None,)):
+    # value with the switch row a literal, then the generic one
+    for i, value in enumerate((*values, None)):
         const = {kind.switch_row: value} if value is not None else {}
         gv = dict(g, _rot=_rot_nan, _ptup=_ptup_fn(g, kind.n_params, const))
         for name in _STEP:  # the vector flavour of the step functions
@@ -1010,7 +1007,7 @@ def kernel(kind: ModelKind) -> Any:
         gv["_rk4v"] = gv["_rk4"]
         _specialise(gv, "_vstep", f"_vstep{i}__{key}")
         g[f"_vstep{i}"] = gv["_vstep"]
-    for i in range(len(values), 4):
+    for i in range(len(values) + 1, 4):
         g[f"_vstep{i}"] = g["_vstep0"]
     _KERNELS[key] = g["_chunk"]
     _GLOBALS[key] = g

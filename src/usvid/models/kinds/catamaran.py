@@ -260,7 +260,5 @@ KIND = ModelKind(
     fit_space=_fossen.FIT_SPACE,
     particulars=particulars,
     series=series,
-    switch_row=_T0,  # the thrust law: per command or twin-thruster curves
-    switch_values=(3.0, 4.0),
     channels=channels,
 )
