@@ -13,9 +13,9 @@ switch history.
 Printed: wall and CPU time, numba threads, load average, per-run times and their ratio, peak
 memory (tracemalloc peak of Python/numpy allocations during the batch, and the process max RSS);
 then a table of ns CPU per RK4 step per model kind for the SIMD kernel and for the per-lane path
-(``core.SIMD = False``: every step integrated lane by lane, the previous kernel's scheme), with
-their ratio and the ratio to solve_ivp. The machine may be shared: CPU time per step is the
-figure to compare; wall time depends on the load.
+(``core.SIMD = False``: every step integrated lane by lane, the reference; its right-hand side
+is called out of line), with their ratio and the ratio to solve_ivp. The machine may be shared:
+CPU time per step is the figure to compare; wall time depends on the load.
 """
 
 from __future__ import annotations
@@ -133,7 +133,7 @@ def main() -> None:
     print(f"  peak memory: traced {peak / 2**20:.1f} MiB during the batch, "
           f"process max RSS {rss:.0f} MiB")
     print("  ns CPU per RK4 step (per run), SIMD kernel vs the per-lane path (core.SIMD = False, "
-          "the previous kernel's scheme), same process:")
+          "the reference, rhs out of line), same process:")
     print(f"    {'kind':10s} {'runs':>6s} {'SIMD wall':>10s} {'SIMD ns':>8s} {'per-lane ns':>12s} "
           f"{'speed-up':>9s} {'vs solve_ivp':>12s}  load")
     n = max(B // 4, 64)

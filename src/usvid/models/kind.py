@@ -299,6 +299,11 @@ class ModelKind:
     transfer : callable ``(dynamics) -> (num, den)``, optional
         The yaw-rate transfer function r/delta (highest power first; linearised about r = 0)
         of a linear or linearisable response kind (:mod:`usvid.models.export`).
+    switch_row, switch_values : int, tuple of float
+        A row of the packed parameters that selects a branch of ``rhs`` (e.g. the thrust law's
+        mode) and its most used values (at most 3): the core's vectorised step is compiled
+        once more per value with that row a constant, so that it evaluates only that branch
+        (lanes of other values take the generic vectorised step). -1: none.
     """
 
     name: str
@@ -322,6 +327,8 @@ class ModelKind:
     channels: Callable[[Dynamics, dict[str, np.ndarray]], None] | None = None
     transfer: Callable[[Dynamics], tuple[list[float], list[float]]] | None = None
     uses_trig: bool = False
+    switch_row: int = -1
+    switch_values: tuple[float, ...] = ()
     state_estimation: bool = False
     source_hash: str = ""
 

@@ -80,16 +80,20 @@ BU, BV, BR = -1, -1, 0  # positions of u, v, r among the kind's states (-1: cons
 ZU, ZV, ZR = 3, 4, 3  # their positions in the joint-state tuple (literal indices)
 SPEED_ROW = 3  # position of the constant speed U in a constant-speed kind's parameters
 
-#: Rows of a chunk's logic-variable array ``ls`` (:func:`_chunk`): command logged, ramp end,
-#: zig-zag sign and heading reference, reversals, PID integral, ITAE, IAE, max |delta|, dead-time
-#: queue head and length, record counters, overshoot so far, noise standard deviation.
-(LCMDLOG, LREND, LCUR, LPSI0, LZZN, LINTEG, LITAE, LIAE, LMAXD, LQH, LQN, LRC, LJREC, LOVMAX,
- LESD) = range(15)
-NL = 15
-#: Rows of a chunk's vector-step input array ``V`` (:func:`_vstep`): joint state (NT rows),
-#: servo values, command in force / ramp rate / noise sample, input series (8), trig bases (6),
-#: then the kind's parameters.
-VS, VCMD, VRAMP, VNOISE, VF, VT, VP = 11, 18, 19, 20, 21, 29, 35
+#: Logic-variable rows of a chunk (rows ``VL + i`` of ``V``, :func:`_chunk`): command logged,
+#: ramp end, zig-zag sign and heading reference, reversals, PID integral, ITAE, IAE,
+#: max |delta|, dead-time queue head and length, overshoot so far, noise standard deviation,
+#: the time up to which the lane is quiet (no logic and no event due: :func:`_quiet_until`),
+#: the zig-zag switching angle, the lane's quiet flag of the step and its slow-path flag, the
+#: lane's active flag and its number of steps.
+(LCMDLOG, LREND, LCUR, LPSI0, LZZN, LINTEG, LITAE, LIAE, LMAXD, LQH, LQN, LOVMAX, LESD, LTQ,
+ LSW, LQ, LFLAG, LACT, LNS) = range(19)
+NL = 19
+#: Rows of a chunk's work array ``V`` (:func:`_vstep`): joint state (NT rows), servo values,
+#: command in force / ramp rate / noise sample, input series (8), trig bases (6), the logic
+#: variables (NL rows), then the kind's parameters.
+VS, VCMD, VRAMP, VNOISE, VF, VT, VL = 11, 18, 19, 20, 21, 29, 35
+VP = VL + NL
 #: Lanes per chunk (the row length of the chunk's work arrays; a compile-time constant so that
 #: LLVM sees the rows of ``V`` as one object at constant offsets and vectorises the lane loop).
 CH = 32
@@ -97,6 +101,9 @@ CH = 32
 # -- kind-specific globals (replaced when a kind is specialised) -----------------------------
 NS = 1  # number of kind states
 TRIG = False  # the kind reads cos/sin of the steering angle
+SWR = -1  # the kind's switch row of P (ModelKind.switch_row; -1: none)
+SWV = np.array([np.nan])  # its values with a vector step of their own (ModelKind.switch_values)
+NSW = 1  # number of vector steps (at most 4: one per switch value, then the generic one)
 
 
 def rhs(P, b, Z, D, delta, cd, sd, n, n_port, n_stbd):  # pragma: no cover - placeholder
@@ -264,6 +271,7 @@ def _rk4(p, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
 
 
 _rk4v = _rk4  # the vector flavour of _rk4 (replaced in kernel())
+_vstep0 = _vstep1 = _vstep2 = _vstep3 = None  # the vector steps by switch value (kernel())
 
 
 # -- a chunk's work array V: row r of lane j at V[r * CH + j] (module docstring) --------------
@@ -323,7 +331,9 @@ def _steer(V, j):
 def _vbases(V):
     """The step's trig bases (angle, cos, sin of the heading; TRIG: of the steering angle) for
     all CH lane slots, rotated from the previous step's (:func:`_rot_nan`, vectorised) and
-    renormalised; NaN where the angle moved more than 0.05 rad (then :func:`_base_far`)."""
+    renormalised; NaN where the angle moved more than 0.05 rad (then :func:`_base_far`).
+    Returns the number of NaN bases."""
+    nfar = 0.0
     for j in range(CH):
         o = VT * CH + j
         a = V[2 * CH + j]
@@ -332,13 +342,18 @@ def _vbases(V):
         V[o] = a
         V[o + CH] = c_ * g_
         V[o + 2 * CH] = s_ * g_
-        if TRIG:
+        nfar += 1.0 if np.isnan(c_) else 0.0
+    if TRIG:  # a loop of its own: LLVM vectorises the two loops, not the fused one
+        for j in range(CH):
+            o = (VT + 3) * CH + j
             a = _steer(V, j)
-            c_, s_ = _rot_nan(a, V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH])
+            c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
             g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
-            V[o + 3 * CH] = a
-            V[o + 4 * CH] = c_ * g_
-            V[o + 5 * CH] = s_ * g_
+            V[o] = a
+            V[o + CH] = c_ * g_
+            V[o + 2 * CH] = s_ * g_
+            nfar += 1.0 if np.isnan(c_) else 0.0
+    return nfar
 
 
 def _base_far(V, j, i, a):
@@ -371,6 +386,21 @@ def _vstep(V, zn, w0, w1, w2, h, frac):
         y = _rk4v(_ptup(V, j), _ztup(V, j), h, 0.0, frac, srv, w0, w1, w2,
                   V[VCMD * CH + j], V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
         _zput(zn, j, y)
+
+
+def _vsteps(V, zn, w0, w1, w2, h, frac, swi):
+    """:func:`_vstep` of the chunk's switch value ``swi`` (index into :data:`SWV`; NSW - 1:
+    the generic step): compiled once per value with the switch row of the parameters a
+    constant, so that the vector code holds only the right-hand side's branch of that value
+    (e.g. one thrust law, not all)."""
+    if swi == 0 or NSW == 1:
+        _vstep0(V, zn, w0, w1, w2, h, frac)
+    elif swi == 1 or NSW == 2:
+        _vstep1(V, zn, w0, w1, w2, h, frac)
+    elif swi == 2 or NSW == 3:
+        _vstep2(V, zn, w0, w1, w2, h, frac)
+    else:
+        _vstep3(V, zn, w0, w1, w2, h, frac)
 
 
 def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt, qv, b, qh,
@@ -448,18 +478,131 @@ def _record(V, j, b, jrec, slots, rec, dnow, cmdlog):
         rec[sl, b, jrec] = val
 
 
+def _quiet_until(V, j, b, lk, L, qt, busy):
+    """Time [s] up to which lane j (lane b of the batch) is quiet: no command event queued, no
+    ideal-servo ramp ending and no logic start pending before it (-inf: never, for logics and
+    inputs acting at every step, or a noise input). A step ending at t1 with t1 + eps <= this
+    time takes the quiet path of :func:`_chunk` (the per-lane branches would do nothing)."""
+    if busy or V[(VL + LESD) * CH + j] > 0.0:
+        return -math.inf
+    tq = math.inf
+    if V[(VL + LQN) * CH + j] > 0.0:
+        tq = qt[b, int(V[(VL + LQH) * CH + j])]
+    rend = V[(VL + LREND) * CH + j]
+    if rend < tq:
+        tq = rend
+    if V[(VL + LCUR) * CH + j] == 0.0:
+        ts = math.inf
+        if lk == ZIGZAG:
+            ts = L[b, 3]
+        elif lk == TURNING:
+            ts = L[b, 1]
+        if ts < tq:
+            tq = ts
+    return tq
+
+
+def _vquiet(V, kf, tq1):
+    """Row LQ = 1 for the active lanes that are quiet in the step ending at t1 (``tq1`` = t1 +
+    eps, ``kf`` the step index; see :func:`_quiet_until`), vectorised; returns their number."""
+    nq = 0.0
+    for j in range(CH):
+        q = ((V[(VL + LACT) * CH + j] > 0.0) & (kf < V[(VL + LNS) * CH + j])
+             & (tq1 <= V[(VL + LTQ) * CH + j]))
+        f = 1.0 if q else 0.0
+        V[(VL + LQ) * CH + j] = f
+        nq += f
+    return nq
+
+
+def _vmaxd(V):
+    """max |delta| [rad] of the quiet lanes (row LQ) at the step start, vectorised (the
+    measured steering angle is absent on the quiet path: the servo's, limited)."""
+    for j in range(CH):
+        d = abs(_clip(V[7 * CH + j], V[VS * CH + j]))
+        o = (VL + LMAXD) * CH + j
+        m = V[o]
+        V[o] = d if (V[(VL + LQ) * CH + j] > 0.0 and d > m) else m
+
+
+def _vfinish(V, zn, zig, skind):
+    """The end of the step for the quiet lanes (row LQ), vectorised: the new joint states of
+    the vector step ``zn`` with the servo limits into ``V``, the zig-zag overshoot tracker; a
+    lane is flagged (row LFLAG = 1, ``V`` unchanged) when its step must go the per-lane way:
+    not quiet, a state not finite (or flagged NaN by the vector step), a zig-zag reversal
+    inside the step, or divergence (:data:`R_MAX`). The same arithmetic as the per-lane
+    branch of :func:`_chunk`. Returns the number of flagged active lanes."""
+    nslow = 0.0
+    for j in range(CH):
+        z0 = zn[j]
+        z1 = zn[CH + j]
+        z2 = zn[2 * CH + j]
+        z3 = zn[3 * CH + j]
+        z4 = zn[4 * CH + j]
+        z5 = zn[5 * CH + j]
+        z6 = zn[6 * CH + j]
+        z7 = zn[7 * CH + j]
+        z8 = zn[8 * CH + j]
+        z9 = zn[9 * CH + j]
+        z10 = zn[10 * CH + j]
+        # (bitwise & and |: no short-circuit branches in the vectorised loop)
+        ok = (np.isfinite(z0) & np.isfinite(z1) & np.isfinite(z2) & np.isfinite(z3)
+              & np.isfinite(z4) & np.isfinite(z5) & np.isfinite(z6))
+        cur = V[(VL + LCUR) * CH + j] if zig else 0.0
+        sw = V[(VL + LSW) * CH + j]
+        dev1 = z2 - V[(VL + LPSI0) * CH + j]
+        cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
+        ovmax = V[(VL + LOVMAX) * CH + j]
+        ov = -cur * dev1 - sw
+        upd = (cur != 0.0) & (V[(VL + LZZN) * CH + j] >= 1.0) & (np.isnan(ovmax) | (ov > ovmax))
+        ovmax = ov if upd else ovmax
+        dl = z7
+        dd = z8
+        if skind != 0:
+            ma = V[VS * CH + j]
+            above = dl > ma
+            below = dl < -ma
+            dd = min(dd, 0.0) if above else (max(dd, 0.0) if below else dd)
+            dl = ma if above else (-ma if below else dl)
+            if skind == 2:
+                dd = _clip(dd, V[(VS + 1) * CH + j])
+        zr = zn[ZR * CH + j]
+        fast = (V[(VL + LQ) * CH + j] > 0.0) & ok & (not cross) & (abs(zr) <= R_MAX)
+        V[(VL + LFLAG) * CH + j] = 0.0 if fast else 1.0
+        nslow += 0.0 if fast else V[(VL + LACT) * CH + j]
+        V[j] = z0 if fast else V[j]
+        V[CH + j] = z1 if fast else V[CH + j]
+        V[2 * CH + j] = z2 if fast else V[2 * CH + j]
+        V[3 * CH + j] = z3 if fast else V[3 * CH + j]
+        V[4 * CH + j] = z4 if fast else V[4 * CH + j]
+        V[5 * CH + j] = z5 if fast else V[5 * CH + j]
+        V[6 * CH + j] = z6 if fast else V[6 * CH + j]
+        V[7 * CH + j] = dl if fast else V[7 * CH + j]
+        V[8 * CH + j] = dd if fast else V[8 * CH + j]
+        V[9 * CH + j] = z9 if fast else V[9 * CH + j]
+        V[10 * CH + j] = z10 if fast else V[10 * CH + j]
+        V[(VL + LOVMAX) * CH + j] = ovmax if fast else V[(VL + LOVMAX) * CH + j]
+    return nslow
+
+
 def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots,
            rec, acc, zz, zzt, status, qt, qv, simd):
     """Integrate lanes lo..hi-1 (at most :data:`CH`) together: one task of :func:`run`.
 
-    The chunk's joint states, parameters, servo values and inputs live in the work array
-    ``V`` (a row per quantity, a column per lane), the logic variables in ``ls`` (rows
-    :data:`LCMDLOG` ..). Each step has three phases: per lane, the logic, the events due at
-    the step start, the record and the trig bases; then one vectorised RK4 step of all lanes
-    (:func:`_vstep`, when ``simd``); then per lane, the step is integrated again on the
-    per-lane path (:func:`_substeps`) where an event falls inside it (or the vector step
-    flagged it), the zig-zag switching is located, the servo limits and the divergence test
-    are applied. Without ``simd`` every step takes the per-lane path (the reference).
+    The chunk's joint states, parameters, servo values, inputs and logic variables live in
+    the work array ``V`` (a row per quantity, a column per lane; rows :data:`VS` ..,
+    :data:`VL` + :data:`LCMDLOG` ..). A lane is *quiet* in a step when no logic acts and no
+    event is due at its start or inside it (:func:`_quiet_until`, :func:`_vquiet`). Each step:
+    vectorised, the quiet lanes' record bookkeeping and max |delta|; per lane, for the other
+    lanes only, the logic, the events due at the step start, the record and the noise; the
+    trig bases (vectorised); one vectorised RK4 step of all lanes (:func:`_vsteps`, when
+    ``simd`` and the chunk's lanes share a switch value); then, vectorised, the end of the
+    step of the quiet lanes (:func:`_vfinish`); per lane, for the lanes it flags and the
+    others only, the step is integrated again on the per-lane path (:func:`_substeps`) where
+    an event falls inside it (or the vector step flagged it), the zig-zag switching is
+    located, the servo limits and the divergence test are applied. The quiet and the per-lane
+    branches do the same arithmetic (results do not depend on which lanes share a chunk).
+    Without ``simd`` every step takes the per-lane path (the reference).
     """
     ID = S0 + NS
     W = hi - lo
@@ -470,7 +613,6 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         V[(VT + 4) * CH + j] = 1.0
         for i in range(8):  # input series: absent
             V[(VF + i) * CH + j] = np.nan
-    ls = np.zeros((NL, W))
     act = np.zeros(W, dtype=np.bool_)
     simple = np.zeros(W, dtype=np.bool_)
     rngs = np.zeros(W, dtype=np.uint64)
@@ -499,18 +641,18 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             V[(7 + i) * CH + j] = Z[b, ID + i]
         # at rest on the initial angle: the command in force is the one that holds it
         cmdin = Z[b, ID] / S[b, 4] if skind == 2 else Z[b, ID]
-        ls[LREND, j] = math.inf
-        ls[LOVMAX, j] = np.nan
+        V[(VL + LREND) * CH + j] = math.inf
+        V[(VL + LOVMAX) * CH + j] = np.nan
         if lk == ZIGZAG and L[b, 5] != 0.0:  # a replay started in the middle of a zig-zag
-            ls[LCUR, j] = L[b, 5]
-            ls[LPSI0, j] = L[b, 4]
+            V[(VL + LCUR) * CH + j] = L[b, 5]
+            V[(VL + LPSI0) * CH + j] = L[b, 4]
             cmdin = L[b, 5] * L[b, 0]
             if skind == 0:
                 dl, ramp, rend = _start_ramp(0.0, _clip(cmdin, ma), Z[b, ID], S[b, 1])
                 V[7 * CH + j] = dl
                 V[VRAMP * CH + j] = ramp
-                ls[LREND, j] = rend
-        ls[LCMDLOG, j] = cmdin
+                V[(VL + LREND) * CH + j] = rend
+        V[(VL + LCMDLOG) * CH + j] = cmdin
         V[VCMD * CH + j] = cmdin
         for i in range(N_ZZ):
             zz[b, i] = np.nan
@@ -523,31 +665,59 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         _, h0 = _splitmix(np.uint64(int(Dq[b, 1])))
         stream = int(Dq[b, 2]) if Dq.shape[1] > 2 else b
         _, rngs[j] = _splitmix(h0 ^ np.uint64(stream))
-        ls[LESD, j] = math.sqrt(Dq[b, 0] / dt) if Dq[b, 0] > 0.0 else 0.0
+        V[(VL + LESD) * CH + j] = math.sqrt(Dq[b, 0] / dt) if Dq[b, 0] > 0.0 else 0.0
         V[VT * CH + j] = Z[b, 2]
         V[(VT + 1) * CH + j] = math.cos(Z[b, 2])
         V[(VT + 2) * CH + j] = math.sin(Z[b, 2])
+        V[(VL + LTQ) * CH + j] = -math.inf  # the first step takes the per-lane path
+        V[(VL + LSW) * CH + j] = L[b, 1] if lk == ZIGZAG else 0.0
+        V[(VL + LNS) * CH + j] = nsteps[b]
+        V[(VL + LACT) * CH + j] = 1.0
         act[j] = True
+    nact = W
+    # the vector step of the chunk's switch value (the generic one for mixed or other values)
+    swi = NSW - 1
+    if SWR >= 0 and W > 0:
+        sv0 = P[lo, SWR]
+        for i in range(NSW - 1):
+            if SWV[i] == sv0:
+                swi = i
+        for j in range(W):
+            if P[lo + j, SWR] != sv0:
+                swi = NSW - 1
+    # lanes whose logic or inputs act at every step are never quiet
+    busy = series or lk == COURSE or (lk == COMMANDED and s4_ >= 0)
     for k in range(nmax + 1):
         t = k * dt
         t1 = t + dt
-        nsimple = 0
+        recnow = k % rec_every == 0
+        jrec = k // rec_every
+        # -- quiet lanes (no logic and no event at the start of or inside the step: the
+        # per-lane branches below would do nothing but the record and max |delta|) --
+        nq = _vquiet(V, float(k), t1 + eps)
+        nsimple = int(nq) if simd else 0
+        if recnow and nq > 0.0:
+            for j in range(W):
+                if V[(VL + LQ) * CH + j] > 0.0:
+                    _record(V, j, lo + j, jrec, slots, rec,
+                            _clip(V[7 * CH + j], V[VS * CH + j]), V[(VL + LCMDLOG) * CH + j])
+        _vmaxd(V)
         # -- phase 1, per lane: inputs, logic, events at the step start, record, trig bases --
-        for j in range(W):
-            if not act[j]:
+        for j in range(W if nq < nact else 0):
+            if not act[j] or V[(VL + LQ) * CH + j] > 0.0:
                 continue
             b = lo + j
             n = nsteps[b]
             row = b * sstride
             ma = V[VS * CH + j]
             delay = V[(VS + 5) * CH + j]
-            qh = int(ls[LQH, j])
-            qn = int(ls[LQN, j])
+            qh = int(V[(VL + LQH) * CH + j])
+            qn = int(V[(VL + LQN) * CH + j])
             cmdin = V[VCMD * CH + j]
             ramp = V[VRAMP * CH + j]
-            cmdlog = ls[LCMDLOG, j]
-            rend = ls[LREND, j]
-            cur = ls[LCUR, j]
+            cmdlog = V[(VL + LCMDLOG) * CH + j]
+            rend = V[(VL + LREND) * CH + j]
+            cur = V[(VL + LCUR) * CH + j]
             z7 = V[7 * CH + j]
             # input series at the step ends (first-order hold)
             kk = k + 1 if k < n else k
@@ -571,20 +741,20 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             elif lk == ZIGZAG:
                 if cur == 0.0 and L[b, 3] < t1 - eps:
                     cur = L[b, 2]
-                    ls[LPSI0, j] = psi if np.isnan(L[b, 4]) else L[b, 4]
+                    V[(VL + LPSI0) * CH + j] = psi if np.isnan(L[b, 4]) else L[b, 4]
                     tev = max(L[b, 3], t)
                     zzt[b, 0] = tev
                     cmdlog = cur * L[b, 0]
                     qh, qn = _push(qt, qv, b, qh, qn, tev + delay, cmdlog)
             else:
                 err = _wrap(L[b, 0] - psi)
-                c = L[b, 1] * err + L[b, 2] * ls[LINTEG, j] - L[b, 3] * V[ZR * CH + j]
+                c = L[b, 1] * err + L[b, 2] * V[(VL + LINTEG) * CH + j] - L[b, 3] * V[ZR * CH + j]
                 sat = c > ma or c < -ma
                 if not (L[b, 4] != 0.0 and sat and c * err > 0.0):
-                    ls[LINTEG, j] += err * dt
+                    V[(VL + LINTEG) * CH + j] += err * dt
                 w = 0.5 if (k == 0 or k == n) else 1.0
-                ls[LITAE, j] += w * t * abs(err) * dt
-                ls[LIAE, j] += w * abs(err) * dt
+                V[(VL + LITAE) * CH + j] += w * t * abs(err) * dt
+                V[(VL + LIAE) * CH + j] += w * abs(err) * dt
                 cmdlog = c
                 qh, qn = _push(qt, qv, b, qh, qn, t + delay, c)
             # events due at the step start
@@ -601,49 +771,49 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             V[7 * CH + j] = z7
             # record (at the step start)
             dnow = _clip(z7, ma) if np.isnan(fd) else fd
-            if abs(dnow) > ls[LMAXD, j]:
-                ls[LMAXD, j] = abs(dnow)
-            rcount = int(ls[LRC, j])
-            if rcount == 0:
-                _record(V, j, b, int(ls[LJREC, j]), slots, rec, dnow, cmdlog)
-                ls[LJREC, j] += 1.0
-            rcount += 1
-            ls[LRC, j] = 0.0 if rcount == rec_every else rcount
-            ls[LQH, j] = qh
-            ls[LQN, j] = qn
+            if abs(dnow) > V[(VL + LMAXD) * CH + j]:
+                V[(VL + LMAXD) * CH + j] = abs(dnow)
+            if recnow:
+                _record(V, j, b, jrec, slots, rec, dnow, cmdlog)
+            V[(VL + LQH) * CH + j] = qh
+            V[(VL + LQN) * CH + j] = qn
             V[VCMD * CH + j] = cmdin
             V[VRAMP * CH + j] = ramp
-            ls[LCMDLOG, j] = cmdlog
-            ls[LREND, j] = rend
-            ls[LCUR, j] = cur
+            V[(VL + LCMDLOG) * CH + j] = cmdlog
+            V[(VL + LREND) * CH + j] = rend
+            V[(VL + LCUR) * CH + j] = cur
             if k == n:
                 act[j] = False
+                V[(VL + LACT) * CH + j] = 0.0
+                nact -= 1
                 continue
             # noise sample, trig bases
             noise = 0.0
-            if ls[LESD, j] > 0.0:
+            if V[(VL + LESD) * CH + j] > 0.0:
                 rngs[j], g = _normal(rngs[j])
-                noise = ls[LESD, j] * g
+                noise = V[(VL + LESD) * CH + j] * g
             V[VNOISE * CH + j] = noise
             simple[j] = simd and not ((qn > 0 and qt[b, qh] < t1) or rend < t1)
             nsimple += simple[j]
         # -- trig bases of the step: vectorised, then per lane where an angle moved far --
-        _vbases(V)
-        for j in range(W):
+        for j in range(W if _vbases(V) > 0.0 else 0):
             if act[j] and np.isnan(V[(VT + 1) * CH + j]):
                 _base_far(V, j, 0, V[2 * CH + j])
             if TRIG and act[j] and np.isnan(V[(VT + 4) * CH + j]):
                 _base_far(V, j, 3, _steer(V, j))
         # -- phase 2: the vectorised RK4 step of all lanes --
+        nslow = float(nact)
         if nsimple > 0:
-            _vstep(V, zn, w0, w1, w2, t1 - t, (t1 - t) * idt)
+            _vsteps(V, zn, w0, w1, w2, t1 - t, (t1 - t) * idt, swi)
+            # the quiet lanes' step is complete unless flagged (row LFLAG): vectorised
+            nslow = _vfinish(V, zn, lk == ZIGZAG, skind)
         # -- phase 3, per lane: events inside the step, zig-zag switching, limits, divergence --
-        for j in range(W):
-            if not act[j]:
+        for j in range(W if nslow > 0.0 else 0):
+            if not act[j] or (nsimple > 0 and V[(VL + LFLAG) * CH + j] == 0.0):
                 continue
             b = lo + j
             ok = False
-            if simple[j]:
+            if (simd and V[(VL + LQ) * CH + j] > 0.0) or simple[j]:
                 z = _ztup(zn, j)
                 ok = (np.isfinite(z[0]) and np.isfinite(z[1]) and np.isfinite(z[2])
                       and np.isfinite(z[3]) and np.isfinite(z[4]) and np.isfinite(z[5])
@@ -651,46 +821,47 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             if not ok:
                 z, cmdin, ramp, rend, qh, qn = _substeps(
                     V, j, _ztup(V, j), t, t1, eps, idt, w0, w1, w2, skind, V[VCMD * CH + j],
-                    V[VRAMP * CH + j], ls[LREND, j], qt, qv, b, int(ls[LQH, j]),
-                    int(ls[LQN, j]))
-                sv = (V[VCMD * CH + j], V[VRAMP * CH + j], ls[LREND, j], ls[LQH, j],
-                      ls[LQN, j])  # the state before the step (for a zig-zag redo)
+                    V[VRAMP * CH + j], V[(VL + LREND) * CH + j], qt, qv, b,
+                    int(V[(VL + LQH) * CH + j]), int(V[(VL + LQN) * CH + j]))
+                sv = (V[VCMD * CH + j], V[VRAMP * CH + j], V[(VL + LREND) * CH + j],
+                      V[(VL + LQH) * CH + j], V[(VL + LQN) * CH + j])  # the state before the
+                # step (for a zig-zag redo)
                 V[VCMD * CH + j] = cmdin
                 V[VRAMP * CH + j] = ramp
-                ls[LREND, j] = rend
-                ls[LQH, j] = qh
-                ls[LQN, j] = qn
+                V[(VL + LREND) * CH + j] = rend
+                V[(VL + LQH) * CH + j] = qh
+                V[(VL + LQN) * CH + j] = qn
             else:
-                sv = (V[VCMD * CH + j], V[VRAMP * CH + j], ls[LREND, j], ls[LQH, j],
-                      ls[LQN, j])
-            cur = ls[LCUR, j]
+                sv = (V[VCMD * CH + j], V[VRAMP * CH + j], V[(VL + LREND) * CH + j],
+                      V[(VL + LQH) * CH + j], V[(VL + LQN) * CH + j])
+            cur = V[(VL + LCUR) * CH + j]
             if lk == ZIGZAG and cur != 0.0:  # zig-zag switching, event-located
                 sw = L[b, 1]
-                psi0 = ls[LPSI0, j]
+                psi0 = V[(VL + LPSI0) * CH + j]
                 dev0 = V[2 * CH + j] - psi0  # the heading at the step start
                 dev1 = z[2] - psi0
-                if ls[LZZN, j] >= 1.0:
+                if V[(VL + LZZN) * CH + j] >= 1.0:
                     ov = -cur * dev1 - sw
-                    if np.isnan(ls[LOVMAX, j]) or ov > ls[LOVMAX, j]:
-                        ls[LOVMAX, j] = ov
+                    if np.isnan(V[(VL + LOVMAX) * CH + j]) or ov > V[(VL + LOVMAX) * CH + j]:
+                        V[(VL + LOVMAX) * CH + j] = ov
                 if (cur > 0.0 and dev1 >= sw) or (cur < 0.0 and dev1 <= -sw):
-                    zzn = int(ls[LZZN, j])
+                    zzn = int(V[(VL + LZZN) * CH + j])
                     lvl = sw if cur > 0.0 else -sw
                     f = 0.0
                     if (cur > 0.0 and dev0 < lvl) or (cur < 0.0 and dev0 > lvl):
                         f = (lvl - dev0) / (dev1 - dev0)
                     tsw = t + f * dt
                     if zzn >= 1 and zzn <= N_ZZ:
-                        zz[b, zzn - 1] = ls[LOVMAX, j]
-                    ls[LOVMAX, j] = np.nan
+                        zz[b, zzn - 1] = V[(VL + LOVMAX) * CH + j]
+                    V[(VL + LOVMAX) * CH + j] = np.nan
                     cur = -cur
                     zzn += 1
                     if zzn <= N_ZZ:
                         zzt[b, zzn] = tsw
                     cmdlog = cur * L[b, 0]
-                    ls[LCMDLOG, j] = cmdlog
-                    ls[LCUR, j] = cur
-                    ls[LZZN, j] = zzn
+                    V[(VL + LCMDLOG) * CH + j] = cmdlog
+                    V[(VL + LCUR) * CH + j] = cur
+                    V[(VL + LZZN) * CH + j] = zzn
                     tr = tsw + V[(VS + 5) * CH + j]
                     if tr < t1 - eps:
                         # takes effect inside this step: integrate the step again
@@ -701,12 +872,12 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                             sv[1], sv[2], qt, qv, b, qh, qn)
                         V[VCMD * CH + j] = cmdin
                         V[VRAMP * CH + j] = ramp
-                        ls[LREND, j] = rend
+                        V[(VL + LREND) * CH + j] = rend
                     else:
-                        qh, qn = _push(qt, qv, b, int(ls[LQH, j]), int(ls[LQN, j]), tr,
-                                       cmdlog)
-                    ls[LQH, j] = qh
-                    ls[LQN, j] = qn
+                        qh, qn = _push(qt, qv, b, int(V[(VL + LQH) * CH + j]),
+                                       int(V[(VL + LQN) * CH + j]), tr, cmdlog)
+                    V[(VL + LQH) * CH + j] = qh
+                    V[(VL + LQN) * CH + j] = qn
             # servo limits, divergence
             dl = z[7]
             dd = z[8]
@@ -728,17 +899,20 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 status[b, 0] = 1.0
                 status[b, 1] = t1
                 act[j] = False
+                V[(VL + LACT) * CH + j] = 0.0
+                nact -= 1
+            V[(VL + LTQ) * CH + j] = _quiet_until(V, j, b, lk, L, qt, busy)
     for j in range(W):
         b = lo + j
-        zzn = int(ls[LZZN, j])
+        zzn = int(V[(VL + LZZN) * CH + j])
         if zzn >= 1 and zzn <= N_ZZ:  # the overshoot after the last reversal, so far
-            zz[b, zzn - 1] = ls[LOVMAX, j]
+            zz[b, zzn - 1] = V[(VL + LOVMAX) * CH + j]
         for i in range(N_ZZ):  # an overshoot counts once the next reversal has happened
             if i + 2 > zzn:
                 zz[b, i] = np.nan
-        acc[b, 0] = ls[LITAE, j]
-        acc[b, 1] = ls[LIAE, j]
-        acc[b, 2] = ls[LMAXD, j]
+        acc[b, 0] = V[(VL + LITAE) * CH + j]
+        acc[b, 1] = V[(VL + LIAE) * CH + j]
+        acc[b, 2] = V[(VL + LMAXD) * CH + j]
         for i in range(3):
             Z[b, i] = V[i * CH + j]
         for i in range(NS):
@@ -792,7 +966,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
 
 
 _TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
-              "_vbases", "_base_far", "_vstep", "_substeps", "_record", "_chunk")
+              "_vbases", "_base_far", "_vsteps", "_substeps", "_record", "_quiet_until", "_vquiet",
+              "_vmaxd", "_vfinish", "_chunk")
 #: compiled twice: the per-lane flavour and the vector flavour (:func:`_rot_nan`)
 _STEP = ("_deriv", "_axpy", "_rk4")
 _KERNELS: dict[str, Any] = {}
@@ -814,19 +989,40 @@ def kernel(kind: ModelKind) -> Any:
     g.update(rhs=kind.rhs, NS=kind.n_states, TRIG=bool(kind.uses_trig), NPK=kind.n_params,
              BU=kind.body[0], BV=kind.body[1], BR=kind.body[2], SPEED_ROW=kind.speed_row,
              ZU=3 + max(kind.body[0], 0), ZV=3 + max(kind.body[1], 0), ZR=3 + kind.body[2])
-    src = ", ".join(f"V[{VP + i} * CH + j]" for i in range(kind.n_params))
-    ns: dict[str, Any] = {}
-    exec(f"def _ptup(V, j):\n    return ({src},)\n", ns)  # noqa: S102 - generated unpacking
-    g["_ptup"] = numba.njit(inline="always")(types.FunctionType(ns["_ptup"].__code__, g))
-    gv = dict(g, _rot=_rot_nan)  # the vector flavour of the step functions
-    for name in _STEP:
-        _specialise(gv, name, f"{name}v__{key}")
-    g["_rk4v"] = gv["_rk4"]
+    values = tuple(float(v) for v in kind.switch_values) if kind.switch_row >= 0 else ()
+    if len(values) > 3:
+        raise ValueError(f"kind {kind.name}: at most 3 switch values")
+    g.update(SWR=kind.switch_row if values else -1, SWV=np.array(values or (np.nan,)),
+             NSW=len(values) + 1)
+    g["_ptup"] = _ptup_fn(g, kind.n_params)
     for name in _TEMPLATES:
         _specialise(g, name, f"{name}__{key}")
+    # the vector steps (compiled lazily like the rest, after the helpers above): one per switch
+    # value with the switch row a literal, then the generic one
+    for i, value in enumerate((*values, None)):
+        const = {kind.switch_row: value} if value is not None else {}
+        gv = dict(g, _rot=_rot_nan, _ptup=_ptup_fn(g, kind.n_params, const))
+        for name in _STEP:  # the vector flavour of the step functions
+            _specialise(gv, name, f"{name}v{i}__{key}")
+        gv["_rk4v"] = gv["_rk4"]
+        _specialise(gv, "_vstep", f"_vstep{i}__{key}")
+        g[f"_vstep{i}"] = gv["_vstep"]
+    for i in range(len(values) + 1, 4):
+        g[f"_vstep{i}"] = g["_vstep0"]
     _KERNELS[key] = g["_chunk"]
     _GLOBALS[key] = g
     return g["_chunk"]
+
+
+def _ptup_fn(g: dict[str, Any], npk: int, const: dict[int, float] | None = None) -> Any:
+    """The generated unpacking of a lane's parameter tuple from ``V`` (rows VP..), with the
+    rows of ``const`` replaced by literals (compile-time constants)."""
+    const = const or {}
+    src = ", ".join(repr(const[i]) if i in const else f"V[{VP + i} * CH + j]"
+                    for i in range(npk))
+    ns: dict[str, Any] = {}
+    exec(f"def _ptup(V, j):\n    return ({src},)\n", ns)  # noqa: S102 - generated unpacking
+    return numba.njit(inline="always")(types.FunctionType(ns["_ptup"].__code__, g))
 
 
 #: Kinds with more parameters than this keep one out-of-line copy of their right-hand side per
@@ -847,6 +1043,8 @@ def _specialise(g: dict[str, Any], name: str, qual: str) -> None:
         opts["nogil"] = True
     if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer"):
         opts["inline"] = "always"  # tuples only: no reference counting
-    if name == "_deriv" and g["NPK"] > INLINE_MAX_PARAMS:
+    if name == "_deriv" and (g["NPK"] > INLINE_MAX_PARAMS or g["_rot"] is not _rot_nan):
+        # one out-of-line copy in the per-lane flavour (integrating only the steps with an
+        # event inside, or lanes the vector step does not take): a quarter of the compile work
         opts["inline"] = "never"
     g[name] = numba.njit(**opts)(fn)

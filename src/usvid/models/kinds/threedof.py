@@ -269,6 +269,8 @@ KIND = ModelKind(
     particulars=particulars,
     series=series,
     uses_trig=True,
+    switch_row=_T0,  # the thrust law: a constant thrust (null or a number) has its own step
+    switch_values=(0.0,),
 )
 
 __all__ = ["KIND", "MU2018_EQ37", "THRUST_ROW", "ThreeDOF"]
