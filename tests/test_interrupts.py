@@ -142,8 +142,9 @@ def test_identify_killed_at_random_moments(log, tmp_path, sig) -> None:
 def _check_parses(out: Path, seen: dict) -> int:
     """Every file under a final name in the demo folder ``out`` parses: logs read back with
     their reader (a ROS 2 bag folder as one log), format specs and model files load, ``run.json``
-    parses, ``report.html`` ends; names starting with a dot (the temporary files) are skipped. Files already checked (same
-    size and time) are not read again. Returns the number of files checked now."""
+    parses, ``report.html`` ends; names starting with a dot (the temporary files) are skipped.
+    Files already checked (same size and time) are not read again. Returns the number of files
+    checked now."""
     n = 0
     if not out.exists():
         return n
