@@ -289,13 +289,29 @@ def test_csv_quoted_line_break_and_unbalanced_quote(tmp_path) -> None:
     assert not tr.rejected
 
 
+def _fast_and_slow(monkeypatch, p, spec):
+    """The trial read by the fast path (the line reader forbidden) and by the line reader
+    (the fast path switched off)."""
+    from usvid.io import table
+
+    def no_line_reader(*a, **k):
+        raise AssertionError("the line reader was used")
+
+    with monkeypatch.context() as m:
+        m.setattr(table, "_records", no_line_reader)
+        fast = read_trial(p, spec)
+    with monkeypatch.context() as m:
+        m.setattr(table, "_read_clean", lambda *a: None)
+        slow = read_trial(p, spec)
+    return fast, slow
+
+
 @pytest.mark.parametrize("variant", ["lf", "crlf", "blanks", "tab", "bom_skip", "missing"])
 def test_clean_csv_fast_path_equals_line_reader(tmp_path, monkeypatch, variant) -> None:
     # the bytes fast path (pandas' C parser on the undecoded data) must read every clean table
     # exactly as the line-by-line reader does; CRLF line ends, blanks after the delimiter, a
     # BOM, skipped lines and blank lines before the header, and missing cells ("", "nan", "-")
     # stay on the fast path (the line reader is made to fail to show it)
-    from usvid.io import table
 
     d = "\t" if variant == "tab" else ","
     pad = " " if variant == "blanks" else ""
@@ -311,15 +327,7 @@ def test_clean_csv_fast_path_equals_line_reader(tmp_path, monkeypatch, variant) 
     p = _write(tmp_path, "c.csv", blob, mode="wb")
     spec = parse_spec({**_CSV_SPEC, "delimiter": d, "skip_rows": 1 if variant == "bom_skip" else 0})
 
-    def no_line_reader(*a, **k):
-        raise AssertionError("the line reader was used")
-
-    with monkeypatch.context() as m:
-        m.setattr(table, "_records", no_line_reader)
-        fast = read_trial(p, spec)
-    with monkeypatch.context() as m:
-        m.setattr(table, "_read_clean", lambda *a: None)
-        slow = read_trial(p, spec)
+    fast, slow = _fast_and_slow(monkeypatch, p, spec)
     pd.testing.assert_frame_equal(fast.data, slow.data, check_exact=True)
     assert fast.rejected == slow.rejected
     assert [f.message for f in fast.findings] == [f.message for f in slow.findings]
@@ -341,7 +349,6 @@ def test_whitespace_table_fast_path_equals_line_reader(tmp_path, monkeypatch, eo
     # whitespace-separated tables (the HSVA logs' layout: header lines, cp1252, padded columns)
     # are read by pandas' C parser from the bytes exactly as the line reader reads them: tabs,
     # runs of blanks, leading and trailing blanks, "nan" cells, LF or CRLF
-    from usvid.io import table
 
     rows = [f"  {0.05 * i:.3f}\t {3 * i:>6}  {-0.5 * i:.2f} {'nan' if i == 7 else i % 7}  "
             for i in range(60)]
@@ -349,15 +356,7 @@ def test_whitespace_table_fast_path_equals_line_reader(tmp_path, monkeypatch, eo
     p = _write(tmp_path, "w.dat", blob, mode="wb")
     spec = parse_spec({**WS, "encoding": "cp1252"})
 
-    def no_line_reader(*a, **k):
-        raise AssertionError("the line reader was used")
-
-    with monkeypatch.context() as m:
-        m.setattr(table, "_records", no_line_reader)
-        fast = read_trial(p, spec)
-    with monkeypatch.context() as m:
-        m.setattr(table, "_read_clean", lambda *a: None)
-        slow = read_trial(p, spec)
+    fast, slow = _fast_and_slow(monkeypatch, p, spec)
     pd.testing.assert_frame_equal(fast.data, slow.data, check_exact=True)
     assert fast.rejected == slow.rejected == {}
     assert len(fast) == 60 and int(np.isnan(fast.data["delta"]).sum()) == 1
