@@ -5,8 +5,8 @@ Mu et al. 2018 validates its identified models by simulating the manoeuvres of t
 turning) and comparing with the measured ones. :func:`zigzag_check` does that for a zig-zag
 trial: it reads the trial's rudder amplitude, switching angle and first side from the record,
 simulates the same zig-zag on the model with :mod:`usvid.sim` (its ``ZigZag`` logic, closed
-loop on the heading, rudder rate limited) and
-compares the overshoot angles (``usvid.manoeuvres.metrics.zigzag_metrics`` on both, same definitions).
+loop on the heading, rudder rate limited) and compares the overshoot angles
+(``usvid.manoeuvres.metrics.zigzag_metrics`` on both, same definitions).
 
 Units: radians and seconds inside; the metric dictionaries carry degrees in their key names.
 """
