@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import StrEnum
 from typing import Annotated, Any
 
 import typer
@@ -17,6 +18,12 @@ def check_seed(seed: int, option: str = "--seed") -> int:
     if not 0 <= seed <= SEED_MAX:
         raise UsvidError(f"{option} must be an integer in 0 .. {SEED_MAX} (got {seed})")
     return seed
+
+
+class Controller(StrEnum):
+    """``--controller`` of the course-keeping autopilot (autopilot, simulate course-keeping)."""
+    pd = "pd"
+    pid = "pid"
 
 
 def emit_json(obj: Any) -> None:

@@ -18,18 +18,13 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._common import check_seed
+from usvid.commands._common import Controller, check_seed
 from usvid.errors import UsvidError
 
 
 class Method(StrEnum):
     pole_placement = "pole-placement"
     itae = "itae"
-
-
-class Controller(StrEnum):
-    pd = "pd"
-    pid = "pid"
 
 
 def autopilot_cmd(

@@ -24,18 +24,13 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._common import check_seed
+from usvid.commands._common import Controller, check_seed
 from usvid.errors import SimulationError, UsvidError
 
 
 class Side(StrEnum):
     starboard = "starboard"
     port = "port"
-
-
-class ControllerKind(StrEnum):
-    pd = "pd"
-    pid = "pid"
 
 
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
@@ -234,8 +229,8 @@ def turning_cmd(
 @sim_app.command("course-keeping")
 def course_cmd(
     model_path: ModelArg,
-    controller: Annotated[ControllerKind, typer.Option(
-        "--controller", help="pd or pid autopilot.")] = ControllerKind.pd,
+    controller: Annotated[Controller, typer.Option(
+        "--controller", help="pd or pid autopilot.")] = Controller.pd,
     kp: Annotated[float, typer.Option("--kp", help="Proportional gain [rad/rad].")] = 0.7,
     ki: Annotated[float | None, typer.Option(
         "--ki", help="Integral gain [1/s] (pid; default 0.00095, Mu et al. 2018).")] = None,
