@@ -325,7 +325,12 @@ def _steer(V, j):
     """Lane j's steering angle at the step start [rad]: the measured one, else the servo's
     (limited), plus the disturbance."""
     fd = V[VF * CH + j]
-    return (_clip(V[7 * CH + j], V[VS * CH + j]) if np.isnan(fd) else fd) + DIST_B * V[10 * CH + j]
+    # every value loaded whatever fd and the clip written as selects (:func:`_clip`): no
+    # branch, no conditional load, so that the lane loop of :func:`_vbases` vectorises
+    x = V[7 * CH + j]
+    ma = V[VS * CH + j]
+    d = ma if x > ma else (-ma if x < -ma else x)
+    return (d if np.isnan(fd) else fd) + DIST_B * V[10 * CH + j]
 
 
 def _vbases(V):
@@ -515,23 +520,35 @@ def _vquiet(V, kf, tq1):
     return nq
 
 
-def _vmaxd(V):
+def _vmaxd(V, tmp):
     """max |delta| [rad] of the quiet lanes (row LQ) at the step start, vectorised (the
-    measured steering angle is absent on the quiet path: the servo's, limited)."""
+    measured steering angle is absent on the quiet path: the servo's, limited).
+
+    The updated row goes through the scratch row ``tmp`` (CH values) and is copied back:
+    ``V[o] = new if cond else V[o]`` would compile to a masked store (``vmaskmovpd``, slow)."""
+    o = (VL + LMAXD) * CH
     for j in range(CH):
-        d = abs(_clip(V[7 * CH + j], V[VS * CH + j]))
-        o = (VL + LMAXD) * CH + j
-        m = V[o]
-        V[o] = d if (V[(VL + LQ) * CH + j] > 0.0 and d > m) else m
+        x = V[7 * CH + j]
+        ma = V[VS * CH + j]
+        d = abs(ma if x > ma else (-ma if x < -ma else x))  # _clip, as selects
+        m = V[o + j]
+        tmp[j] = d if ((V[(VL + LQ) * CH + j] > 0.0) & (d > m)) else m
+    for j in range(CH):
+        V[o + j] = tmp[j]
 
 
-def _vfinish(V, zn, zig, skind):
+def _vfinish(V, zn, zb, zig, skind):
     """The end of the step for the quiet lanes (row LQ), vectorised: the new joint states of
     the vector step ``zn`` with the servo limits into ``V``, the zig-zag overshoot tracker; a
     lane is flagged (row LFLAG = 1, ``V`` unchanged) when its step must go the per-lane way:
     not quiet, a state not finite (or flagged NaN by the vector step), a zig-zag reversal
     inside the step, or divergence (:data:`R_MAX`). The same arithmetic as the per-lane
-    branch of :func:`_chunk`. Returns the number of flagged active lanes."""
+    branch of :func:`_chunk`. Returns the number of flagged active lanes.
+
+    The lanes' new rows (the vector step's for the quiet ones, the old ones for the flagged
+    ones) are blended into the scratch ``zb`` (NT + 1 rows: the joint state and the overshoot)
+    and copied back into ``V`` in a second loop: a blend stored in place (``V[o] = new if fast
+    else V[o]``) compiles to masked stores (``vmaskmovpd``, microcoded on AMD Zen)."""
     nslow = 0.0
     for j in range(CH):
         z0 = zn[j]
@@ -543,12 +560,12 @@ def _vfinish(V, zn, zig, skind):
         z6 = zn[6 * CH + j]
         z7 = zn[7 * CH + j]
         z8 = zn[8 * CH + j]
-        z9 = zn[9 * CH + j]
-        z10 = zn[10 * CH + j]
         # (bitwise & and |: no short-circuit branches in the vectorised loop)
         ok = (np.isfinite(z0) & np.isfinite(z1) & np.isfinite(z2) & np.isfinite(z3)
               & np.isfinite(z4) & np.isfinite(z5) & np.isfinite(z6))
-        cur = V[(VL + LCUR) * CH + j] if zig else 0.0
+        # (every load unconditional, clips as selects: no masked loads and stores)
+        cur = V[(VL + LCUR) * CH + j]
+        cur = cur if zig else 0.0
         sw = V[(VL + LSW) * CH + j]
         dev1 = z2 - V[(VL + LPSI0) * CH + j]
         cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
@@ -558,30 +575,38 @@ def _vfinish(V, zn, zig, skind):
         ovmax = ov if upd else ovmax
         dl = z7
         dd = z8
+        ma = V[VS * CH + j]
+        mr = V[(VS + 1) * CH + j]
         if skind != 0:
-            ma = V[VS * CH + j]
             above = dl > ma
             below = dl < -ma
             dd = min(dd, 0.0) if above else (max(dd, 0.0) if below else dd)
             dl = ma if above else (-ma if below else dl)
             if skind == 2:
-                dd = _clip(dd, V[(VS + 1) * CH + j])
+                dd = mr if dd > mr else (-mr if dd < -mr else dd)
         zr = zn[ZR * CH + j]
         fast = (V[(VL + LQ) * CH + j] > 0.0) & ok & (not cross) & (abs(zr) <= R_MAX)
         V[(VL + LFLAG) * CH + j] = 0.0 if fast else 1.0
         nslow += 0.0 if fast else V[(VL + LACT) * CH + j]
-        V[j] = z0 if fast else V[j]
-        V[CH + j] = z1 if fast else V[CH + j]
-        V[2 * CH + j] = z2 if fast else V[2 * CH + j]
-        V[3 * CH + j] = z3 if fast else V[3 * CH + j]
-        V[4 * CH + j] = z4 if fast else V[4 * CH + j]
-        V[5 * CH + j] = z5 if fast else V[5 * CH + j]
-        V[6 * CH + j] = z6 if fast else V[6 * CH + j]
-        V[7 * CH + j] = dl if fast else V[7 * CH + j]
-        V[8 * CH + j] = dd if fast else V[8 * CH + j]
-        V[9 * CH + j] = z9 if fast else V[9 * CH + j]
-        V[10 * CH + j] = z10 if fast else V[10 * CH + j]
-        V[(VL + LOVMAX) * CH + j] = ovmax if fast else V[(VL + LOVMAX) * CH + j]
+        zb[7 * CH + j] = dl  # the vector step's values with the servo limits
+        zb[8 * CH + j] = dd
+        zb[NT * CH + j] = ovmax
+    # the blend in a loop of its own, on the flag row: one select per row (with the flag
+    # computed in the loop above, LLVM threads the selects into predicated blocks: masked
+    # loads and stores)
+    for j in range(CH):
+        f = V[(VL + LFLAG) * CH + j] == 0.0
+        for r in range(NT):
+            n_ = zb[r * CH + j] if r == 7 or r == 8 else zn[r * CH + j]
+            o_ = V[r * CH + j]
+            zb[r * CH + j] = n_ if f else o_
+        n_ = zb[NT * CH + j]
+        o_ = V[(VL + LOVMAX) * CH + j]
+        zb[NT * CH + j] = n_ if f else o_
+    for j in range(NT * CH):
+        V[j] = zb[j]
+    for j in range(CH):
+        V[(VL + LOVMAX) * CH + j] = zb[NT * CH + j]
     return nslow
 
 
@@ -608,6 +633,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     W = hi - lo
     V = np.zeros((VP + NPK) * CH)
     zn = np.empty(NT * CH)
+    zb = np.empty((NT + 1) * CH)  # scratch rows of _vfinish, _vmaxd
     for j in range(CH):
         V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
         V[(VT + 4) * CH + j] = 1.0
@@ -701,7 +727,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 if V[(VL + LQ) * CH + j] > 0.0:
                     _record(V, j, lo + j, jrec, slots, rec,
                             _clip(V[7 * CH + j], V[VS * CH + j]), V[(VL + LCMDLOG) * CH + j])
-        _vmaxd(V)
+        _vmaxd(V, zb)
         # -- phase 1, per lane: inputs, logic, events at the step start, record, trig bases --
         for j in range(W if nq < nact else 0):
             if not act[j] or V[(VL + LQ) * CH + j] > 0.0:
@@ -806,7 +832,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         if nsimple > 0:
             _vsteps(V, zn, w0, w1, w2, t1 - t, (t1 - t) * idt, swi)
             # the quiet lanes' step is complete unless flagged (row LFLAG): vectorised
-            nslow = _vfinish(V, zn, lk == ZIGZAG, skind)
+            nslow = _vfinish(V, zn, zb, lk == ZIGZAG, skind)
         # -- phase 3, per lane: events inside the step, zig-zag switching, limits, divergence --
         for j in range(W if nslow > 0.0 else 0):
             if not act[j] or (nsimple > 0 and V[(VL + LFLAG) * CH + j] == 0.0):
