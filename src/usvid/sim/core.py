@@ -104,6 +104,8 @@ TRIG = False  # the kind reads cos/sin of the steering angle
 SWR = -1  # the kind's switch row of P (ModelKind.switch_row; -1: none)
 SWV = np.array([np.nan])  # its values with a vector step of their own (ModelKind.switch_values)
 NSW = 1  # number of vector steps (at most 4: one per switch value, then the generic one)
+SKC = -1  # the servo kind of a vector flavour (0 ideal, 1 first, 2 second order; -1: any)
+NOSER = False  # a vector flavour for lanes without input series
 
 
 def rhs(P, b, Z, D, delta, cd, sd, n, n_port, n_stbd):  # pragma: no cover - placeholder
@@ -220,24 +222,48 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
     mr = srv[1]
     d = _clip(zdl, ma)
     w = z[8]
-    rate = w1 * _clip((cmdin - zdl) * srv[6], mr) + w2 * _clip(w, mr)
+    # the servo: blended by the weights w0, w1, w2, or (SKC >= 0, a vector flavour's constant)
+    # only the servo kind SKC's terms (the same values: the others' weights are 0)
+    if SKC == 0:
+        rate = 0.0
+    elif SKC == 1:
+        rate = _clip((cmdin - zdl) * srv[6], mr)
+    elif SKC == 2:
+        rate = _clip(w, mr)
+    else:
+        rate = w1 * _clip((cmdin - zdl) * srv[6], mr) + w2 * _clip(w, mr)
     if (zdl >= ma and rate > 0.0) or (zdl <= -ma and rate < 0.0):
         rate = 0.0
     wn = srv[2]
     w2d = z[10]
-    fd = fs[0] + tau * (fs[4] - fs[0])
-    de = (d if np.isnan(fd) else fd) + DIST_B * w2d
+    if NOSER:  # no input series (a vector flavour's constant): fs is all NaN
+        de = d + DIST_B * w2d
+        n_ = n_port = n_stbd = np.nan
+    else:
+        fd = fs[0] + tau * (fs[4] - fs[0])
+        de = (d if np.isnan(fd) else fd) + DIST_B * w2d
+        n_ = fs[1] + tau * (fs[5] - fs[1])
+        n_port = fs[2] + tau * (fs[6] - fs[2])
+        n_stbd = fs[3] + tau * (fs[7] - fs[3])
     cd = 1.0
     sd = 0.0
     if TRIG:
         cd, sd = _rot(de, tr[3], tr[4], tr[5])
-    u, v, r, d0, d1, d2, d3 = rhs(p, z[3], z[4], z[5], z[6], de, cd, sd,
-                                  fs[1] + tau * (fs[5] - fs[1]),
-                                  fs[2] + tau * (fs[6] - fs[2]),
-                                  fs[3] + tau * (fs[7] - fs[3]))
+    u, v, r, d0, d1, d2, d3 = rhs(p, z[3], z[4], z[5], z[6], de, cd, sd, n_, n_port, n_stbd)
     cps, sps = _rot(z[2], tr[0], tr[1], tr[2])
-    return (u * cps - v * sps, u * sps + v * cps, r, d0, d1, d2, d3,
-            w0 * ramp + rate, w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w),
+    if SKC == 0:
+        ddl = ramp
+        ddd = 0.0
+    elif SKC == 1:
+        ddl = rate
+        ddd = 0.0
+    elif SKC == 2:
+        ddl = rate
+        ddd = wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w
+    else:
+        ddl = w0 * ramp + rate
+        ddd = w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w)
+    return (u * cps - v * sps, u * sps + v * cps, r, d0, d1, d2, d3, ddl, ddd,
             w2d, -DIST_A0 * z[9] - DIST_A1 * w2d + noise)
 
 
@@ -540,15 +566,14 @@ def _vmaxd(V, tmp):
 def _vfinish(V, zn, zb, zig, skind):
     """The end of the step for the quiet lanes (row LQ), vectorised: the new joint states of
     the vector step ``zn`` with the servo limits into ``V``, the zig-zag overshoot tracker; a
-    lane is flagged (row LFLAG = 1, ``V`` unchanged) when its step must go the per-lane way:
+    lane is flagged (row LFLAG = 1) when its step must go the per-lane way:
     not quiet, a state not finite (or flagged NaN by the vector step), a zig-zag reversal
     inside the step, or divergence (:data:`R_MAX`). The same arithmetic as the per-lane
     branch of :func:`_chunk`. Returns the number of flagged active lanes.
 
-    The lanes' new rows (the vector step's for the quiet ones, the old ones for the flagged
-    ones) are blended into the scratch ``zb`` (NT + 1 rows: the joint state and the overshoot)
-    and copied back into ``V`` in a second loop: a blend stored in place (``V[o] = new if fast
-    else V[o]``) compiles to masked stores (``vmaskmovpd``, microcoded on AMD Zen)."""
+    The new rows (joint state and overshoot) of every lane slot go into ``V``, the old ones
+    into the scratch ``zb`` (NT + 1 rows), from which :func:`_chunk` restores the flagged and
+    the inactive lanes (:func:`_restore`)."""
     nslow = 0.0
     for j in range(CH):
         z0 = zn[j]
@@ -588,26 +613,42 @@ def _vfinish(V, zn, zb, zig, skind):
         fast = (V[(VL + LQ) * CH + j] > 0.0) & ok & (not cross) & (abs(zr) <= R_MAX)
         V[(VL + LFLAG) * CH + j] = 0.0 if fast else 1.0
         nslow += 0.0 if fast else V[(VL + LACT) * CH + j]
-        zb[7 * CH + j] = dl  # the vector step's values with the servo limits
-        zb[8 * CH + j] = dd
-        zb[NT * CH + j] = ovmax
-    # the blend in a loop of its own, on the flag row: one select per row (with the flag
-    # computed in the loop above, LLVM threads the selects into predicated blocks: masked
-    # loads and stores)
-    for j in range(CH):
-        f = V[(VL + LFLAG) * CH + j] == 0.0
-        for r in range(NT):
-            n_ = zb[r * CH + j] if r == 7 or r == 8 else zn[r * CH + j]
-            o_ = V[r * CH + j]
-            zb[r * CH + j] = n_ if f else o_
-        n_ = zb[NT * CH + j]
-        o_ = V[(VL + LOVMAX) * CH + j]
-        zb[NT * CH + j] = n_ if f else o_
-    for j in range(NT * CH):
-        V[j] = zb[j]
-    for j in range(CH):
-        V[(VL + LOVMAX) * CH + j] = zb[NT * CH + j]
+        # every lane's new rows go into V unconditionally, its old ones into zb: the per-lane
+        # branch of _chunk puts back the old rows of the flagged and inactive lanes (a blend
+        # stored in place, V[o] = new if fast else V[o], compiles to masked stores, microcoded
+        # on AMD Zen; a blend into a scratch and a copy back cost twice the loads and stores)
+        zb[j] = V[j]
+        zb[CH + j] = V[CH + j]
+        zb[2 * CH + j] = V[2 * CH + j]
+        zb[3 * CH + j] = V[3 * CH + j]
+        zb[4 * CH + j] = V[4 * CH + j]
+        zb[5 * CH + j] = V[5 * CH + j]
+        zb[6 * CH + j] = V[6 * CH + j]
+        zb[7 * CH + j] = V[7 * CH + j]
+        zb[8 * CH + j] = V[8 * CH + j]
+        zb[9 * CH + j] = V[9 * CH + j]
+        zb[10 * CH + j] = V[10 * CH + j]
+        zb[NT * CH + j] = V[(VL + LOVMAX) * CH + j]
+        V[j] = z0
+        V[CH + j] = z1
+        V[2 * CH + j] = z2
+        V[3 * CH + j] = z3
+        V[4 * CH + j] = z4
+        V[5 * CH + j] = z5
+        V[6 * CH + j] = z6
+        V[7 * CH + j] = dl
+        V[8 * CH + j] = dd
+        V[9 * CH + j] = zn[9 * CH + j]
+        V[10 * CH + j] = zn[10 * CH + j]
+        V[(VL + LOVMAX) * CH + j] = ovmax
     return nslow
+
+
+def _restore(V, zb, j):
+    """Lane j's joint state and overshoot from before the vector step (:func:`_vfinish`)."""
+    for r in range(NT):
+        V[r * CH + j] = zb[r * CH + j]
+    V[(VL + LOVMAX) * CH + j] = zb[NT * CH + j]
 
 
 def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots,
@@ -834,7 +875,9 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             # the quiet lanes' step is complete unless flagged (row LFLAG): vectorised
             nslow = _vfinish(V, zn, zb, lk == ZIGZAG, skind)
         # -- phase 3, per lane: events inside the step, zig-zag switching, limits, divergence --
-        for j in range(W if nslow > 0.0 else 0):
+        for j in range(W if (nslow > 0.0 or (nsimple > 0 and nact < W)) else 0):
+            if nsimple > 0 and (not act[j] or V[(VL + LFLAG) * CH + j] != 0.0):
+                _restore(V, zb, j)  # the state before the vector step (_vfinish)
             if not act[j] or (nsimple > 0 and V[(VL + LFLAG) * CH + j] == 0.0):
                 continue
             b = lo + j
@@ -993,7 +1036,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
 
 _TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
               "_vbases", "_base_far", "_vsteps", "_substeps", "_record", "_quiet_until", "_vquiet",
-              "_vmaxd", "_vfinish", "_chunk")
+              "_vmaxd", "_vfinish", "_restore", "_chunk")
 #: compiled twice: the per-lane flavour and the vector flavour (:func:`_rot_nan`)
 _STEP = ("_deriv", "_axpy", "_rk4")
 _KERNELS: dict[str, Any] = {}
