@@ -46,7 +46,7 @@ def test_pwm_map_and_asymmetry_hand_value():
     assert fixed["variant"] == "twin" and fixed["thrust_law"] == "pod"
     assert fixed["pod_d"] == 20.0 and fixed["pod_c"] == 0.0 and fixed["pwm_neutral"] == 1500.0
     assert fixed["y_P"] * fixed["L"] == pytest.approx(0.25)
-    d = MMG(**fixed, **{k: 0.0 for k in KIND.dynamics.fit_names()}
+    d = MMG(**{**fixed, **{k: 0.0 for k in KIND.dynamics.fit_names() if k not in fixed}}
             | {"thrust_asymmetry": 0.1, "N_r": -0.1})
     p = KIND.pack(d, 0.8)[:, 0]
     ph = d.physics()

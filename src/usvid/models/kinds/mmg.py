@@ -12,8 +12,10 @@ from a format spec's ``vessel`` block and the regression form of identification
 States u, v [m/s] (v at midship), r [rad/s]; inputs delta [rad] (positive turns to starboard),
 n [rps] (NaN: the nominal ``n``), and for ``variant='twin'`` the thruster speeds n_port, n_stbd
 [rps] (NaN: ``n +- steer_gain delta``, more port thrust for a positive delta, which turns to
-starboard). Identification estimates the 17 hull coefficients (R_0, X_vv, ..., N_rrr); the
-particulars, added masses and the propeller/rudder interaction coefficients are held.
+starboard). Identification estimates the 17 hull coefficients (R_0, X_vv, ..., N_rrr), and
+output error also refines the rudder lift gradient f_alpha (rudder variant,
+:data:`usvid.models.kinds._mmg_fit.REFINED`); the particulars, added masses and the other
+propeller/rudder interaction coefficients are held.
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ _POSITIVE = ("L", "B", "d", "m", "I_zG", "rho")
 def _field(f: _m.FieldInfo) -> tuple[str, Any, Any]:
     default = getattr(_m.MMGParameters, f.name, dataclasses.MISSING) \
         if f.name not in ("L", "B", "d", "m", "I_zG") else dataclasses.MISSING
-    kw: dict[str, Any] = {"fit": f.name in _m.HULL_COEFFICIENTS}
+    kw: dict[str, Any] = {"fit": f.name in _m.HULL_COEFFICIENTS or f.name in _mmg_fit.REFINED}
     if default is not dataclasses.MISSING:
         kw["default"] = default
     if f.lo is not None:
