@@ -61,6 +61,38 @@ def test_pwm_map_and_asymmetry_hand_value():
     assert a[3] == b[3] == pytest.approx(22.0 / (ph.m + ph.m_x * q), rel=1e-12)
 
 
+@pytest.fixture(scope="module")
+def sine(twin_dir) -> Trial:
+    return read_trial(twin_dir / "boat1_2_sin.xlsx", SPEC)
+
+
+def _surge_constant(tr: Trial, power: float) -> float:
+    """Least-squares c of the steady surge balance U^2 = c (T_port + T_stbd) [m^2/s^2 per N]
+    after the first 15 s (the start from rest), each thruster's thrust by the shipped spec's
+    map ``thrust_full sgn(s) |s|^power`` of the PWM level s (power 1: the declared linear map,
+    through the kernel's pwm_to_law, T = pod_d |n| n)."""
+    ex = shipped_spec(SPEC).vessel.extra
+    T = 0.0
+    for c in ("pwm_port", "pwm_stbd"):
+        n = _mmg_fit.pwm_to_law(tr[c], float(ex["pwm_neutral"]), float(ex["pwm_span"]))
+        T = T + float(ex["thrust_full"]) * np.sign(n) * np.abs(n) ** (2.0 * power)
+    m = tr.t - tr.t[0] > 15.0
+    return float(T[m] @ tr["U"][m] ** 2 / (T[m] @ T[m]))
+
+
+def test_declared_linear_thrust_map_holds_in_both_runs(sine, circle):
+    """The spec's linear PWM map gives the same steady surge balance in both runs, which run
+    at different PWM levels (mean level 0.42 in the sine run, 0.26 in the circle, after 15 s):
+    circle/sine 0.958 measured, bounds 0.93..1.0 (the circle ran on a battery 4 % lower,
+    22.9 V against 23.9 V, and turning adds drag: both lower it by a few per cent). A
+    quadratic map (thrust as s|s|: propeller thrust as shaft speed squared, shaft speed
+    proportional to PWM) would need a hull 53 % more resistant in the circle (ratio 1.53)."""
+    lin = _surge_constant(circle, 1.0) / _surge_constant(sine, 1.0)
+    quad = _surge_constant(circle, 2.0) / _surge_constant(sine, 2.0)
+    assert 0.93 < lin < 1.0
+    assert quad > 1.4
+
+
 def _smoothed_diff_thrust(tr: Trial) -> np.ndarray:
     h = float(np.median(np.diff(tr.t)))
     s = [np.clip((tr[c] - 1500.0) / 500.0, -1, 1) for c in ("pwm_port", "pwm_stbd")]
@@ -116,7 +148,11 @@ def test_sine_to_circle_prediction_as_measured(circle_replay):
 
 
 @pytest.mark.xfail(strict=True, reason="issue 9 acceptance not met: the sine-run model turns "
-                   "too fast in the circle (steady diameter -24 %, heading RMS 27 deg in 60 s)")
+                   "too fast in the steady circle (diameter -24 %) and too slowly in its first "
+                   "minute (heading RMS 27 deg in 60 s). The sine run (0.76-0.97 m/s) does not "
+                   "fix how the yaw balance scales with speed (the MMG form 1/U predicts 2.3 "
+                   "deg/s at the circle's 0.68 m/s, measured 1.7), and its own yaw bias moves "
+                   "by 1 deg/s between its halves (examples/usv_twin_balance.py)")
 def test_sine_to_circle_acceptance(circle_replay):
     """Issue 9: steady turning diameter within 10 %, heading within 10 deg RMS over the first
     60 s of free run."""
