@@ -9,7 +9,7 @@ import pytest
 
 from usvid.errors import SimulationError, UsvidError
 from usvid.models import Nomoto1, SecondOrderServo, VesselModel
-from usvid.sim import PID, Commanded, SimResult, Turning, ZigZag, simulate, simulate_turning
+from usvid.sim import PID, Commanded, SimResult, Turning, ZigZag, run_turning, simulate
 from usvid.trial import Trial, Vessel
 
 M = VesselModel(Nomoto1(K=0.707, T=0.332), vessel=Vessel(length=7.02, speed=5.144))
@@ -105,10 +105,10 @@ def test_bad_arguments():
     assert isinstance(PID(0.7), PID)
 
 
-def test_simulate_turning_default_duration_covers_two_circles():
-    res = simulate_turning(M, math.radians(35))
+def test_run_turning_default_duration_covers_a_whole_steady_circle():
+    res, _ = run_turning(M, 35.0)
     turned = res["psi"][0, -1]
-    assert turned > 4 * math.pi
+    assert turned >= 3 * math.pi
 
 
 def test_initial_state():

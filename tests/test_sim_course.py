@@ -10,7 +10,7 @@ from scipy import signal
 
 from usvid.manoeuvres.logic import DISTURBANCE_TF
 from usvid.models import Nomoto1, Norrbin, VesselModel, mu2018_servo
-from usvid.sim import PID, CourseChange, Disturbance, Turning, simulate, simulate_course_change
+from usvid.sim import PID, CourseChange, Disturbance, Turning, simulate
 from usvid.trial import Vessel
 
 SEED_NORRBIN = Norrbin(K=0.707, T=0.332, n1=1.0, n3=1.102)  # Mu et al. 2018 eq. 38-40 (T/K swapped)
@@ -23,7 +23,7 @@ def _model(dyn=SEED_NORRBIN, servo=None):
 
 def test_pd_course_change_reaches_target_and_metrics_match_record():
     target = math.radians(100)
-    res = simulate_course_change(_model(), target, PID(kp=0.7, kd=1.0), t_end=100.0)
+    res = simulate(_model(), CourseChange(target, PID(kp=0.7, kd=1.0)), t_end=100.0)
     psi = res["psi"][0]
     assert psi[-1] == pytest.approx(target, abs=math.radians(0.1))
     # ITAE/IAE accumulated in the kernel = trapezoid over the recorded (every-step) heading
@@ -85,7 +85,7 @@ def test_mu2018_pid_vs_pd_with_disturbance():
     dist = Disturbance(math.radians(1.0), seed=3)
     out = {}
     for name, c in (("pid", PID(0.7, 0.00095, 1.0)), ("pd", PID(0.7, 0.0, 1.0))):
-        res = simulate_course_change(_model(), math.radians(100), c, dist, t_end=100.0)
+        res = simulate(_model(), CourseChange(math.radians(100), c, dist), t_end=100.0)
         out[name] = res.course_metrics()[0]
         late = res.t > 40
         assert np.max(np.abs(res["psi"][0, late] - math.radians(100))) < math.radians(5)

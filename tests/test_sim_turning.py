@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from usvid.models import Catamaran, Nomoto1, Nomoto2, Norrbin, VesselModel, mu2018_threedof
-from usvid.sim import Turning, simulate, simulate_turning
+from usvid.sim import Turning, run_turning, simulate
 from usvid.trial import Vessel
 
 
@@ -18,8 +18,7 @@ def test_nomoto1_steady_diameter(delta_deg):
     K, T, U = 0.707, 0.332, 5.144
     delta = math.radians(delta_deg)
     m = VesselModel(Nomoto1(K=K, T=T), vessel=Vessel(speed=U))
-    res = simulate_turning(m, delta)
-    tm = res.turning_metrics()[0]
+    res, tm = run_turning(m, delta_deg)
     expected = 2 * U / (K * abs(delta))  # steady r = K delta, radius U / r
     # 0.5 % is the acceptance tolerance; the RK4 trajectory error is ~1e-10 m here.
     assert tm.steady_diameter_m == pytest.approx(expected, rel=0.005)

@@ -9,7 +9,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from usvid.models import IdealServo, Nomoto1, VesselModel
-from usvid.sim import ZigZag, simulate, simulate_zigzag
+from usvid.sim import ZigZag, simulate
 from usvid.trial import Vessel
 
 K, T, U = 0.707, 0.332, 5.144  # Mu et al. 2018 Nomoto (T/K read as in models.kinds.nomoto1), 10 kn
@@ -88,7 +88,7 @@ def test_zigzag_first_side_and_symmetry():
 
 def test_online_overshoots_agree_with_metrics():
     m = VesselModel(Nomoto1(K=K, T=T), vessel=Vessel(speed=U))
-    res = simulate_zigzag(m, math.radians(10), t_end=40.0)
+    res = simulate(m, ZigZag(math.radians(10), math.radians(10)), t_end=40.0)
     full = res.zigzag_metrics()[0].overshoot_deg
     online = np.degrees(res.zigzag_online["overshoot"][0])
     ok = np.isfinite(online)

@@ -19,7 +19,7 @@ from usvid.models import (
     mu2018_threedof,
 )
 from usvid.models.thrust import PodThrust, Propeller
-from usvid.sim import Commanded, Turning, simulate, simulate_zigzag
+from usvid.sim import Commanded, Turning, ZigZag, simulate
 from usvid.trial import Vessel
 
 KIND = get_kind("threedof")
@@ -172,7 +172,7 @@ def test_default_speed_from_propeller_is_equilibrium():
 
 def test_zigzag_with_mu2018_servo_runs_and_is_sane():
     m = VesselModel(mu2018_threedof(), servo=mu2018_servo(), vessel=Vessel(speed=5.144))
-    res = simulate_zigzag(m, math.radians(10), t_end=80.0)
+    res = simulate(m, ZigZag(math.radians(10), math.radians(10)), t_end=80.0)
     zm = res.zigzag_metrics()[0]
     assert len(zm.overshoot_deg) >= 3
     assert all(0 < o < 30 for o in zm.overshoot_deg)

@@ -146,11 +146,6 @@ def register(app: typer.Typer) -> None:
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
     ) -> None:
         """Monte-Carlo simulation of a manoeuvre over parameter uncertainty (Dask)."""
-        from usvid.scale.montecarlo import MANOEUVRES
-
-        if manoeuvre not in MANOEUVRES:
-            raise UsvidError(f"--manoeuvre {manoeuvre!r}: expected one of "
-                             f"{', '.join(MANOEUVRES)}")
         if not (0 < dt <= 1.0):
             raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
         check_seed(seed)

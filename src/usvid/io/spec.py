@@ -283,19 +283,23 @@ def _message_column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
     lo, trim, hi = (_number(x, source, f"{where}.pwm") for x in pwm)
     if not lo < trim < hi:
         raise _err(source, f"{where}.pwm", f"expected min < trim < max, got {list(pwm)!r}")
+    return ColumnSpec(name=name, col=fld, unit=unit, **_linear(v, source, where),
+                      topic=topic.strip(), conversion=conv, frame=frame, instance=inst,
+                      pwm=(lo, trim, hi))
+
+
+def _linear(v: dict, source: str, where: str) -> dict[str, Any]:
+    """``sign`` (1 or -1), ``offset``, ``scale`` and ``optional`` of a column mapping (the
+    keys every reader's columns share), checked."""
     sign = _number(v.get("sign", 1), source, f"{where}.sign")
     if sign not in (1.0, -1.0):
         raise _err(source, f"{where}.sign", f"must be 1 or -1 (got {v['sign']!r})")
     optional = v.get("optional", False)
     if not isinstance(optional, bool):
         raise _err(source, f"{where}.optional", f"expected true or false, got {optional!r}")
-    return ColumnSpec(
-        name=name, col=fld, unit=unit, sign=sign,
-        offset=_number(v.get("offset", 0.0), source, f"{where}.offset"),
-        scale=_number(v.get("scale", 1.0), source, f"{where}.scale"),
-        optional=optional, topic=topic.strip(), conversion=conv, frame=frame, instance=inst,
-        pwm=(lo, trim, hi),
-    )
+    return {"sign": sign, "offset": _number(v.get("offset", 0.0), source, f"{where}.offset"),
+            "scale": _number(v.get("scale", 1.0), source, f"{where}.scale"),
+            "optional": optional}
 
 
 def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
@@ -315,23 +319,10 @@ def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
     if isinstance(col, int) and col < 0:
         raise _err(source, f"{where}.col", f"column index must be >= 0 (got {col})")
     unit = _unit(name, v.get("unit"), source, where)
-    sign = _number(v.get("sign", 1), source, f"{where}.sign")
-    if sign not in (1.0, -1.0):
-        raise _err(source, f"{where}.sign", f"must be 1 or -1 (got {v['sign']!r})")
-    optional = v.get("optional", False)
-    if not isinstance(optional, bool):
-        raise _err(source, f"{where}.optional", f"expected true or false, got {optional!r}")
-    if optional and name == "t":
+    lin = _linear(v, source, where)
+    if lin["optional"] and name == "t":
         raise _err(source, f"{where}.optional", "the time column cannot be optional")
-    return ColumnSpec(
-        name=name,
-        col=col,
-        unit=unit,
-        sign=sign,
-        offset=_number(v.get("offset", 0.0), source, f"{where}.offset"),
-        scale=_number(v.get("scale", 1.0), source, f"{where}.scale"),
-        optional=optional,
-    )
+    return ColumnSpec(name=name, col=col, unit=unit, **lin)
 
 
 def _vessel(v: Any, source: str) -> Vessel:

@@ -27,6 +27,13 @@ def check_params(owner: str, values: dict[str, Any], *, positive: tuple[str, ...
             raise UsvidError(f"{owner}.{name} must be >= 0 (got {_show(arr)})")
 
 
+def checked(owner: str, *, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = (),
+            **values: Any) -> tuple[np.ndarray, ...]:
+    """The ``values`` as float arrays, in their order, after :func:`check_params`."""
+    check_params(owner, values, positive=positive, nonnegative=nonnegative)
+    return tuple(np.asarray(v, dtype=float) for v in values.values())
+
+
 def _show(arr: np.ndarray) -> str:
     if arr.ndim == 0:
         v = float(arr)

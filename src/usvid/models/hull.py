@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.models._validate import check_params
+from usvid.models._validate import check_params, checked
 
 ArrayLike = float | np.ndarray
 
@@ -146,12 +146,8 @@ def clarke83_added_mass(L: ArrayLike, B: ArrayLike, T: ArrayLike, Cb: ArrayLike,
 
     L, B, T [m] (T = draught), Cb [-], rho [kg/m^3], volume [m^3] (default Cb L B T).
     """
-    check_params("clarke83", {"L": L, "B": B, "T": T, "Cb": Cb, "rho": rho},
-                 positive=("L", "B", "T", "Cb", "rho"))
-    L = np.asarray(L, dtype=float)
-    B = np.asarray(B, dtype=float)
-    T = np.asarray(T, dtype=float)
-    Cb = np.asarray(Cb, dtype=float)
+    L, B, T, Cb, rho = checked("clarke83", L=L, B=B, T=T, Cb=Cb, rho=rho,
+                               positive=("L", "B", "T", "Cb", "rho"))
     vol = Cb * L * B * T if volume is None else np.asarray(volume, dtype=float)
     S = np.pi * (T / L) ** 2
     Yvd = -S * (1.0 + 0.16 * Cb * B / T - 5.1 * (B / L) ** 2)
@@ -185,13 +181,8 @@ def clarke83_damping(U: ArrayLike, L: ArrayLike, B: ArrayLike, T: ArrayLike, Cb:
     ``N_v = N_v' rho L^3 U/2``, ``N_r = N_r' rho L^4 U/2``. These include the linearised
     Coriolis terms (Fossen: N(U) = C(U) + D). U [m/s] > 0, L, B, T [m], Cb [-], rho [kg/m^3].
     """
-    check_params("clarke83", {"U": U, "L": L, "B": B, "T": T, "Cb": Cb, "rho": rho},
-                 positive=("U", "L", "B", "T", "Cb", "rho"))
-    U = np.asarray(U, dtype=float)
-    L = np.asarray(L, dtype=float)
-    B = np.asarray(B, dtype=float)
-    T = np.asarray(T, dtype=float)
-    Cb = np.asarray(Cb, dtype=float)
+    U, L, B, T, Cb, rho = checked("clarke83", U=U, L=L, B=B, T=T, Cb=Cb, rho=rho,
+                                  positive=("U", "L", "B", "T", "Cb", "rho"))
     S = np.pi * (T / L) ** 2
     Yv = -S * (1.0 + 0.4 * Cb * B / T)
     Yr = -S * (-0.5 + 2.2 * B / L - 0.08 * B / T)
@@ -231,13 +222,8 @@ def zhou_added_mass(L: ArrayLike, B: ArrayLike, d: ArrayLike, Cb: ArrayLike,
     coefficients as reproduced in the MMG literature (Jia & Yang 1999, and the open MMG codes
     that cite "Zhou et al., 1983"). L [m], B [m], d [m] draught, Cb [-], m [kg] ship mass.
     """
-    check_params("zhou", {"L": L, "B": B, "d": d, "Cb": Cb, "m": m},
-                 positive=("L", "B", "d", "Cb", "m"))
-    L = np.asarray(L, dtype=float)
-    B = np.asarray(B, dtype=float)
-    d = np.asarray(d, dtype=float)
-    Cb = np.asarray(Cb, dtype=float)
-    m = np.asarray(m, dtype=float)
+    L, B, d, Cb, m = checked("zhou", L=L, B=B, d=d, Cb=Cb, m=m,
+                             positive=("L", "B", "d", "Cb", "m"))
     lb = L / B
     db = d / B
     mx = m * (0.398 + 11.97 * Cb * (1.0 + 3.73 * db) - 2.89 * Cb * lb * (1.0 + 1.13 * db)
@@ -280,14 +266,13 @@ def kijima1990_linear_derivatives(L: ArrayLike, B: ArrayLike, d: ArrayLike, Cb: 
     this gives Y_v' -0.412, Y_r' 0.092, N_v' -0.131, N_r' -0.054 against the captive-test values
     -0.315, 0.083, -0.137, -0.049 of Yasukawa & Yoshimura (2015).
     """
-    check_params("kijima1990", {"L": L, "B": B, "d": d, "Cb": Cb, "m_prime": m_prime,
-                                "m_x_prime": m_x_prime},
-                 positive=("L", "B", "d", "Cb", "m_prime"), nonnegative=("m_x_prime",))
-    L = np.asarray(L, dtype=float)
-    cbl = np.asarray(Cb, dtype=float) * np.asarray(B, dtype=float) / L
-    k = 2.0 * np.asarray(d, dtype=float) / L
+    L, B, d, Cb, m_prime, m_x_prime = checked(
+        "kijima1990", L=L, B=B, d=d, Cb=Cb, m_prime=m_prime, m_x_prime=m_x_prime,
+        positive=("L", "B", "d", "Cb", "m_prime"), nonnegative=("m_x_prime",))
+    cbl = Cb * B / L
+    k = 2.0 * d / L
     Yv = -(0.5 * np.pi * k + 1.4 * cbl)
-    Yr = np.asarray(m_prime, dtype=float) + np.asarray(m_x_prime, dtype=float) - 1.5 * cbl
+    Yr = m_prime + m_x_prime - 1.5 * cbl
     return MMGLinearDerivatives(Y_v=np.asarray(Yv)[()], Y_r=np.asarray(Yr)[()],
                                 N_v=np.asarray(-k)[()], N_r=np.asarray(-0.54 * k + k ** 2)[()])
 

@@ -34,6 +34,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from usvid.errors import UsvidError
+from usvid.models._validate import _show
 
 #: Row of the first kind state in the joint state of the core (rows 0-2: x, y, psi).
 S0 = 3
@@ -91,14 +92,6 @@ class ParamSpec:
                           ("< ", self.lt, np.less), ("<= ", self.le, np.less_equal)):
             if v is not None and not np.all(ok(arr, v)):
                 raise UsvidError(f"{where} must be {op}{v:g} (got {_show(arr)})")
-
-
-def _show(arr: np.ndarray) -> str:
-    if arr.ndim == 0:
-        v = float(arr)
-        return "nan" if math.isnan(v) else repr(v)
-    bad = arr.ravel()[:3]
-    return np.array2string(bad)
 
 
 def param(unit: str, meaning: str, *, default: Any = REQUIRED,

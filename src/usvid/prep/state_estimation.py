@@ -289,6 +289,10 @@ def _unpack(row, P):  # pragma: no cover - numba
             m += 1
 
 
+#: State index of the directly measured channels 0-5 (kernel order x, y, psi, r, u, v).
+_DIRECT = (0, 1, 2, 5, 3, 4)
+
+
 @numba.njit(cache=True)
 def _measure(j, s, hvec, cog_min_speed):  # pragma: no cover - numba
     """Predicted value of measurement channel ``j`` (kernel order) and its Jacobian row ``hvec``.
@@ -297,24 +301,10 @@ def _measure(j, s, hvec, cog_min_speed):  # pragma: no cover - numba
     course at a speed below the threshold)."""
     for i in range(9):
         hvec[i] = 0.0
-    if j == 0:
-        hvec[0] = 1.0
-        return s[0], False, True
-    if j == 1:
-        hvec[1] = 1.0
-        return s[1], False, True
-    if j == 2:
-        hvec[2] = 1.0
-        return s[2], True, True
-    if j == 3:
-        hvec[5] = 1.0
-        return s[5], False, True
-    if j == 4:
-        hvec[3] = 1.0
-        return s[3], False, True
-    if j == 5:
-        hvec[4] = 1.0
-        return s[4], False, True
+    if j < 6:  # a state measured directly: x, y, psi, r, u, v
+        k = _DIRECT[j]
+        hvec[k] = 1.0
+        return s[k], j == 2, True
     u = s[3]
     v = s[4]
     U2 = u * u + v * v

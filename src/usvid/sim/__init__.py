@@ -12,7 +12,6 @@ Public API
 - :class:`SimResult` (:mod:`usvid.sim.result`): ``t``, ``channels`` (B, N) arrays,
   ``batch_size``, ``zigzag_metrics()``, ``turning_metrics()``, ``course_metrics()``,
   ``to_trial(i)``, ``course`` and ``zigzag_online`` accumulators.
-- Convenience: :func:`simulate_zigzag`, :func:`simulate_turning`, :func:`simulate_course_change`.
 - Standard manoeuvre runs with their metrics (:mod:`usvid.sim.runs`, what ``usvid simulate``
   runs): :func:`run_zigzag`, :func:`run_turning`, :func:`run_course` (angles in degrees, named
   ``*_deg``).
@@ -23,15 +22,9 @@ Public API
 from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
 from usvid.sim.result import CHANNEL_UNITS, SimResult
 from usvid.sim.runs import run_course, run_turning, run_zigzag
-from usvid.sim.simulate import (
-    simulate,
-    simulate_course_change,
-    simulate_turning,
-    simulate_zigzag,
-)
+from usvid.sim.simulate import simulate
 
 __all__ = [
     "CHANNEL_UNITS", "PID", "Commanded", "CourseChange", "Disturbance", "SimResult", "Turning",
-    "ZigZag", "run_course", "run_turning", "run_zigzag", "simulate", "simulate_course_change",
-    "simulate_turning", "simulate_zigzag",
+    "ZigZag", "run_course", "run_turning", "run_zigzag", "simulate",
 ]

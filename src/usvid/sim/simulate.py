@@ -405,34 +405,3 @@ def _fill_inputs(kind: ModelKind, dyn: Any, chans: dict[str, np.ndarray], B: int
         chans["n"] = np.where(np.isnan(chans["n"]), n0, chans["n"])
     if kind.channels is not None:
         kind.channels(dyn, chans)
-
-
-# --- convenience ------------------------------------------------------------------------------
-def simulate_zigzag(model: VesselModel, delta_amp: Any, psi_switch: Any | None = None, *,
-                    first: Any = 1, t_start: Any = 0.0, t_end: float = 100.0,
-                    **kw: Any) -> SimResult:
-    """Zig-zag delta_amp/psi_switch [rad] (psi_switch defaults to delta_amp)."""
-    sw = delta_amp if psi_switch is None else psi_switch
-    return simulate(model, ZigZag(delta_amp, sw, first=first, t_start=t_start), t_end=t_end,
-                    **kw)
-
-
-def simulate_turning(model: VesselModel, delta: Any, *, t_start: Any = 0.0,
-                     t_end: float | None = None, **kw: Any) -> SimResult:
-    """Turning circle with rudder delta [rad] from t_start [s]. Default t_end: long enough for
-    about two full circles of the Nomoto-estimated yaw rate (at least 60 s)."""
-    if t_end is None:
-        t_end = 60.0
-        K_ = getattr(model.dynamics, "K", None)
-        if K_ is not None:
-            r = np.max(np.abs(_arr(K_) * _arr(delta)))
-            if r > 0:
-                t_end = max(60.0, float(np.max(_arr(t_start))) + 2.5 * 2 * math.pi / r)
-    return simulate(model, Turning(delta, t_start=t_start), t_end=t_end, **kw)
-
-
-def simulate_course_change(model: VesselModel, target: Any, controller: PID,
-                           disturbance: Disturbance | None = None, *, t_end: float = 100.0,
-                           **kw: Any) -> SimResult:
-    """Course change to target [rad] with a PID autopilot (Mu et al. 2018, section 6.1)."""
-    return simulate(model, CourseChange(target, controller, disturbance), t_end=t_end, **kw)
