@@ -6,7 +6,7 @@ available, ``usvid.prep.prepare(trial, rate_hz=50)`` (NED, uniform 50 Hz grid). 
 seconds, sentences/s (target >= 20 000 /s end to end) and the peak resident memory
 (``ru_maxrss`` of the process, generation included).
 
-Run: ``.venv/bin/python benchmarks/bench_nmea.py [--minutes 60]``
+Run: ``.venv/bin/python benchmarks/bench_nmea.py [--minutes 60] [--engine fast|pynmeagps]``
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ def synthetic_log(path: Path, minutes: float = 60.0, seed: int = 0) -> int:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--minutes", type=float, default=60.0)
+    ap.add_argument("--engine", default="fast", choices=["fast", "pynmeagps"])
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / "bench.nmea"
@@ -67,9 +68,9 @@ def main() -> None:
         print(f"generated {n} sentences ({p.stat().st_size / 1e6:.1f} MB) "
               f"in {time.perf_counter() - t0:.1f} s")
         t1 = time.perf_counter()
-        trial = read_nmea0183(p)
+        trial = read_nmea0183(p, engine=args.engine)
         t_read = time.perf_counter() - t1
-        print(f"read: {t_read:.2f} s = {n / t_read:,.0f} sentences/s; "
+        print(f"read ({args.engine}): {t_read:.2f} s = {n / t_read:,.0f} sentences/s; "
               f"{len(trial)} rows, channels {trial.channels}, rejected {trial.rejected}")
         t_prep = 0.0
         try:

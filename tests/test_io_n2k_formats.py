@@ -15,7 +15,6 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from reference_logs import n2k_channels, n2k_system_time
 from test_io_fuzz import _mutate, mutation  # noqa: E402  (shared mutation strategy)
 from usvid import Trial
 from usvid.errors import LogReadError, UsvidError
@@ -24,6 +23,8 @@ from usvid.io.n2k import (
     _FIELDS,
     FORMATS,
     SYSTEM_TIME_PGN,
+    _channels,
+    _system_time,
     bdtp_frames,
     binary_records,
     decode_payloads,
@@ -150,9 +151,9 @@ def test_vectorised_decode_matches_the_package():
     for i in range(len(pgn)):
         msg = decode(int(pgn[i]), bytes(pay[i]), units="si")
         if pgn[i] == SYSTEM_TIME_PGN:
-            np.testing.assert_equal(sys_epoch[i], n2k_system_time(msg))
+            np.testing.assert_equal(sys_epoch[i], _system_time(msg))
             continue
-        want = n2k_channels(msg)
+        want = _channels(msg)
         got = {k: v[i] for k, v in chans.items() if not np.isnan(v[i])}
         assert got == {k: v for k, v in want.items() if not np.isnan(v)}, (pgn[i], pay[i])
     # canboat's limits as found: -pi for a signed angle, the top three codes reserved

@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from reference_logs import read_nmea0183_pynmeagps
 from usvid import Trial
 from usvid.errors import LogReadError
 from usvid.io import read_candump, read_nmea0183, read_trial, write_candump, write_nmea0183
@@ -48,11 +47,11 @@ def test_checksum_hand_value():
 
 
 @pytest.mark.parametrize("prefix", ["iso", "epoch"])
-@pytest.mark.parametrize("reader", [read_nmea0183, read_nmea0183_pynmeagps])
-def test_nmea0183_roundtrip(tmp_path, prefix, reader):
+@pytest.mark.parametrize("engine", ["fast", "pynmeagps"])
+def test_nmea0183_roundtrip(tmp_path, prefix, engine):
     tr = circle_trial()
     p = write_nmea0183(tr, tmp_path / "c.nmea", prefix=prefix)
-    back = reader(p)
+    back = read_nmea0183(p, engine=engine)
     assert back.rejected == {}
     assert back.meta["t0_utc"] == "2025-11-24T23:59:50+00:00"
     # times survive to the microsecond of the prefix (the crossing of midnight included)
@@ -68,7 +67,7 @@ def test_nmea0183_roundtrip(tmp_path, prefix, reader):
     assert np.max(ang_err(back["cog"], tr["cog"])) < math.radians(0.005) + 1e-12
 
 
-def test_reader_agrees_with_pynmeagps_on_a_damaged_log(tmp_path):
+def test_engines_agree_on_a_damaged_log(tmp_path):
     lines = (write_nmea0183(circle_trial(T=5.0), tmp_path / "a.nmea")
              .read_bytes().split(b"\r\n"))
     lines[3] = lines[3][:-2] + b"00"  # wrong checksum
@@ -80,8 +79,8 @@ def test_reader_agrees_with_pynmeagps_on_a_damaged_log(tmp_path):
     lines.insert(13, b"2025-11-24T23:59:50.5Z $GPGSV,1,1,00*79")
     p = tmp_path / "b.nmea"
     p.write_bytes(b"\r\n".join(lines))
-    a = read_nmea0183(p)
-    b = read_nmea0183_pynmeagps(p)
+    a = read_nmea0183(p, engine="fast")
+    b = read_nmea0183(p, engine="pynmeagps")
     assert a.rejected == {"checksum": 1, "truncated": 1, "garbage": 1, "invalid_flag": 1}
     assert a.rejected == b.rejected
     assert a.meta["ignored_sentences"] == {"GSV": 1} == b.meta["ignored_sentences"]
@@ -246,9 +245,9 @@ def test_nmea_utf8_byte_order_mark(tmp_path) -> None:
     p = tmp_path / "bom.nmea"
     p.write_bytes(b"\xef\xbb\xbf" + ("1700000000.0 " + lines[0] + "\n1700000001.0 " + lines[1]
                                      + "\n").encode())
-    for reader in (read_nmea0183, read_nmea0183_pynmeagps):
-        tr = reader(p)
-        assert tr.rejected == {} and len(tr) == 2, reader
+    for engine in ("fast", "pynmeagps"):
+        tr = read_nmea0183(p, engine=engine)
+        assert tr.rejected == {} and len(tr) == 2, engine
 
 
 def test_candump_short_single_frame_is_truncated_not_decoded(tmp_path) -> None:

@@ -141,6 +141,80 @@ assert set(FORMATS) == set(N2K_FORMATS) - {"auto"}
 PYTHON_CAN_SUFFIXES = (".blf", ".asc", ".trc")
 
 
+def _fields(msg) -> dict:
+    return {f.id: f for f in msg.fields}
+
+
+def _val(f) -> float:
+    if f is None or f.value is None:
+        return math.nan
+    try:
+        x = float(f.value)
+    except (TypeError, ValueError):
+        return math.nan
+    return x if math.isfinite(x) else math.nan
+
+
+def _raw(f) -> int | None:
+    if f is None:
+        return None
+    try:
+        return int(f.raw_value)
+    except (TypeError, ValueError):
+        return None
+
+
+def _system_time(msg) -> float:
+    """Epoch seconds of a System Time message (``date`` [days since 1970], ``time`` [s])."""
+    f = _fields(msg)
+    try:
+        d = float(f["date"].raw_value)
+        s = float(f["time"].raw_value)
+    except (KeyError, TypeError, ValueError):
+        return math.nan
+    # 0xFFFF days / 0xFFFFFFFF * 1e-4 s are "not available"
+    if not (0 <= d < 65533 and 0 <= s < 86400.5):
+        return math.nan
+    return d * 86400.0 + s
+
+
+def _channels(msg) -> dict[str, float] | None:
+    """Trial channels carried by one message decoded by the package (None: not one of ours):
+    the reference semantics that :func:`decode_payloads` reproduces on whole arrays (tested
+    equal on random payloads)."""
+    pgn = msg.PGN
+    f = _fields(msg)
+    if pgn == 127250:
+        ref = _raw(f.get("reference"))
+        h = _val(f.get("heading"))
+        if ref == 1:  # magnetic
+            dev = _val(f.get("deviation"))
+            var = _val(f.get("variation"))
+            h = h + (0.0 if math.isnan(dev) else dev) + (0.0 if math.isnan(var) else var)
+            return {"psi_mag": h}
+        return {"psi": h}
+    if pgn == 127251:
+        return {"r": _val(f.get("rate"))}
+    if pgn == 127245:
+        inst = _raw(f.get("instance")) or 0
+        name = "delta" if inst == 0 else f"delta_{'port' if inst == 1 else inst}"
+        out = {name: _val(f.get("position"))}
+        if inst == 0:
+            out["delta_cmd"] = _val(f.get("angleOrder"))
+        return out
+    if pgn == 128259:
+        return {"stw": _val(f.get("speedWaterReferenced")),
+                "sog": _val(f.get("speedGroundReferenced"))}
+    if pgn == 129025:
+        return {"lat": _val(f.get("latitude")), "lon": _val(f.get("longitude"))}
+    if pgn == 129026:
+        return {"cog": _val(f.get("cog")), "sog": _val(f.get("sog"))}
+    if pgn == 127488:
+        inst = _raw(f.get("instance")) or 0
+        return {f"_engine{inst}": _val(f.get("speed"))}
+    return None
+
+
 # ----------------------------------------------------------------------------------------------
 # vectorised decoding of the payloads (layouts from the package's canboat database)
 # ----------------------------------------------------------------------------------------------
@@ -204,10 +278,9 @@ def decode_payloads(pgn: np.ndarray, payload: np.ndarray
     """Decode 8-byte payloads ``payload`` (N, 8) uint8 of PGNs ``pgn`` (N,) at once.
 
     Returns the Trial channels (name -> (N,) float, NaN where a record does not carry it or the
-    field is "not available"; the names and values of the package's decoding, checked against
-    it in ``tests/reference_logs.py``) and the System Time of each 126992 record [epoch s] (NaN
-    elsewhere). Values are ``raw * resolution`` in SI, as canboat's; the valid raw intervals are
-    :func:`valid_raw`.
+    field is "not available"; the names and values of :func:`_channels` on the package's
+    decoding) and the System Time of each 126992 record [epoch s] (NaN elsewhere). Values are
+    ``raw * resolution`` in SI, as canboat's; the valid raw intervals are :func:`valid_raw`.
     """
     n = len(pgn)
     word = np.ascontiguousarray(payload, dtype=np.uint8).view("<u8")[:, 0]

@@ -29,12 +29,14 @@ THS ``V``, ROT/RSA ``V``), ``no_time`` (no usable time), plus those of
 :func:`usvid.io._assemble.assemble`. Other well-formed sentences are ignored and counted in
 ``meta["ignored_sentences"]`` and an info finding.
 
-Decoding: a vectorised checksum over the byte buffer, then ``bytes.split`` per line (about 10x
-the rate of per-line pynmeagps). The tests check it against a per-line decoding with
-``pynmeagps.NMEAReader.parse`` (``tests/reference_logs.py``): identical trials on clean logs and on
-logs with damaged framing (checksum, truncation, garbage). One known difference: pynmeagps
-validates every field of a sentence, the reader only the fields usvid decodes, so a sentence with
-a malformed field usvid does not use (e.g. RMC's magnetic variation) is read here.
+Two engines decode the same records: ``"fast"`` (default; vectorised checksum over the byte
+buffer, then ``bytes.split`` per line; about 10x the rate of per-line pynmeagps) and
+``"pynmeagps"`` (``NMEAReader.parse`` per line with checksum validation). The tests check that
+both give identical trials on clean logs and on logs with damaged framing (checksum, truncation,
+garbage). One known difference: pynmeagps validates every field of a sentence, the fast path only
+the fields usvid decodes, so a sentence with a malformed field usvid does not use (e.g. RMC's
+magnetic variation) is ``bad_fields`` for the pynmeagps engine and read by the fast one. Times
+and dates of GGA/RMC are parsed by usvid's strict rules in both engines.
 """
 
 from __future__ import annotations
@@ -348,9 +350,9 @@ class _Records:
 
 
 # ----------------------------------------------------------------------------------------------
-# scanner: the decoded records, a rejected counter, the ignored sentence types, the line count
+# engines: each returns per-line (line_no, type, tod, day, values) and a rejected counter
 # ----------------------------------------------------------------------------------------------
-def _scan(blob: bytes):
+def _scan_fast(blob: bytes):
     lines, _starts, first, last, status = _frame(blob)
     rejected: dict[str, int] = {}
     for code, reason in ((2, "garbage"), (3, "truncated"), (4, "checksum")):
@@ -386,6 +388,170 @@ def _scan(blob: bytes):
     return recs, rejected, ignored, len(lines)
 
 
+def _scan_pynmeagps(blob: bytes):
+    """Per-line decoding with ``pynmeagps.NMEAReader.parse`` (checksums validated)."""
+    from pynmeagps import NMEAReader
+    from pynmeagps.nmeatypes_core import VALCKSUM
+
+    lines = blob.split(b"\n")
+    rejected: dict[str, int] = {}
+    ignored: dict[str, int] = {}
+    recs = _Records()
+
+    def rej(reason: str) -> None:
+        rejected[reason] = rejected.get(reason, 0) + 1
+
+    for i, raw in enumerate(lines):
+        line = raw.rstrip()
+        if not line:
+            continue
+        body = raw[:-1] if raw.endswith(b"\r") else raw
+        if any(b < 32 or b > 126 for b in body if b != 9):
+            rej("garbage")
+            continue
+        k1, k2 = line.find(b"$"), line.find(b"!")
+        ks = [k for k in (k1, k2) if k >= 0]
+        if not ks:
+            rej("garbage")
+            continue
+        a = min(ks)
+        sent = line[a:]
+        star = sent.rfind(b"*")
+        if star < 0 or len(sent) - star != 3:
+            rej("truncated")
+            continue
+        if _HEX[sent[star + 1]] == 255 or _HEX[sent[star + 2]] == 255:
+            rej("truncated")
+            continue
+        cks = 0
+        for ch in sent[1:star]:
+            cks ^= ch
+        if cks != int(sent[star + 1 : star + 3], 16):
+            rej("checksum")
+            continue
+        if star < 6:
+            rej("garbage")
+            continue
+        typ = _sentence_type(sent[1:star])
+        if typ not in TYPES:
+            key = typ or sent[1:star].split(b",", 1)[0].decode("ascii", "replace")
+            ignored[key] = ignored.get(key, 0) + 1
+            continue
+        if b" " in sent[:star] or b"*" in sent[1:star]:
+            rej("bad_fields")
+            continue
+        try:
+            msg = NMEAReader.parse(sent + b"\r\n", validate=VALCKSUM)
+        except Exception as exc:  # pynmeagps raises NMEAParseError & friends
+            if "checksum" in str(exc).lower():
+                rej("checksum")
+            elif typ in TYPES:
+                rej("bad_fields")
+            else:
+                ignored[typ or "?"] = ignored.get(typ or "?", 0) + 1
+            continue
+        if typ not in TYPES or msg is None:
+            key = typ or sent[1:star].split(b",", 1)[0].decode("ascii", "replace")
+            ignored[key] = ignored.get(key, 0) + 1
+            continue
+        try:
+            dec = _from_pynmeagps(typ, msg)
+            if dec is not None and typ in _TIMED:
+                # time, date and position syntax by usvid's strict rules (pynmeagps is lenient
+                # there: it reads "010.5" as a longitude and a malformed time as no time)
+                f = sent[1:star].split(b",")[1:]
+                tod = _hms(f[0]) if f[0] else math.nan
+                day = (_dmy(f[8]) if f[8] else math.nan) if typ == "RMC" else math.nan
+                k = 1 if typ == "GGA" else 2
+                _latlon(f[k], f[k + 1], b"S", 2)
+                _latlon(f[k + 2], f[k + 3], b"W", 3)
+                dec = (tod, day, dec[2])
+        except (ValueError, TypeError, AttributeError, OverflowError, IndexError):
+            rej("bad_fields")
+            continue
+        if dec is None:
+            rej("invalid_flag")
+            continue
+        recs.add(i, line[:a], *dec)
+    return recs, rejected, ignored, len(lines)
+
+
+def _g(msg, name: str) -> float:
+    v = getattr(msg, name, "")
+    if v == "" or v is None:
+        return math.nan
+    x = float(v)
+    if not math.isfinite(x):
+        raise ValueError(name)
+    return x
+
+
+def _tod(v) -> float:
+    if v == "" or v is None:
+        return math.nan
+    return v.hour * 3600 + v.minute * 60 + v.second + v.microsecond * 1e-6
+
+
+def _from_pynmeagps(typ: str, m) -> tuple[float, float, dict[str, float]] | None:
+    nan = math.nan
+    if typ == "GGA":
+        q = m.quality if m.quality != "" else 0
+        if int(q) == 0:
+            return None
+        return _tod(m.time), nan, {"lat": _g(m, "lat"), "lon": _g(m, "lon")}
+    if typ == "RMC":
+        if m.status != "A":
+            if m.status == "V":
+                return None
+            raise ValueError("status")
+        day = nan
+        if m.date not in ("", None):
+            day = datetime(m.date.year, m.date.month, m.date.day, tzinfo=UTC).timestamp()
+        return _tod(m.time), day, {
+            "lat": _g(m, "lat"),
+            "lon": _g(m, "lon"),
+            "sog": _g(m, "spd") * KN,
+            "cog": _g(m, "cog") * DEG,
+        }
+    if typ == "VTG":
+        if getattr(m, "posMode", "") == "N":
+            return None
+        sogn = _g(m, "sogn")
+        sog = sogn * KN if math.isfinite(sogn) else _g(m, "sogk") / 3.6
+        return nan, nan, {"cog": _g(m, "cogt") * DEG, "sog": sog}
+    if typ == "HDT":
+        return nan, nan, {"psi": _g(m, "headingT") * DEG}
+    if typ == "THS":
+        if m.mi == "V":
+            return None
+        if m.mi not in ("A", "E", "M", "S"):
+            raise ValueError("mode")
+        return nan, nan, {"psi": _g(m, "headt") * DEG}
+    if typ == "HDG":
+        h = _g(m, "headingM")
+        dev = _g(m, "deviation")
+        var = _g(m, "variation")
+        dev = 0.0 if math.isnan(dev) else (-dev if m.deviationEW == "W" else dev)
+        var = 0.0 if math.isnan(var) else (-var if m.variationEW == "W" else var)
+        return nan, nan, {"psi_hdg": (h + dev + var) * DEG}
+    if typ == "ROT":
+        if m.valid != "A":
+            if m.valid == "V":
+                return None
+            raise ValueError("status")
+        return nan, nan, {"r": _g(m, "rot") * DEG / 60.0}
+    if typ == "RSA":
+        out = {}
+        if m.stbdstatus == "A":
+            out["delta"] = _g(m, "stbdangle") * DEG
+        elif m.stbdstatus != "V":
+            raise ValueError("status")
+        if getattr(m, "portstatus", "") == "A":
+            out["delta_port"] = _g(m, "portangle") * DEG
+        return (nan, nan, out) if out else None
+    raise ValueError(typ)
+
+
 # ----------------------------------------------------------------------------------------------
 # reader
 # ----------------------------------------------------------------------------------------------
@@ -400,10 +566,12 @@ def _unwrap_days(tod: np.ndarray) -> np.ndarray:
     return out
 
 
-def read_nmea0183(path: str | Path, spec: FormatSpec | None = None) -> Trial:
+def read_nmea0183(
+    path: str | Path, spec: FormatSpec | None = None, *, engine: str = "fast"
+) -> Trial:
     """Read an NMEA 0183 log into a multi-rate Trial (union of time stamps, NaN elsewhere).
 
-    Raises
+    ``engine``: ``"fast"`` or ``"pynmeagps"`` (see module docstring). Raises
     :class:`LogReadError` (one line, naming the file) when the file is empty or holds no usable
     sentence.
     """
@@ -411,7 +579,12 @@ def read_nmea0183(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     blob = read_log_bytes(path)
     if blob.startswith(b"\xef\xbb\xbf"):  # UTF-8 byte-order mark: not part of the first line
         blob = blob[3:]
-    recs, rejected, ignored, nlines = _scan(blob)
+    if engine == "fast":
+        recs, rejected, ignored, nlines = _scan_fast(blob)
+    elif engine == "pynmeagps":
+        recs, rejected, ignored, nlines = _scan_pynmeagps(blob)
+    else:
+        raise ValueError(f"engine must be 'fast' or 'pynmeagps', got {engine!r}")
     findings: list[Finding] = []
     if ignored:
         findings.append(ignored_finding(path, "ignored_sentences", "sentence(s) of types",
@@ -433,7 +606,7 @@ def read_nmea0183(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     mode = spec.time_source if spec is not None else "auto"
     if mode == "auto":
         mode = "prefix" if np.isfinite(pre).mean() > 0.5 else "sentence"
-    meta: dict = {"time_source": mode}
+    meta: dict = {"time_source": mode, "engine": engine}
     if ignored:
         meta["ignored_sentences"] = dict(ignored)
     if mode == "prefix":
