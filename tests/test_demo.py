@@ -1,21 +1,24 @@
 """``usvid demo`` end to end (quick mode): determinism of the model files, the report in headless
-Chromium, ``usvid report`` regeneration, and Ctrl-C leaving no half-written output."""
+Chromium, ``usvid report`` regeneration, Ctrl-C leaving no half-written output, and the real demo
+frozen at random moments (kill -9 states) leaving only files that parse."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
 import signal
 import subprocess
 import sys
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import browser
+from test_interrupts import N_KILLS, run_demo_frozen
 from usvid.cli import main
 from usvid.report.html import external_urls
 
@@ -24,30 +27,33 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
-def demo_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict]:
-    """Two quick demos with the same seed: one through the CLI (--json), one through the API."""
-    from usvid.demo.pipeline import run_demo
-
+def demo_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, dict, int]:
+    """Two quick demos with the same seed: one through the CLI in process (--json), and the
+    real demo of test_interrupts.run_demo_frozen (the CLI in a forked child, frozen at random
+    moments, every file under a final name parsed at each): its folder, the first's JSON and
+    the number of frozen moments. One run serves both checks (a real demo is ~25 s of CPU)."""
     a = tmp_path_factory.mktemp("demo_a")
-    b = tmp_path_factory.mktemp("demo_b")
-    import contextlib
-    import io
-
+    b = tmp_path_factory.mktemp("demo_b") / "run"
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
         code = main(["demo", "--out", str(a), "--seed", "4", "--quick", "--json"])
     assert code == 0
     out = json.loads(buf.getvalue())
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = run_demo(b, seed=4, quick=True)
-    assert res.exit_code == 0
-    return a, b, out
+    _, moments = run_demo_frozen(b, seed=4)
+    return a, b, out, moments
+
+
+@pytest.mark.slow
+def test_demo_frozen_at_random_moments(demo_runs) -> None:
+    """SIGKILL at random moments of the real demo: at N_KILLS or more seeded random moments of
+    the second run (frozen with SIGSTOP: the state a kill -9 leaves) every file under a final
+    name parsed (asserted in run_demo_frozen, which counts the moments)."""
+    assert demo_runs[3] >= N_KILLS
 
 
 @pytest.mark.slow
 def test_demo_same_seed_same_model_files(demo_runs) -> None:
-    a, b, out = demo_runs
+    a, b, _, _ = demo_runs
     files = sorted(p.name for p in (a / "models").iterdir())
     assert files == ["nomoto1.json", "norrbin.json", "servo.json", "threedof.json"]
     for name in files:
@@ -66,7 +72,7 @@ def test_demo_writes_a_ros2_bag(demo_runs) -> None:
     pytest.importorskip("rosbags")
     from usvid.io import read_trial
 
-    a, _, _ = demo_runs
+    a, _, _, _ = demo_runs
     bag = a / "logs" / "zigzag_10_10_ros2"
     assert sorted(p.name for p in bag.iterdir()) == ["bag.mcap", "metadata.yaml"]
     tr = read_trial(bag)
@@ -83,7 +89,7 @@ def test_demo_writes_a_ros2_bag(demo_runs) -> None:
 
 @pytest.mark.slow
 def test_demo_json_and_run_contents(demo_runs) -> None:
-    a, _, out = demo_runs
+    a, _, out, _ = demo_runs
     assert [s["status"] for s in out["steps"]] == ["ok"] * 7, out["steps"]
     assert set(out["models"]) == {"servo", "nomoto1", "norrbin", "threedof"}
     acc = out["acceptance"]
@@ -108,7 +114,7 @@ def test_demo_json_and_run_contents(demo_runs) -> None:
 
 @pytest.mark.slow
 def test_demo_report_is_self_contained(demo_runs) -> None:
-    a, _, _ = demo_runs
+    a, _, _, _ = demo_runs
     html = (a / "report.html").read_text(encoding="utf-8")
     assert external_urls(html) == []
     assert "<script" not in html and "<link" not in html
@@ -123,7 +129,7 @@ def test_demo_report_is_self_contained(demo_runs) -> None:
 
 @pytest.mark.slow
 def test_usvid_report_regenerates_identically(demo_runs, tmp_path: Path) -> None:
-    a, _, _ = demo_runs
+    a, _, _, _ = demo_runs
     before = (a / "report.html").read_bytes()
     (a / "report.html").unlink()
     assert main(["report", str(a)]) == 0
@@ -134,7 +140,7 @@ def test_usvid_report_regenerates_identically(demo_runs, tmp_path: Path) -> None
 @pytest.mark.skipif(browser.find_chromium() is None,
                     reason="chromium not installed (apt-get install chromium)")
 def test_demo_report_in_headless_chromium(demo_runs) -> None:
-    a, _, _ = demo_runs
+    a, _, _, _ = demo_runs
     check = browser.check_html(a / "report.html")
     assert check.errors == [], check.errors
     assert len(check.images) >= 10

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from fuzzing import N_EXAMPLES, binary_mutate, check_trial, fuzz, put, safe
+from fuzzing import binary_mutate, check_trial, fuzz, halves, put, safe
 from usvid.io import read_trial
 from usvid.io.spec import parse_spec
 
@@ -65,12 +65,17 @@ def _valid() -> bytes:
 VALID = _valid()
 
 
-def test_parquet_reader(tmp_path):
+def fuzz_parquet(tmp_path, n: int, salt: str) -> None:
+    """``n`` examples of the parquet fuzzing (its two test files: different salts)."""
     p = tmp_path / "log.parquet"
 
     def check(rng: random.Random) -> None:
         put(p, _table(rng) if rng.random() < 0.5 else binary_mutate(VALID, rng))
         check_trial(safe(read_trial, p, rng.choice([None, SPEC])))
 
-    fuzz(check, N_EXAMPLES, "parquet")
+    fuzz(check, n, salt)
     assert [q.name for q in tmp_path.iterdir()] == ["log.parquet"]
+
+
+def test_parquet_reader(tmp_path):
+    fuzz_parquet(tmp_path, halves()[0], "parquet")

@@ -6,7 +6,8 @@ compiling into a fresh numba cache both succeed.
 The kill tests fork the test process (modules imported, kernels compiled) and run the CLI's
 ``main`` in the child, so each run costs the command, not an interpreter start; the signal and
 the files on disk are the same as for a separate process. The real ``usvid demo --quick`` runs
-once, frozen at N_KILLS or more random moments (each the state a SIGKILL would leave); real
+once, frozen at N_KILLS or more random moments (each the state a SIGKILL would leave), in
+test_demo.py (:func:`run_demo_frozen`: it is also the second run of the same-seed check); real
 SIGINTs interrupt a one-manoeuvre demo that writes every kind of file the full demo
 writes (logs moved into ``logs/``, format specs, ``run.json``, ``report.html``), and, with
 USVID_HEAVY_TESTS=1, the real ``demo --quick`` at N_KILLS + N_REAL_KILLS random moments.
@@ -193,17 +194,17 @@ def _stopped(pid: int) -> bool:
     return False
 
 
-@pytest.fixture(scope="module")
-def demo_run(tmp_path_factory) -> float:
-    """The real ``usvid demo --quick``, frozen (SIGSTOP) at seeded random moments (gaps drawn
-    from an exponential law, mean GAP_S) until it ends: at each, every file under a final name
-    must parse. A SIGKILL does nothing more to the files than stopping the process at that
-    moment does (no handler runs; what was written stays), so each frozen state is the state a
-    kill -9 at that moment would leave. Returns the run time [s] without the frozen spans."""
-    out = tmp_path_factory.mktemp("demo") / "run"
+def run_demo_frozen(out: Path, seed: int) -> tuple[float, int]:
+    """The real ``usvid demo --quick --seed SEED --out OUT`` in a forked child, frozen (SIGSTOP)
+    at seeded random moments (gaps drawn from an exponential law, mean GAP_S) until it ends: at
+    each, every file under a final name must parse. A SIGKILL does nothing more to the files
+    than stopping the process at that moment does (no handler runs; what was written stays), so
+    each frozen state is the state a kill -9 at that moment would leave. Returns the run time
+    [s] without the frozen spans and the number of frozen moments (at least N_KILLS).
+    test_demo.py runs it as the second run of its same-seed check (one real demo less)."""
     rng = np.random.default_rng(13)
     seen: dict = {}
-    pid = _fork_run(["demo", "--quick", "--out", str(out)])
+    pid = _fork_run(["demo", "--quick", "--seed", str(seed), "--out", str(out)])
     t0, frozen, moments = time.monotonic(), 0.0, 0
     while True:
         time.sleep(rng.exponential(GAP_S))
@@ -222,12 +223,13 @@ def demo_run(tmp_path_factory) -> float:
     _check_parses(out, seen)
     assert (out / "report.html").exists() and (out / "run.json").exists()
     assert moments >= N_KILLS, f"the demo ended after {moments} frozen moments"
-    return duration
+    return duration, moments
 
 
-def test_demo_frozen_at_random_moments(demo_run) -> None:
-    """At least N_KILLS kill -9 states of the real demo (the fixture's frozen moments) parse."""
-    assert demo_run > 0
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory) -> float:
+    """The run time [s] of the real ``usvid demo --quick`` (the heavy test's time span)."""
+    return _timed(["demo", "--quick", "--out", str(tmp_path_factory.mktemp("demo") / "run")])
 
 
 @pytest.mark.skipif(not os.environ.get("USVID_HEAVY_TESTS"),
@@ -305,8 +307,8 @@ def demo_ref(tmp_path_factory) -> tuple[Path, float]:
     return ref, _timed(["demo", "--quick", "--out", str(ref)], _mini_demo)
 
 
-# SIGKILL: the frozen states of the real demo (test_demo_frozen_at_random_moments) stand for
-# kill -9 at any moment; real kills of the real demo run with USVID_HEAVY_TESTS=1
+# SIGKILL: the frozen states of the real demo (test_demo.py::test_demo_frozen_at_random_moments)
+# stand for kill -9 at any moment; real kills of the real demo run with USVID_HEAVY_TESTS=1
 @pytest.mark.parametrize("sig", [signal.SIGINT], ids=["SIGINT"])
 def test_mini_demo_killed_at_random_moments(demo_ref, tmp_path, sig) -> None:
     ref, duration = demo_ref
