@@ -104,8 +104,6 @@ TRIG = False  # the kind reads cos/sin of the steering angle
 SWR = -1  # the kind's switch row of P (ModelKind.switch_row; -1: none)
 SWV = np.array([np.nan])  # its values with a vector step of their own (ModelKind.switch_values)
 NSW = 1  # number of vector steps (at most 4: one per switch value, then the generic one)
-SKC = -1  # the servo kind of a vector flavour (0 ideal, 1 first, 2 second order; -1: any)
-NOSER = False  # a vector flavour for lanes without input series
 
 
 def rhs(P, b, Z, D, delta, cd, sd, n, n_port, n_stbd):  # pragma: no cover - placeholder
@@ -222,48 +220,24 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
     mr = srv[1]
     d = _clip(zdl, ma)
     w = z[8]
-    # the servo: blended by the weights w0, w1, w2, or (SKC >= 0, a vector flavour's constant)
-    # only the servo kind SKC's terms (the same values: the others' weights are 0)
-    if SKC == 0:
-        rate = 0.0
-    elif SKC == 1:
-        rate = _clip((cmdin - zdl) * srv[6], mr)
-    elif SKC == 2:
-        rate = _clip(w, mr)
-    else:
-        rate = w1 * _clip((cmdin - zdl) * srv[6], mr) + w2 * _clip(w, mr)
+    rate = w1 * _clip((cmdin - zdl) * srv[6], mr) + w2 * _clip(w, mr)
     if (zdl >= ma and rate > 0.0) or (zdl <= -ma and rate < 0.0):
         rate = 0.0
     wn = srv[2]
     w2d = z[10]
-    if NOSER:  # no input series (a vector flavour's constant): fs is all NaN
-        de = d + DIST_B * w2d
-        n_ = n_port = n_stbd = np.nan
-    else:
-        fd = fs[0] + tau * (fs[4] - fs[0])
-        de = (d if np.isnan(fd) else fd) + DIST_B * w2d
-        n_ = fs[1] + tau * (fs[5] - fs[1])
-        n_port = fs[2] + tau * (fs[6] - fs[2])
-        n_stbd = fs[3] + tau * (fs[7] - fs[3])
+    fd = fs[0] + tau * (fs[4] - fs[0])
+    de = (d if np.isnan(fd) else fd) + DIST_B * w2d
     cd = 1.0
     sd = 0.0
     if TRIG:
         cd, sd = _rot(de, tr[3], tr[4], tr[5])
-    u, v, r, d0, d1, d2, d3 = rhs(p, z[3], z[4], z[5], z[6], de, cd, sd, n_, n_port, n_stbd)
+    u, v, r, d0, d1, d2, d3 = rhs(p, z[3], z[4], z[5], z[6], de, cd, sd,
+                                  fs[1] + tau * (fs[5] - fs[1]),
+                                  fs[2] + tau * (fs[6] - fs[2]),
+                                  fs[3] + tau * (fs[7] - fs[3]))
     cps, sps = _rot(z[2], tr[0], tr[1], tr[2])
-    if SKC == 0:
-        ddl = ramp
-        ddd = 0.0
-    elif SKC == 1:
-        ddl = rate
-        ddd = 0.0
-    elif SKC == 2:
-        ddl = rate
-        ddd = wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w
-    else:
-        ddl = w0 * ramp + rate
-        ddd = w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w)
-    return (u * cps - v * sps, u * sps + v * cps, r, d0, d1, d2, d3, ddl, ddd,
+    return (u * cps - v * sps, u * sps + v * cps, r, d0, d1, d2, d3,
+            w0 * ramp + rate, w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w),
             w2d, -DIST_A0 * z[9] - DIST_A1 * w2d + noise)
 
 
