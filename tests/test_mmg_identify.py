@@ -136,6 +136,32 @@ def test_ekf_states_give_the_sway_velocity():
     assert np.array_equal(s["v"], s["v_s"])  # the estimate is the v output error compares
 
 
+def test_ls_reports_f_alpha_as_held_not_as_measured(capsys):
+    """Least squares holds the rudder lift gradient f_alpha (only output error refines it) and
+    the thrust asymmetry (rudder variant): both are listed as held in the summary, the model
+    file's identification block and the CLI's table, not as a measurement with +- 0; the hull
+    coefficients are not held."""
+    from usvid.commands.identify import _print_summary
+
+    truth = VesselModel(from_physics(P, n=equilibrium_rps(P, 1.18)),
+                        IdealServo(max_rate=math.radians(10.0)), _vessel(**FULL))
+    amp = math.radians(20.0)
+    res = simulate(truth, ZigZag(amp, amp), t_end=120.0, dt=0.05)
+    tr = virtual_trial_uniform(res, SensorModel(), seed=1, rate_hz=10.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        est = ModelEstimator("mmg", "ls").fit(tr.with_data(tr.data, vessel=_vessel(**FULL)))
+    s = est.result_.summary()
+    assert s["held"] == ["f_alpha", "thrust_asymmetry"]
+    assert est.result_.identification()["held"] == s["held"]
+    assert s["std_errors"]["N_r"] > 0.0 and "N_r" not in s["held"]
+    _print_summary({**s, "model_file": None})
+    out = capsys.readouterr().out
+    assert "f_alpha" in out and "held at its prior: not identified by ls" in out
+    assert not any(line.strip().startswith("f_alpha") and "+-" in line
+                   for line in out.splitlines())
+
+
 def test_twin_thruster_spec_works_with_catamaran_and_no_negative_mass(twin_dir, tmp_path):
     """Issue 9: the shipped twin-thruster spec with --model catamaran (PWM commands through the
     declared thrust map) identifies a model; least squares gives a negative sway mass on the sine

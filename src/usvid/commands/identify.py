@@ -177,6 +177,9 @@ def _print_summary(s: dict[str, Any]) -> None:
     for k, v in s["params"].items():
         lo, hi = s["ci95"].get(k, (math.nan, math.nan))
         # the interval's own half-width: Student-t for the cluster-robust OE covariance
+        if k in s.get("held", ()):
+            print(f"  {k:8s} = {v: .6g}  (held at its prior: not identified by {s['method']})")
+            continue
         print(f"  {k:8s} = {v: .6g}  +- {(hi - lo) / 2:.3g} (95 %)")
     for label, fit in (("fit", s["fit"]), ("free run", s["fit"].get("free_run", {}))):
         for ch, m in fit.items():

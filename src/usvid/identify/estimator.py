@@ -263,6 +263,7 @@ class IdentifiedModel:
             "std_errors": dict(self.std_errors),
             **self._covariance(),
             "ci95": {k: list(v) for k, v in self.ci95.items()},
+            "held": self.held,
             "fit": self.fit,
             "options": self.options,
             "diagnostics": self.diagnostics,
@@ -293,10 +294,19 @@ class IdentifiedModel:
                 f"{html.escape(self.method)}</caption><tr><th>parameter</th><th>estimate</th>"
                 f"<th>std. error</th><th>95 % interval</th></tr>{rows}</table>")
 
+    @property
+    def held(self) -> list[str]:
+        """Parameters of the fitted set the method kept at their prior (standard error exactly
+        0: e.g. the MMG rudder lift gradient f_alpha under ``ls``, which only output error
+        refines); their interval is the value itself, not a measurement."""
+        return [k for k, e in self.std_errors.items() if e == 0.0]
+
     def summary(self) -> dict[str, Any]:
-        """Parameters, std errors, intervals and fit metrics (the CLI's JSON summary)."""
+        """Parameters, std errors, intervals, the held parameters and fit metrics (the CLI's
+        JSON summary)."""
         return {"kind": self.kind, "method": self.method, "params": self.params,
-                "std_errors": self.std_errors, "ci95": self.ci95, "fit": self.fit}
+                "std_errors": self.std_errors, "ci95": self.ci95, "held": self.held,
+                "fit": self.fit}
 
 
 class ModelEstimator(FittedAttributes):
