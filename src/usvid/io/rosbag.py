@@ -20,11 +20,14 @@ file that is not a bag, a missing topic, a missing field or an unknown message t
 
 from __future__ import annotations
 
+import functools
 import math
 import operator
 import os
 import shutil
 import tempfile
+import threading
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any
 
@@ -106,19 +109,15 @@ def read_rosbag(path: str | Path, spec: FormatSpec) -> Trial:
     is not a bag, a topic or field of the spec is missing, or no sample is usable.
     """
     require("rosbag")
-    from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
-
     path = Path(path)
     kind = bag_kind(path)
     if kind is None:
         raise LogReadError(f"{path}: not a ROS bag or MCAP file (no ROS 1 / MCAP / sqlite3 "
                            "header, no metadata.yaml)")
     opened = _open_path(path, kind)
-    store = get_typestore(Stores.ROS1_NOETIC if kind == "ros1" else Stores.ROS2_HUMBLE)
     state = ReadState(meta={"bag_kind": kind})
     try:
-        reader = AnyReader([opened], default_typestore=store)
+        reader = _reader_class()([opened], default_typestore=_default_store(kind == "ros1"))
         reader.open()
     except Exception as exc:  # rosbags raises its own errors, struct/IO/sqlite errors on damage
         raise LogReadError(f"{path}: cannot open the {kind} log ({_why(exc)})") from None
@@ -131,6 +130,100 @@ def read_rosbag(path: str | Path, spec: FormatSpec) -> Trial:
             pass
         if opened != path and not opened.is_dir():
             shutil.rmtree(opened.parent, ignore_errors=True)
+
+
+#: Typestores built from the message definitions of bags read (see :func:`_reader_class`),
+#: keyed by the definitions; the least recently used is dropped beyond ``_STORES_MAX``.
+_STORES: OrderedDict[tuple, Any] = OrderedDict()
+_STORES_MAX = 32
+_STORES_LOCK = threading.Lock()
+
+
+@functools.cache
+def _default_store(ros1: bool) -> Any:
+    """The standard types of ROS 1 Noetic / ROS 2 Humble (built once: a Typestore copies its
+    1,000-odd definitions)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+
+
+@functools.cache
+def _reader_class() -> type:
+    """rosbags' ``AnyReader`` with its typestore cached across reads.
+
+    ``AnyReader.open`` builds a new typestore from the message definitions stored in the bag on
+    every open: it parses the definitions and generates Python source for the types, and the
+    first message of each type then generates and compiles its (de)serialisers. That is 25-90 ms
+    per bag opened for the ~10 types of a small bag, most of a small bag's read. Here the
+    typestore is kept, keyed by everything it is built from (the ordered message types,
+    definition formats and texts and digests of the connections, ROS 1 or 2, the default
+    store when the bag stores no definitions): a bag with the same definitions as one read
+    before reuses the store and its compiled code. The building and the digest check are
+    rosbags 0.11's ``AnyReader._open``; only a store that was built and checked is kept.
+    """
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.interfaces import MessageDefinitionFormat
+    from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+
+    class CachedAnyReader(AnyReader):
+        def _open(self) -> None:
+            assert self.stack
+            for reader in self.readers:
+                self.stack.enter_context(reader)
+            connections = [y for x in self.readers for y in x.connections]
+            self.connections = connections
+            key = (self.is2, id(self.default_typestore), tuple(
+                (c.msgtype, c.msgdef.format.value, c.msgdef.data, c.digest)
+                for c in connections))
+            with _STORES_LOCK:
+                store = _STORES.get(key)
+                if store is not None:
+                    _STORES.move_to_end(key)
+            if store is None:
+                store = self._build(connections)
+                with _STORES_LOCK:
+                    _STORES[key] = store
+                    while len(_STORES) > _STORES_MAX:
+                        _STORES.popitem(last=False)
+            self.typestore = store
+
+        def _build(self, connections: list) -> Any:
+            typs: dict = {}
+            digests: dict[str, str] = {}
+            if connections:
+                definitions = [x for x in connections
+                               if x.msgdef.format != MessageDefinitionFormat.NONE]
+                if definitions:
+                    for connection in definitions:
+                        if connection.msgdef.format == MessageDefinitionFormat.MSG:
+                            typs.update(get_types_from_msg(connection.msgdef.data,
+                                                           connection.msgtype))
+                        else:
+                            sep = "=" * 80 + "\n"
+                            if connection.msgdef.data.startswith(f"{sep}IDL: "):
+                                for msgdef in connection.msgdef.data.split(sep)[1:]:
+                                    _, idl = msgdef.split("\n", 1)
+                                    typs.update(get_types_from_idl(idl))
+                            else:
+                                typs.update(get_types_from_idl(connection.msgdef.data))
+                        if connection.digest:
+                            digests[connection.msgtype] = connection.digest
+                elif self.default_typestore:
+                    typs.update(self.default_typestore.fielddefs)
+                else:  # not reached: read_rosbag always passes a default store
+                    raise AnyReaderError("Bag contains no type definitions.")
+            store = get_typestore(Stores.EMPTY)
+            store.register(typs)
+            for msgtype, digest in digests.items():
+                have = (store.hash_rihs01(msgtype) if self.is2
+                        else store.generate_msgdef(msgtype)[1])
+                if have != digest:
+                    raise AnyReaderError(
+                        f"Message type {msgtype!r} hash mismatch {have} != {digest}")
+            return store
+
+    return CachedAnyReader
 
 
 def _why(exc: BaseException) -> str:
