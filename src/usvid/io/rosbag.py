@@ -359,7 +359,8 @@ def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> T
                 continue
             raise missing_topic(path, spec, col, list(topics))
         cols.append(col)
-    wanted = {c.topic for c in cols}
+    wanted = list(dict.fromkeys(c.topic for c in cols))  # (in spec order: not a set, whose
+    # order follows the hash seed, and so did how far a damaged ROS 1 bag was read)
     ignored = {t: sum(c.msgcount for c in cs) for t, cs in topics.items() if t not in wanted}
     if ignored:
         state.meta["ignored_topics"] = ignored
