@@ -317,6 +317,37 @@ def test_storage_check_refuses_only_what_rosbags_refuses(small_logs, tmp_path, f
     assert refused >= 30, refused
 
 
+def test_dataflash_format_shorter_than_its_header(tmp_path):
+    """A damaged FMT message declaring a message length below the 3-byte header (a mutation
+    found by the fuzzing, seed ``messages:dataflash:1601``): pymavlink 2.4.50's parser steps
+    ``length - 3`` past each header, so it parsed the same bytes forever and the read hung;
+    the format is dropped and the read ends (here with the log's framing lost: an error)."""
+    import random
+    import signal
+
+    from fuzzing import binary_mutate
+    from usvid.io.ardupilot import _df_reader_class
+
+    p = write_dataflash(small_trial(T=1.0), tmp_path / "log.bin")
+    q = tmp_path / "bad.bin"
+    q.write_bytes(binary_mutate(p.read_bytes(), random.Random("messages:dataflash:1601")))
+
+    def hung(*_):
+        raise TimeoutError("the DataFlash reader hangs")
+
+    old = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(60)  # a hang fails the test instead of stalling the suite (a read: 3 ms)
+    try:
+        dfr = _df_reader_class()(str(q))
+        assert dfr.dropped_formats == [64]  # the input still is the case (type 64: PARM)
+        dfr.filehandle.close()
+        with pytest.raises(LogReadError, match="no message 'GPS'"):
+            read_trial(q, "ardupilot_rover")
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
 def test_typestore_cache_keeps_the_digest_check(small_logs, tmp_path):
     """A bag's typestore is kept across reads keyed by its definitions and digests: a ROS 1 bag
     whose md5sum of a type no longer matches the (same) definition is refused, even just after
