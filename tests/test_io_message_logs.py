@@ -286,9 +286,9 @@ def test_corrupt_bytes(small_logs, tmp_path, fmt):
 @pytest.mark.parametrize("fmt", ["ros2_mcap", "ros2_sqlite3"])
 def test_storage_check_refuses_only_what_rosbags_refuses(small_logs, tmp_path, fmt):
     """The framing check of a ROS 2 storage file before rosbags opens the bag (MCAP magic,
-    header, footer and summary records; rosbags' first sqlite query) is a shortcut, not a
+    header, footer and summary records; rosbags' first sqlite queries) is a shortcut, not a
     stricter reader: on 150 mutated storage files every file it refuses rosbags refuses too,
-    and it refuses a good part of them (86% of the MCAP, 47% of the sqlite3 ones measured; the
+    and it refuses a good part of them (86% of the MCAP, 67% of the sqlite3 ones measured; the
     rest fail later in rosbags or read: at least 20% asked, else the shortcut is gone)."""
     import random
 
