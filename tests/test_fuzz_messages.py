@@ -12,7 +12,7 @@ ROS 2 MCAP 20 s, ROS 2 SQLite 31 s, ROS 1 14 s, ULog 21 s, DataFlash 36 s, tlog 
 0.4 ms of each example is Hypothesis's own). Before 2026-11-24 they would have been 166, 176,
 65, 19, 30 and 42 s (1,000 examples measured, times 10), when ``make test`` ran 100-500:
 
-- a successful read of a small bag (1 in 8 examples) took 65-90 ms, rosbags re-parsing the
+- a successful read of a small bag (1 in 10 examples) took 65-90 ms, rosbags re-parsing the
   bag's message definitions and recompiling its deserialisers on every open: the typestore
   is now kept across reads (io.rosbag._reader_class);
 - a ROS 2 bag's metadata.yaml, unchanged here, is parsed by rosbags with ruamel.yaml, 8.6 ms
