@@ -28,8 +28,8 @@ demo: $(STAMP)
 test: $(TSTAMP) browser
 	$(BIN)/python -m pytest -n auto --dist loadfile
 
-# the loaders' Hypothesis fuzzing alone: 10,000 examples per loader, the message-log readers' too
-# (make test: 10,000 per loader, 100-500 per message-log format; see tests/test_fuzz_messages.py)
+# the loaders' Hypothesis fuzzing alone: 10,000 examples per loader and per message-log format
+# (as in make test; see tests/fuzzing.py and tests/test_fuzz_messages.py)
 fuzz: $(TSTAMP)
 	USVID_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -n auto -m fuzz
 

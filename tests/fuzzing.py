@@ -34,9 +34,8 @@ from hypothesis import strategies as st
 from usvid.errors import UsvidError
 
 #: Hypothesis examples per loader in ``make test`` (issue 13: at least 10,000 each), the
-#: costliest loaders' split over two files (:func:`halves`); the message-log readers, 2-20 ms a
-#: read, run fewer (tests/test_fuzz_messages.py). ``USVID_FUZZ_EXAMPLES`` sets the count (for
-#: all, the message logs included: ``make fuzz`` runs 10,000 of each).
+#: costliest loaders' split over two files (:func:`halves`), the message-log formats one file
+#: each (tests/test_fuzz_messages.py). ``USVID_FUZZ_EXAMPLES`` sets the count for all.
 N_EXAMPLES = int(os.environ.get("USVID_FUZZ_EXAMPLES", "10000"))
 
 

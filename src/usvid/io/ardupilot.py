@@ -32,6 +32,7 @@ message id, garbage).
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import math
 import os
@@ -145,14 +146,70 @@ def read_dataflash(path: str | Path, spec: FormatSpec) -> Trial:
     raise LogReadError(f"{path}: not an ArduPilot DataFlash log (no FMT message at the start)")
 
 
-def _df_index(path: Path) -> tuple[Any, ReadState]:
+def _format_ok(fmt: Any) -> bool:
+    """A DataFlash message format at least as long as the 3-byte message header."""
+    n = getattr(fmt, "len", None)
+    return isinstance(n, int) and n >= 3
+
+
+class _Formats(dict):
+    """pymavlink's table of DataFlash message formats (type -> ``DFFormat``) refusing a format
+    shorter than the 3-byte message header, which only a damaged FMT message declares:
+    pymavlink 2.4's parser steps ``length - 3`` past a message's header, so a message of
+    length 0 is parsed again forever (the reader hung) and one of 1-2 steps back. Such a
+    format, and the type's earlier definition, are dropped (its messages are then skipped
+    as unrecognised bytes) and the type is listed in ``dropped``."""
+
+    def __init__(self, formats: dict, dropped: list) -> None:
+        super().__init__((k, f) for k, f in formats.items() if _format_ok(f))
+        self.dropped = dropped
+        dropped += [k for k, f in formats.items() if not _format_ok(f)]
+
+    def __setitem__(self, key: Any, fmt: Any) -> None:
+        if _format_ok(fmt):
+            super().__setitem__(key, fmt)
+        else:
+            self.pop(key, None)
+            self.dropped.append(key)
+
+
+@functools.cache
+def _df_reader_class() -> type:
+    """pymavlink's ``DFReader_binary`` with its format table a :class:`_Formats` before the
+    first FMT message is parsed into it (both indexers fill the table in place and parse
+    messages with it)."""
     from pymavlink import DFReader
 
+    class DFReaderChecked(DFReader.DFReader_binary):
+        def __init__(self, filename: str) -> None:
+            self.dropped_formats: list = []
+            super().__init__(filename)
+
+        def _checked(self) -> None:
+            if not isinstance(self.formats, _Formats):
+                self.formats = _Formats(self.formats, self.dropped_formats)
+
+        def init_arrays(self, progress_callback: Any = None) -> None:
+            self._checked()
+            super().init_arrays(progress_callback=progress_callback)
+
+        def init_arrays_fast(self, progress_callback: Any = None) -> None:
+            self._checked()
+            super().init_arrays_fast(progress_callback=progress_callback)
+
+        def init_clock(self) -> None:
+            self._checked()
+            super().init_clock()
+
+    return DFReaderChecked
+
+
+def _df_index(path: Path) -> tuple[Any, ReadState]:
     state = ReadState()
     c_text: list[str] = []
     with _quiet() as q, _fd2_captured(c_text):
         try:
-            dfr = DFReader.DFReader_binary(str(path))
+            dfr = _df_reader_class()(str(path))
         except Exception as exc:  # pymavlink raises struct/Index/Key errors on damaged logs
             raise LogReadError(f"{path}: not a readable DataFlash log ({type(exc).__name__}: "
                                f"{' '.join(str(exc).split())[:120]})") from None
@@ -160,6 +217,14 @@ def _df_index(path: Path) -> tuple[Any, ReadState]:
     nbad = text.count("bad header")
     if nbad:
         state.reject("bad_header", nbad)
+    if dfr.dropped_formats:
+        types = sorted({int(k) for k in dfr.dropped_formats if isinstance(k, int)})
+        state.reject("bad_format", len(dfr.dropped_formats))
+        state.findings.append(Finding(
+            "warning", "log_damaged",
+            f"{path.name}: {len(dfr.dropped_formats)} FMT message(s) declaring a message "
+            f"shorter than its 3-byte header (type(s) {', '.join(map(str, types))}): those "
+            "types' messages are skipped", count=len(dfr.dropped_formats)))
     if "unknown msg type" in text:
         state.reject("unknown_type")
         state.findings.append(Finding(
@@ -189,7 +254,7 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
             if name in decoded:
                 return decoded[name]
             tid = dfr.name_to_id.get(name)
-            if tid is None or not dfr.offsets[tid]:
+            if tid is None or not dfr.offsets[tid] or tid not in dfr.formats:
                 return None
             fmt = dfr.formats[tid]
             offs = np.asarray(dfr.offsets[tid], dtype=np.int64)
