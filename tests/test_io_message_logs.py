@@ -366,6 +366,29 @@ def test_typestore_cache_keeps_the_digest_check(small_logs, tmp_path):
     assert len(read_trial(p, "ros2_usv")) == 40
 
 
+def test_typestore_cache_only_with_the_rosbags_it_copies(small_logs, monkeypatch):
+    """The cached reader re-implements rosbags 0.11's private ``AnyReader._open``: with another
+    rosbags version the plain ``AnyReader`` reads the bag (same Trial, no cache)."""
+    import importlib.metadata
+
+    from rosbags.highlevel import AnyReader
+
+    from usvid.io import rosbag as R
+
+    p = small_logs["ros1"]
+    cached = read_trial(p, "ros2_usv")
+    on_011 = importlib.metadata.version("rosbags").startswith("0.11.")
+    assert (R._reader_class() is not AnyReader) == on_011  # cached only on 0.11
+    R._reader_class.cache_clear()
+    monkeypatch.setattr(importlib.metadata, "version", lambda name: "0.12.0")
+    try:
+        assert R._reader_class() is AnyReader
+        plain = read_trial(p, "ros2_usv")
+    finally:
+        R._reader_class.cache_clear()
+    assert plain.data.equals(cached.data)
+
+
 @pytest.mark.parametrize("fmt", list(WRITERS))
 def test_missing_topic_is_one_line(small_logs, fmt):
     spec = shipped_spec(PRESET[fmt])

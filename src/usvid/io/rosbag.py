@@ -286,9 +286,15 @@ def _reader_class() -> type:
     definition formats and texts and digests of the connections, ROS 1 or 2, the default
     store when the bag stores no definitions): a bag with the same definitions as one read
     before reuses the store and its compiled code. The building and the digest check are
-    rosbags 0.11's ``AnyReader._open``; only a store that was built and checked is kept.
+    rosbags 0.11's ``AnyReader._open``; only a store that was built and checked is kept. With
+    another rosbags version (whose private ``_open`` may differ) the plain ``AnyReader``.
     """
+    from importlib.metadata import version
+
     from rosbags.highlevel import AnyReader, AnyReaderError
+
+    if tuple(version("rosbags").split(".")[:2]) != ("0", "11"):
+        return AnyReader  # another rosbags' _open may differ: read without the cache
     from rosbags.interfaces import MessageDefinitionFormat
     from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
 
