@@ -159,9 +159,10 @@ def _run_dir(ws: WS, name: str, text: str | None = None, **fields) -> str:
     return str(d)
 
 
-def _xlsx_bomb(ws: WS) -> tuple[str, str]:
+def _xlsx_bomb(ws: WS, old: bytes = b'<row r="4"', new: bytes = b'<row r="1e308"'
+               ) -> tuple[str, str]:
     """A 5 kB workbook with one row reference r="1e308" (the reader would allocate rows up to
-    it) and its spec."""
+    it), or another edit ``old`` -> ``new`` of its sheet, and its spec."""
     import zipfile
 
     import openpyxl
@@ -178,7 +179,8 @@ def _xlsx_bomb(ws: WS) -> tuple[str, str]:
         for item in zin.infolist():
             data = zin.read(item.filename)
             if item.filename.startswith("xl/worksheets/"):
-                data = data.replace(b'<row r="4"', b'<row r="1e308"')
+                assert old in data
+                data = data.replace(old, new)
             zout.writestr(item, data)
     ok.unlink()
     spec = ws.write("xlsx.yaml", "reader: excel\ncolumns:\n  t: {col: t, unit: s}\n"
@@ -286,6 +288,10 @@ LOG_CASES: dict[str, Callable[[WS], tuple[str, str, str]]] = {
                                        _spec(ws, "n2k.yaml", text="reader: nmea2000\n"),
                                        "c.log"),
     "xlsx_row_1e308": lambda ws: (*_xlsx_bomb(ws), "bomb.xlsx"),
+    # within Excel's limits but sparse: cells A1 and XFD1048576 read as a 1.7e10-cell table
+    # (openpyxl: MemoryError after 2.6 GB and 6 s under a 3 GB limit; measured 2026-11-24)
+    "xlsx_sparse_corner": lambda ws: (*_xlsx_bomb(ws, b'<c r="B6"', b'<c r="XFD1048576"'),
+                                      "bomb.xlsx"),
 }
 for cmd, build in LOG_COMMANDS.items():
     for lid, mk in LOG_CASES.items():

@@ -68,6 +68,11 @@ def check_log_file(path: Path) -> None:
 XLSX_MAX_ROW, XLSX_MAX_COL = 1_048_576, 16_384
 #: Largest uncompressed worksheet accepted [bytes] and largest compression ratio (zip bombs).
 XLSX_MAX_BYTES, XLSX_MAX_RATIO = 2_000_000_000, 1000
+#: A sheet is read as the dense rectangle from A1 to its last row and column (pandas pads
+#: every row to the widest): a rectangle of more than ``XLSX_MAX_SPAN`` cells and more than
+#: ``XLSX_MAX_SPARSE`` times the cells present is refused (a 5 kB sheet with cells A1 and
+#: XFD1048576 asks for 1.7e10 cells: gigabytes, then a MemoryError or a killed process).
+XLSX_MAX_SPAN, XLSX_MAX_SPARSE = 10_000_000, 50
 
 
 def check_xlsx_bounds(path: Path) -> None:
@@ -100,12 +105,14 @@ def check_xlsx_bounds(path: Path) -> None:
             except Exception as exc:  # zipfile raises many kinds on a corrupt member
                 raise LogReadError(f"{path}: {info.filename} cannot be unpacked "
                                    f"({type(exc).__name__})") from None
+            last_row = last_col = cells = 0
             for m in row_re.finditer(data):
                 v = m.group(1)
                 if not v.isdigit() or not 1 <= int(v) <= XLSX_MAX_ROW:
                     ref = v[:30].decode(errors="replace")
                     raise LogReadError(f"{path}: {info.filename}: row r=\"{ref}\" is not a row "
                                        f"number 1..{XLSX_MAX_ROW}")
+                last_row = max(last_row, int(v))
             for m in cell_re.finditer(data):
                 col, row = m.group(1), m.group(2)
                 ncol = 0
@@ -116,6 +123,17 @@ def check_xlsx_bounds(path: Path) -> None:
                     ref = (col + row)[:30].decode(errors="replace")
                     raise LogReadError(f"{path}: {info.filename}: cell r=\"{ref}\" is beyond "
                                        f"Excel's {XLSX_MAX_ROW} rows x {XLSX_MAX_COL} columns")
+                cells += 1
+                last_row, last_col = max(last_row, int(row)), max(last_col, ncol)
+            span = last_row * last_col
+            if span > XLSX_MAX_SPAN:  # count every cell element, with or without a reference
+                cells = max(cells, len(re.findall(rb"<(?:\w+:)?c[\s/>]", data)))
+            if span > XLSX_MAX_SPAN and span > XLSX_MAX_SPARSE * max(cells, 1):
+                raise LogReadError(
+                    f"{path}: {info.filename}: its cells span {last_row:,} rows x {last_col:,} "
+                    f"columns ({span:,} cells to read as a table, {span * 8 / 2**30:.1f} GiB at "
+                    f"8 bytes a cell, of which {cells:,} are present); at most "
+                    f"{XLSX_MAX_SPAN:,} cells or {XLSX_MAX_SPARSE} per present cell")
 
 
 #: Largest time stamp magnitude [s] taken as a time (31,700 years; epoch seconds are 1.7e9):
