@@ -175,6 +175,22 @@ def test_excel_reader_and_bad_sheet(tmp_path):
         read_trial(bad, spec)
 
 
+def test_excel_engine_reads_what_openpyxl_reads(twin_dir, tmp_path):
+    """The reader's engine (calamine) gives the same table as openpyxl on a real log (the
+    twin-thruster USV's 1,536 x 24 sheet: text time stamps, floats, integer PWM) and on a
+    workbook with a date-time column, an empty cell and mixed text/number cells."""
+    pytest.importorskip("openpyxl")
+    import datetime
+
+    p = tmp_path / "mixed.xlsx"
+    pd.DataFrame({"when": [datetime.datetime(2026, 11, 24, 1, 2, 3, 456000)] * 3,
+                  "x": [1.5, None, 3.0], "y": [1, "two", 3.25]}).to_excel(p, index=False)
+    for f in (twin_dir / "boat1_2_sin.xlsx", p):
+        a = pd.read_excel(f, engine="calamine")
+        b = pd.read_excel(f, engine="openpyxl")
+        pd.testing.assert_frame_equal(a, b)
+
+
 def test_parquet_garbage(tmp_path):
     bad = _write(tmp_path, "bad.parquet", b"PAR1 but not really", "wb")
     spec = parse_spec({"reader": "parquet", "columns": {"t": {"col": "t", "unit": "s"}}})
