@@ -601,9 +601,9 @@ def _vstep(Vp, zbp, h, frac, zig, sk):
             dl = dl2 if (SK > 0 or sk != 0.0) else dl
             dd = dd2 if (SK > 0 or sk != 0.0) else dd
         fast = quiet & ok & (not cross) & (abs(y[ZR]) <= R_MAX)
-        act = V[(VL + LACT) * CH + j]
-        V[(VL + LFLAG) * CH + j] = 0.0 if fast else 1.0
-        nslow += 0.0 if fast else act
+        flag = 0.0 if fast else 1.0
+        V[(VL + LFLAG) * CH + j] = flag
+        nslow += flag * V[(VL + LACT) * CH + j]  # (a product: a select would load it masked)
         _zput(zb, j, z)
         zb[NT * CH + j] = ovmax
         V[(VL + LOVMAX) * CH + j] = ov if upd else ovmax
