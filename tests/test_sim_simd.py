@@ -16,6 +16,7 @@ import pytest
 
 from usvid.models import (
     FirstOrderServo,
+    IdealServo,
     SecondOrderServo,
     VesselModel,
     mu2018_threedof,
@@ -32,15 +33,18 @@ B = core.CH + 8  # one full chunk and a partial one
 RTOL = 1e-12
 
 
-def _both(model: VesselModel, logic, **kw):
-    """The same batch on the SIMD path and on the per-lane path."""
+def _both(model: VesselModel, logic, generic: bool = False, **kw):
+    """The same batch on the SIMD path (``generic``: with the generic vector step) and on the
+    per-lane path."""
     try:
         core.SIMD = True
+        core.FORCE_GENERIC = generic
         a = simulate(model, logic, **kw)
         core.SIMD = False
         b = simulate(model, logic, **kw)
     finally:
         core.SIMD = True
+        core.FORCE_GENERIC = False
     return a, b
 
 
@@ -85,3 +89,24 @@ def test_simd_path_equals_per_lane_path_thrust_law_and_series():
     a, b = _both(model, Commanded(t, delta_cmd=np.radians(5.0) * np.sin(t / 3.0), n=n),
                  t_end=20.0, dt=0.02)
     _assert_same(a, b)
+
+
+@pytest.mark.parametrize("servo", [
+    IdealServo(max_rate=math.radians(20.0)),
+    FirstOrderServo(T=0.4, max_rate=math.radians(15.0)),
+    SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5, max_rate=math.radians(20.0)),
+], ids=["ideal", "first_order", "second_order"])
+@pytest.mark.parametrize("kind", ["threedof", "nomoto1"])
+def test_simd_variants_equal_per_lane_path(kind, servo):
+    """Every variant of the vector step (core.vector_step: per servo kind, without disturbance
+    and series, with and without x and y recorded, and the generic one) gives the per-lane
+    path's runs."""
+    dyn = mu2018_threedof(x_l=3.5) if kind == "threedof" else registry.get(kind).dynamics.example()
+    model = VesselModel(dyn, servo=servo, vessel=Vessel(length=7.02, speed=5.14))
+    amp = np.radians(np.linspace(8.0, 25.0, B))
+    logic = ZigZag(amp, amp, first=np.where(np.arange(B) % 2 == 0, 1, -1))
+    for channels in (None, ("psi", "r", "delta")):
+        for generic in (False, True):
+            a, b = _both(model, logic, generic=generic, t_end=30.0, dt=0.05, channels=channels,
+                         psi0=np.linspace(-0.2, 0.2, B))
+            _assert_same(a, b)

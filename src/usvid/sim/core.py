@@ -47,7 +47,9 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numba
+import numba.extending
 import numpy as np
+from llvmlite import ir as llvmir
 
 from usvid.models.kind import S0, ModelKind
 
@@ -154,7 +156,7 @@ def _rot(a: float, a0: float, c0: float, s0: float) -> tuple[float, float]:
     return c0 * ch - s0 * sh, s0 * ch + c0 * sh
 
 
-@numba.njit(cache=True, error_model="numpy", fastmath=_FM, inline="always")
+@numba.njit(cache=True, error_model="numpy", fastmath=_FM, forceinline=True)
 def _rot_nan(a: float, a0: float, c0: float, s0: float) -> tuple[float, float]:
     """:func:`_rot` without the library branch, for the vectorised step: (NaN, NaN) where
     |a - a0| > 0.05 rad (that lane's step is then integrated again by :func:`_rot`)."""
@@ -270,8 +272,123 @@ def _rk4(p, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
             z[10] + h6 * (k1[10] + 2.0 * k2[10] + 2.0 * k3[10] + k4[10]))
 
 
-_rk4v = _rk4  # the vector flavour of _rk4 (replaced in kernel())
-_vstep0 = _vstep1 = _vstep2 = _vstep3 = None  # the vector steps by switch value (kernel())
+# -- the vector step (compiled per kind and variant, see :func:`vector_step`) -----------------
+#: Variant constants of the vector step: servo kind (0 ideal, 1 first order, 2 second order);
+#: no disturbance and no input series in the batch (the disturbance filter stays at rest and
+#: the steering angle is the servo's); x and y integrated (not when neither is recorded: no
+#: other quantity depends on them, and with them goes the heading's rotation).
+SK, NOD, XY = 2, False, True
+
+
+@numba.njit(cache=True, error_model="numpy", fastmath=_FM, forceinline=True)
+def _rotv(a: float, a0: float, c0: float, s0: float) -> tuple[float, float, float]:
+    """:func:`_rot` without the library branch, for the vector step: (cos a, sin a, |a - a0|);
+    the caller flags the lane when |a - a0| > 0.05 rad (the series is then not accurate)."""
+    h = a - a0
+    h2 = h * h
+    ch = 1.0 - h2 * (0.5 - h2 * (1.0 / 24.0 - h2 * (1.0 / 720.0)))
+    sh = h * (1.0 - h2 * (1.0 / 6.0 - h2 * (1.0 / 120.0 - h2 * (1.0 / 5040.0))))
+    return c0 * ch - s0 * sh, s0 * ch + c0 * sh, abs(h)
+
+
+def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
+    """:func:`_deriv` for the vector step, with the variant's constants :data:`SK`,
+    :data:`NOD`, :data:`XY` (the branches of the other variants vanish at compile time); returns
+    (the derivative, the largest |angle - base angle| of its rotations). ``first``: the step
+    start (stage 1), where the angles are the bases' own (no rotation)."""
+    zdl = z[7]
+    ma = srv[0]
+    mr = srv[1]
+    d = _clip(zdl, ma)
+    w = z[8]
+    if SK == 0:  # the ramp (not limited: it ends at the target)
+        rate = ramp
+    else:
+        if SK == 1:
+            rate = _clip((cmdin - zdl) * srv[6], mr)
+        elif SK == 2:
+            rate = _clip(w, mr)
+        else:  # any servo kind: the blend of the per-lane flavour (weights w0, w1, w2 in srv)
+            rate = srv[8] * _clip((cmdin - zdl) * srv[6], mr) + srv[9] * _clip(w, mr)
+        if (zdl >= ma and rate > 0.0) or (zdl <= -ma and rate < 0.0):
+            rate = 0.0
+        if SK < 0:
+            rate = srv[7] * ramp + rate
+    if NOD:
+        de = d
+        n0 = np.nan
+        n1 = np.nan
+        n2 = np.nan
+    else:
+        fd = fs[0] + tau * (fs[4] - fs[0])
+        de = (d if np.isnan(fd) else fd) + DIST_B * z[10]
+        n0 = fs[1] + tau * (fs[5] - fs[1])
+        n1 = fs[2] + tau * (fs[6] - fs[2])
+        n2 = fs[3] + tau * (fs[7] - fs[3])
+    cd = 1.0
+    sd = 0.0
+    hm = 0.0
+    if TRIG:
+        if first and NOD:  # the steering angle is its base's
+            cd = tr[4]
+            sd = tr[5]
+        else:
+            cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
+    u, v, r, d0, d1, d2, d3 = rhs(p, z[3], z[4], z[5], z[6], de, cd, sd, n0, n1, n2)
+    k0 = 0.0
+    k1 = 0.0
+    if XY:
+        cps = tr[1]
+        sps = tr[2]
+        if not first:
+            cps, sps, hp = _rotv(z[2], tr[0], tr[1], tr[2])
+            hm = max(hm, hp)
+        k0 = u * cps - v * sps
+        k1 = u * sps + v * cps
+    acc = 0.0
+    if SK == 2 or SK < 0:
+        wn = srv[2]
+        acc = wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w
+        if SK < 0:
+            acc = srv[9] * acc
+    k9 = 0.0
+    k10 = 0.0
+    if not NOD:
+        k9 = z[10]
+        k10 = -DIST_A0 * z[9] - DIST_A1 * z[10] + noise
+    return (k0, k1, r, d0, d1, d2, d3, rate, acc, k9, k10), hm
+
+
+def _vaxpy(z, h, k):
+    """:func:`_axpy` for the vector step (the rows the variant does not integrate kept)."""
+    return (z[0] + h * k[0] if XY else z[0], z[1] + h * k[1] if XY else z[1],
+            z[2] + h * k[2], z[3] + h * k[3], z[4] + h * k[4], z[5] + h * k[5],
+            z[6] + h * k[6], z[7] + h * k[7], z[8] + h * k[8],
+            z[9] if NOD else z[9] + h * k[9], z[10] if NOD else z[10] + h * k[10])
+
+
+def _vrk4(p, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
+    """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``); the heading
+    is NaN when an angle moved more than 0.05 rad from its base (the lane is then flagged)."""
+    k1, m1 = _vderiv(p, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
+    tm = 0.5 * frac
+    k2, m2 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
+    k3, m3 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
+    k4, m4 = _vderiv(p, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
+    h6 = h / 6.0
+    far = max(max(m1, m2), max(m3, m4)) > 0.05
+    y2 = z[2] + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
+    return (z[0] + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]) if XY else z[0],
+            z[1] + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]) if XY else z[1],
+            np.nan if far else y2,
+            z[3] + h6 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
+            z[4] + h6 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
+            z[5] + h6 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]),
+            z[6] + h6 * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6]),
+            z[7] + h6 * (k1[7] + 2.0 * k2[7] + 2.0 * k3[7] + k4[7]),
+            z[8] + h6 * (k1[8] + 2.0 * k2[8] + 2.0 * k3[8] + k4[8]),
+            z[9] if NOD else z[9] + h6 * (k1[9] + 2.0 * k2[9] + 2.0 * k3[9] + k4[9]),
+            z[10] if NOD else z[10] + h6 * (k1[10] + 2.0 * k2[10] + 2.0 * k3[10] + k4[10]))
 
 
 # -- a chunk's work array V: row r of lane j at V[r * CH + j] (module docstring) --------------
@@ -372,40 +489,156 @@ def _base_far(V, j, i, a):
     V[o + 2 * CH] = s_ * g_
 
 
-def _vstep(V, zn, w0, w1, w2, h, frac):
-    """One RK4 step of length h [s] (the fraction ``frac`` of the step) for all :data:`CH`
-    lane slots of a chunk, the lane loop innermost so that LLVM vectorises it across lanes.
-    The trip count is the constant CH whatever the chunk's number of lanes (unused slots hold
-    zeros or stale values and are ignored): every lane is computed by the same vector code, so
-    a lane's result does not depend on its position or on the chunking.
+def _vstep(Vp, zbp, h, frac, zig, sk):
+    """One step of all :data:`CH` lane slots of a chunk, vectorised across lanes (the lane loop
+    innermost; a C callback, see :func:`vector_step`): the step's trig bases, one RK4 step of
+    length h [s] (the fraction ``frac`` of the step), and the end of the step of the quiet
+    lanes (row LQ); returns the number of active lanes flagged (row LFLAG = 1) for the per-lane
+    branch of :func:`_chunk`. The trip count is the constant CH whatever the chunk's number of
+    lanes (unused slots hold zeros or stale values and are ignored): every lane is computed by
+    the same vector code, so a lane's result does not depend on its position or on the
+    chunking.
 
-    ``V`` holds the lanes' inputs (rows: joint state, servo values, command / ramp rate /
-    noise, input series, trig bases, parameters; :data:`VS` ..), ``zn`` receives the new
-    joint states: one input and one output array of constant row length :data:`CH`, so that
-    LLVM's alias check is a single one. The heading rotation is the vector-safe
-    :func:`_rot_nan`: a lane whose heading or steering angle moved more than 0.05 rad within
-    the step gets NaN states and is integrated again on the per-lane path.
+    ``Vp`` points to the chunk's work array ``V`` (rows: joint state, servo values, command /
+    ramp rate / noise, input series, trig bases, logic variables, parameters; :data:`VS` ..),
+    ``zbp`` to the scratch ``zb`` (NT + 2 rows). Per lane slot:
+
+    * trig bases: the heading's (with :data:`XY`) and, for a TRIG kind, the steering angle's,
+      rotated from the previous step's (:func:`_rot_nan`) and renormalised; NaN where the angle
+      moved more than 0.05 rad (the lane is then flagged, and its bases are computed by the
+      library before the per-lane step);
+    * max |delta| of the quiet lanes at the step start;
+    * the RK4 step (:func:`_vrk4`; the heading NaN where an angle moved more than 0.05 rad from
+      its base within the step);
+    * the end of the step, the same arithmetic as the per-lane branch of :func:`_chunk`: the
+      servo limits, the zig-zag overshoot tracker (``zig``: the logic is a zig-zag); a lane is
+      flagged when its step must go the per-lane way: not quiet, a state not finite, a zig-zag
+      reversal inside the step, or divergence (:data:`R_MAX`).
+
+    The new rows (joint state, overshoot) of every lane slot go into ``V``, the old ones into
+    ``zb``, from which :func:`_chunk` restores the flagged and the inactive lanes
+    (:func:`_restore`): a blend stored in place (``V[o] = new if fast else V[o]``) compiles to
+    masked stores, microcoded on AMD Zen.
     """
+    V = numba.carray(Vp, (VP + NPK) * CH)
+    zb = numba.carray(zbp, (NT + 2) * CH)
+    w0 = 1.0 if sk == 0.0 else 0.0  # the servo blend's weights (variant SK = -1)
+    w1 = 1.0 if sk == 1.0 else 0.0
+    w2 = 1.0 if sk == 2.0 else 0.0
+    nslow = 0.0
     for j in range(CH):
-        srv, fs, tr = _inputs(V, j)
-        y = _rk4v(_ptup(V, j), _ztup(V, j), h, 0.0, frac, srv, w0, w1, w2,
-                  V[VCMD * CH + j], V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
-        _zput(zn, j, y)
+        a = V[2 * CH + j]
+        c0 = 1.0
+        s0 = 0.0
+        if XY:
+            o = VT * CH + j
+            c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
+            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+            c0 = c_ * g_
+            s0 = s_ * g_
+            V[o] = a
+            V[o + CH] = c0
+            V[o + 2 * CH] = s0
+        x7 = V[7 * CH + j]
+        ma = V[VS * CH + j]
+        d = ma if x7 > ma else (-ma if x7 < -ma else x7)  # _clip, as selects
+        a3 = 0.0
+        c3 = 1.0
+        s3 = 0.0
+        if TRIG:
+            o = (VT + 3) * CH + j
+            a3 = d if NOD else _steer(V, j)
+            c_, s_ = _rot_nan(a3, V[o], V[o + CH], V[o + 2 * CH])
+            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+            c3 = c_ * g_
+            s3 = s_ * g_
+            V[o] = a3
+            V[o + CH] = c3
+            V[o + 2 * CH] = s3
+        tr = (a, c0, s0, a3, c3, s3)
+        o = VS * CH + j
+        srv = (ma, V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+               V[o + 6 * CH], w0, w1, w2)
+        if NOD:
+            fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan)
+        else:
+            o = VF * CH + j
+            fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+                  V[o + 6 * CH], V[o + 7 * CH])
+        z = _ztup(V, j)
+        y = _vrk4(_ptup(V, j), z, h, frac, srv, V[VCMD * CH + j], V[VRAMP * CH + j],
+                  V[VNOISE * CH + j], fs, tr)
+        quiet = V[(VL + LQ) * CH + j] > 0.0
+        # max |delta| of the quiet lanes at the step start (the measured angle is absent on
+        # the quiet path: the servo's, limited); the old value also goes to a scratch row: a
+        # second use of it, else LLVM makes the store a masked one
+        m = V[(VL + LMAXD) * CH + j]
+        zb[(NT + 1) * CH + j] = m
+        V[(VL + LMAXD) * CH + j] = max(m, abs(d) if quiet else 0.0)
+        # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
+        # every load unconditional, clips as selects: no masked loads and stores)
+        ok = (np.isfinite(y[0]) & np.isfinite(y[1]) & np.isfinite(y[2]) & np.isfinite(y[3])
+              & np.isfinite(y[4]) & np.isfinite(y[5]) & np.isfinite(y[6]))
+        cur = V[(VL + LCUR) * CH + j]
+        cur = cur if zig > 0.0 else 0.0
+        sw = V[(VL + LSW) * CH + j]
+        dev1 = y[2] - V[(VL + LPSI0) * CH + j]
+        cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
+        ovmax = V[(VL + LOVMAX) * CH + j]
+        ov = -cur * dev1 - sw
+        upd = (cur != 0.0) & (V[(VL + LZZN) * CH + j] >= 1.0) & (np.isnan(ovmax) | (ov > ovmax))
+        dl = y[7]
+        dd = y[8]
+        if SK != 0:
+            above = dl > ma
+            below = dl < -ma
+            dd2 = min(dd, 0.0) if above else (max(dd, 0.0) if below else dd)
+            dl2 = ma if above else (-ma if below else dl)
+            if SK == 2 or SK < 0:
+                mr = srv[1]
+                dd3 = mr if dd2 > mr else (-mr if dd2 < -mr else dd2)
+                dd2 = dd3 if (SK == 2 or sk == 2.0) else dd2
+            dl = dl2 if (SK > 0 or sk != 0.0) else dl
+            dd = dd2 if (SK > 0 or sk != 0.0) else dd
+        fast = quiet & ok & (not cross) & (abs(y[ZR]) <= R_MAX)
+        flag = 0.0 if fast else 1.0
+        V[(VL + LFLAG) * CH + j] = flag
+        nslow += flag * V[(VL + LACT) * CH + j]  # (a product: a select would load it masked)
+        _zput(zb, j, z)
+        zb[NT * CH + j] = ovmax
+        V[(VL + LOVMAX) * CH + j] = ov if upd else ovmax
+        if XY:
+            V[j] = y[0]
+            V[CH + j] = y[1]
+        V[2 * CH + j] = y[2]
+        V[3 * CH + j] = y[3]
+        V[4 * CH + j] = y[4]
+        V[5 * CH + j] = y[5]
+        V[6 * CH + j] = y[6]
+        V[7 * CH + j] = dl
+        V[8 * CH + j] = dd
+        if not NOD:
+            V[9 * CH + j] = y[9]
+            V[10 * CH + j] = y[10]
+    return nslow
 
 
-def _vsteps(V, zn, w0, w1, w2, h, frac, swi):
-    """:func:`_vstep` of the chunk's switch value ``swi`` (index into :data:`SWV`; NSW - 1:
-    the generic step): compiled once per value with the switch row of the parameters a
-    constant, so that the vector code holds only the right-hand side's branch of that value
-    (e.g. one thrust law, not all)."""
-    if swi == 0 or NSW == 1:
-        _vstep0(V, zn, w0, w1, w2, h, frac)
-    elif swi == 1 or NSW == 2:
-        _vstep1(V, zn, w0, w1, w2, h, frac)
-    elif swi == 2 or NSW == 3:
-        _vstep2(V, zn, w0, w1, w2, h, frac)
-    else:
-        _vstep3(V, zn, w0, w1, w2, h, frac)
+@numba.extending.intrinsic
+def _vcall(typingctx, addr, V, zb, h, frac, zig, sk):
+    """Call the vector step at address ``addr`` (:func:`vector_step`) on the arrays V, zb."""
+    f8 = numba.types.float64
+    sig = f8(numba.types.int64, V, zb, f8, f8, f8, f8)
+
+    def codegen(context, builder, signature, args):
+        a, v, z, hh, fr, zg, k = args
+        pv = context.make_array(signature.args[1])(context, builder, v).data
+        pz = context.make_array(signature.args[2])(context, builder, z).data
+        fnty = llvmir.FunctionType(llvmir.DoubleType(),
+                                   [pv.type, pz.type, hh.type, fr.type, zg.type, k.type])
+        fn = builder.inttoptr(a, fnty.as_pointer())
+        return builder.call(fn, [pv, pz, hh, fr, zg, k])
+
+    return sig, codegen
 
 
 def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt, qv, b, qh,
@@ -537,118 +770,36 @@ def _vmaxd(V, tmp):
         V[o + j] = tmp[j]
 
 
-def _vfinish(V, zn, zb, zig, skind):
-    """The end of the step for the quiet lanes (row LQ), vectorised: the new joint states of
-    the vector step ``zn`` with the servo limits into ``V``, the zig-zag overshoot tracker; a
-    lane is flagged (row LFLAG = 1) when its step must go the per-lane way:
-    not quiet, a state not finite (or flagged NaN by the vector step), a zig-zag reversal
-    inside the step, or divergence (:data:`R_MAX`). The same arithmetic as the per-lane
-    branch of :func:`_chunk`. Returns the number of flagged active lanes.
-
-    The new rows (joint state and overshoot) of every lane slot go into ``V``, the old ones
-    into the scratch ``zb`` (NT + 1 rows), from which :func:`_chunk` restores the flagged and
-    the inactive lanes (:func:`_restore`)."""
-    nslow = 0.0
-    for j in range(CH):
-        z0 = zn[j]
-        z1 = zn[CH + j]
-        z2 = zn[2 * CH + j]
-        z3 = zn[3 * CH + j]
-        z4 = zn[4 * CH + j]
-        z5 = zn[5 * CH + j]
-        z6 = zn[6 * CH + j]
-        z7 = zn[7 * CH + j]
-        z8 = zn[8 * CH + j]
-        # (bitwise & and |: no short-circuit branches in the vectorised loop)
-        ok = (np.isfinite(z0) & np.isfinite(z1) & np.isfinite(z2) & np.isfinite(z3)
-              & np.isfinite(z4) & np.isfinite(z5) & np.isfinite(z6))
-        # (every load unconditional, clips as selects: no masked loads and stores)
-        cur = V[(VL + LCUR) * CH + j]
-        cur = cur if zig else 0.0
-        sw = V[(VL + LSW) * CH + j]
-        dev1 = z2 - V[(VL + LPSI0) * CH + j]
-        cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
-        ovmax = V[(VL + LOVMAX) * CH + j]
-        ov = -cur * dev1 - sw
-        upd = (cur != 0.0) & (V[(VL + LZZN) * CH + j] >= 1.0) & (np.isnan(ovmax) | (ov > ovmax))
-        ovmax = ov if upd else ovmax
-        dl = z7
-        dd = z8
-        ma = V[VS * CH + j]
-        mr = V[(VS + 1) * CH + j]
-        if skind != 0:
-            above = dl > ma
-            below = dl < -ma
-            dd = min(dd, 0.0) if above else (max(dd, 0.0) if below else dd)
-            dl = ma if above else (-ma if below else dl)
-            if skind == 2:
-                dd = mr if dd > mr else (-mr if dd < -mr else dd)
-        zr = zn[ZR * CH + j]
-        fast = (V[(VL + LQ) * CH + j] > 0.0) & ok & (not cross) & (abs(zr) <= R_MAX)
-        V[(VL + LFLAG) * CH + j] = 0.0 if fast else 1.0
-        nslow += 0.0 if fast else V[(VL + LACT) * CH + j]
-        # every lane's new rows go into V unconditionally, its old ones into zb: the per-lane
-        # branch of _chunk puts back the old rows of the flagged and inactive lanes (a blend
-        # stored in place, V[o] = new if fast else V[o], compiles to masked stores, microcoded
-        # on AMD Zen; a blend into a scratch and a copy back cost twice the loads and stores)
-        zb[j] = V[j]
-        zb[CH + j] = V[CH + j]
-        zb[2 * CH + j] = V[2 * CH + j]
-        zb[3 * CH + j] = V[3 * CH + j]
-        zb[4 * CH + j] = V[4 * CH + j]
-        zb[5 * CH + j] = V[5 * CH + j]
-        zb[6 * CH + j] = V[6 * CH + j]
-        zb[7 * CH + j] = V[7 * CH + j]
-        zb[8 * CH + j] = V[8 * CH + j]
-        zb[9 * CH + j] = V[9 * CH + j]
-        zb[10 * CH + j] = V[10 * CH + j]
-        zb[NT * CH + j] = V[(VL + LOVMAX) * CH + j]
-        V[j] = z0
-        V[CH + j] = z1
-        V[2 * CH + j] = z2
-        V[3 * CH + j] = z3
-        V[4 * CH + j] = z4
-        V[5 * CH + j] = z5
-        V[6 * CH + j] = z6
-        V[7 * CH + j] = dl
-        V[8 * CH + j] = dd
-        V[9 * CH + j] = zn[9 * CH + j]
-        V[10 * CH + j] = zn[10 * CH + j]
-        V[(VL + LOVMAX) * CH + j] = ovmax
-    return nslow
-
-
 def _restore(V, zb, j):
-    """Lane j's joint state and overshoot from before the vector step (:func:`_vfinish`)."""
+    """Lane j's joint state and overshoot from before the vector step (:func:`_vstep`)."""
     for r in range(NT):
         V[r * CH + j] = zb[r * CH + j]
     V[(VL + LOVMAX) * CH + j] = zb[NT * CH + j]
 
 
 def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots,
-           rec, acc, zz, zzt, status, qt, qv, simd):
+           rec, acc, zz, zzt, status, qt, qv, simd, vaddr):
     """Integrate lanes lo..hi-1 (at most :data:`CH`) together: one task of :func:`run`.
 
     The chunk's joint states, parameters, servo values, inputs and logic variables live in
     the work array ``V`` (a row per quantity, a column per lane; rows :data:`VS` ..,
     :data:`VL` + :data:`LCMDLOG` ..). A lane is *quiet* in a step when no logic acts and no
     event is due at its start or inside it (:func:`_quiet_until`, :func:`_vquiet`). Each step:
-    vectorised, the quiet lanes' record bookkeeping and max |delta|; per lane, for the other
-    lanes only, the logic, the events due at the step start, the record and the noise; the
-    trig bases (vectorised); one vectorised RK4 step of all lanes (:func:`_vsteps`, when
-    ``simd`` and the chunk's lanes share a switch value); then, vectorised, the end of the
-    step of the quiet lanes (:func:`_vfinish`); per lane, for the lanes it flags and the
-    others only, the step is integrated again on the per-lane path (:func:`_substeps`) where
-    an event falls inside it (or the vector step flagged it), the zig-zag switching is
-    located, the servo limits and the divergence test are applied. The quiet and the per-lane
-    branches do the same arithmetic (results do not depend on which lanes share a chunk).
-    Without ``simd`` every step takes the per-lane path (the reference).
+    the quiet lanes' records; per lane, for the other lanes only, the logic, the events due at
+    the step start, the record and the noise; the vector step of all lanes (:func:`_vstep`:
+    trig bases, RK4, max |delta| and the end of the step of the quiet lanes; when ``simd``,
+    the variant at ``vaddr[swi]``, ``swi`` the chunk's switch value, see :func:`run`); per
+    lane, for the lanes it flags and the others only, the step is integrated again on the
+    per-lane path (:func:`_substeps`) where an event falls inside it (or the vector step
+    flagged it), the zig-zag switching is located, the servo limits and the divergence test
+    are applied. The quiet and the per-lane branches do the same arithmetic (results do not
+    depend on which lanes share a chunk). Without ``simd`` every step takes the per-lane path
+    (the reference).
     """
     ID = S0 + NS
     W = hi - lo
     V = np.zeros((VP + NPK) * CH)
-    zn = np.empty(NT * CH)
-    zb = np.empty((NT + 1) * CH)  # scratch rows of _vfinish, _vmaxd
+    zb = np.empty((NT + 2) * CH)  # scratch rows of _vstep, _vmaxd
     for j in range(CH):
         V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
         V[(VT + 4) * CH + j] = 1.0
@@ -726,6 +877,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         for j in range(W):
             if P[lo + j, SWR] != sv0:
                 swi = NSW - 1
+    if vaddr[swi] == 0:  # no vector step compiled for it (run() compiles the chunks' ones)
+        simd = False
     # lanes whose logic or inputs act at every step are never quiet
     busy = series or lk == COURSE or (lk == COMMANDED and s4_ >= 0)
     for k in range(nmax + 1):
@@ -742,7 +895,6 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 if V[(VL + LQ) * CH + j] > 0.0:
                     _record(V, j, lo + j, jrec, slots, rec,
                             _clip(V[7 * CH + j], V[VS * CH + j]), V[(VL + LCMDLOG) * CH + j])
-        _vmaxd(V, zb)
         # -- phase 1, per lane: inputs, logic, events at the step start, record, trig bases --
         for j in range(W if nq < nact else 0):
             if not act[j] or V[(VL + LQ) * CH + j] > 0.0:
@@ -836,28 +988,35 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             V[VNOISE * CH + j] = noise
             simple[j] = simd and not ((qn > 0 and qt[b, qh] < t1) or rend < t1)
             nsimple += simple[j]
-        # -- trig bases of the step: vectorised, then per lane where an angle moved far --
-        for j in range(W if _vbases(V) > 0.0 else 0):
-            if act[j] and np.isnan(V[(VT + 1) * CH + j]):
-                _base_far(V, j, 0, V[2 * CH + j])
-            if TRIG and act[j] and np.isnan(V[(VT + 4) * CH + j]):
-                _base_far(V, j, 3, _steer(V, j))
-        # -- phase 2: the vectorised RK4 step of all lanes --
+        # -- phase 2: the vector step of all lanes (the quiet lanes' step is complete unless
+        # flagged, row LFLAG); else the max |delta| of the quiet lanes and the trig bases --
         nslow = float(nact)
         if nsimple > 0:
-            _vsteps(V, zn, w0, w1, w2, t1 - t, (t1 - t) * idt, swi)
-            # the quiet lanes' step is complete unless flagged (row LFLAG): vectorised
-            nslow = _vfinish(V, zn, zb, lk == ZIGZAG, skind)
+            nslow = _vcall(vaddr[swi], V, zb, t1 - t, (t1 - t) * idt,
+                           1.0 if lk == ZIGZAG else 0.0, float(skind))
+        else:
+            _vmaxd(V, zb)
+            for j in range(W if _vbases(V) > 0.0 else 0):
+                if act[j] and np.isnan(V[(VT + 1) * CH + j]):
+                    _base_far(V, j, 0, V[2 * CH + j])
+                if TRIG and act[j] and np.isnan(V[(VT + 4) * CH + j]):
+                    _base_far(V, j, 3, _steer(V, j))
         # -- phase 3, per lane: events inside the step, zig-zag switching, limits, divergence --
         for j in range(W if (nslow > 0.0 or (nsimple > 0 and nact < W)) else 0):
+            zv = _ztup(V, j)  # the vector step's result (limits applied)
             if nsimple > 0 and (not act[j] or V[(VL + LFLAG) * CH + j] != 0.0):
-                _restore(V, zb, j)  # the state before the vector step (_vfinish)
+                _restore(V, zb, j)  # the state before the vector step
             if not act[j] or (nsimple > 0 and V[(VL + LFLAG) * CH + j] == 0.0):
                 continue
+            if nsimple > 0:  # a trig base the vector step left NaN: by the library
+                if np.isnan(V[(VT + 1) * CH + j]):
+                    _base_far(V, j, 0, V[2 * CH + j])
+                if TRIG and np.isnan(V[(VT + 4) * CH + j]):
+                    _base_far(V, j, 3, _steer(V, j))
             b = lo + j
             ok = False
             if (simd and V[(VL + LQ) * CH + j] > 0.0) or simple[j]:
-                z = _ztup(zn, j)
+                z = zv
                 ok = (np.isfinite(z[0]) and np.isfinite(z[1]) and np.isfinite(z[2])
                       and np.isfinite(z[3]) and np.isfinite(z[4]) and np.isfinite(z[5])
                       and np.isfinite(z[6]))
@@ -966,6 +1125,9 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
 
 #: Set to False to integrate every step on the per-lane path (the reference for the benchmark).
 SIMD = True
+#: Set to True to use the generic variant of the vector step (any servo kind, disturbance,
+#: series, with x and y; see :func:`vector_step`) for every batch.
+FORCE_GENERIC = False
 
 
 def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: np.ndarray,
@@ -982,7 +1144,9 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     (n_series, 1 or B, N) and ``rec`` (n_channels, B, N_rec). Lanes are integrated in chunks of
     ``chunk`` lanes that step together (:func:`_chunk`, vectorised across the chunk's lanes);
     chunks run in parallel on a thread pool (the kernel is compiled ``nogil``), as many threads
-    as numba's thread count.
+    as numba's thread count. The vector step's variant (:func:`vector_step`) follows from the
+    batch: the servo kind, whether it has a disturbance or input series, whether x or y is
+    recorded, and the chunks' switch values.
     """
     B, nz = Z.shape
     chunk = max(1, min(chunk, CH))
@@ -992,12 +1156,20 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     qt, qv = np.empty((B, qcap)), np.empty((B, qcap))
     sstride = 1 if SER.shape[1] > 1 else 0
     simd = bool(SIMD)
+    starts = list(range(0, B, chunk))
+    vaddr = np.zeros(4, dtype=np.int64)
+    if simd:
+        ID = S0 + kind.n_states
+        nod = (not bool(np.any(sidx[:4] >= 0)) and not bool(np.any(Dq[:, 0] > 0.0))
+               and not bool(np.any(Z[:, ID + 2:ID + 4] != 0.0)))
+        xy = bool(slots[0] >= 0 or slots[1] >= 0)
+        for swi in _chunk_switches(kind, P, starts, chunk):
+            vaddr[swi] = vector_step(kind, swi, skind, nod, xy)
 
     def task(lo: int) -> None:
         lanes(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,
-              dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd)
+              dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd, vaddr)
 
-    starts = list(range(0, B, chunk))
     threads = min(numba.get_num_threads(), len(starts))
     if threads <= 1:
         for lo in starts:
@@ -1009,12 +1181,17 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
 
 
 _TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
-              "_vbases", "_base_far", "_vsteps", "_substeps", "_record", "_quiet_until", "_vquiet",
-              "_vmaxd", "_vfinish", "_restore", "_chunk")
-#: compiled twice: the per-lane flavour and the vector flavour (:func:`_rot_nan`)
-_STEP = ("_deriv", "_axpy", "_rk4")
+              "_vbases", "_base_far", "_substeps", "_record", "_quiet_until", "_vquiet",
+              "_vmaxd", "_restore", "_chunk")
+#: the vector step's templates (:func:`vector_step`)
+_VTEMPLATES = ("_vderiv", "_vaxpy", "_vrk4")
 _KERNELS: dict[str, Any] = {}
 _GLOBALS: dict[str, dict[str, Any]] = {}  # the specialised functions, by kernel key
+_VSTEPS: dict[tuple[Any, ...], Any] = {}  # the compiled vector steps, by kernel key and variant
+#: C signature of the vector step: (V, zb, h, frac, zig, servo kind) -> number of flagged lanes
+_VSIG = numba.types.float64(numba.types.CPointer(numba.types.float64),
+                            numba.types.CPointer(numba.types.float64), numba.types.float64,
+                            numba.types.float64, numba.types.float64, numba.types.float64)
 
 
 def kernel(kind: ModelKind) -> Any:
@@ -1025,7 +1202,7 @@ def kernel(kind: ModelKind) -> Any:
     source, so that the on-disk cache of one kind (or of an edited kind) is never taken for
     another's. Everything that does not depend on the kind is compiled once for all kinds.
     """
-    key = f"{kind.name}_{kind.source_hash or 'x'}"
+    key = _kernel_key(kind)
     if key in _KERNELS:
         return _KERNELS[key]
     g = dict(globals())
@@ -1040,21 +1217,67 @@ def kernel(kind: ModelKind) -> Any:
     g["_ptup"] = _ptup_fn(g, kind.n_params)
     for name in _TEMPLATES:
         _specialise(g, name, f"{name}__{key}")
-    # the vector steps (compiled lazily like the rest, after the helpers above): one per switch
-    # value with the switch row a literal, then the generic one
-    for i, value in enumerate((*values, None)):
-        const = {kind.switch_row: value} if value is not None else {}
-        gv = dict(g, _rot=_rot_nan, _ptup=_ptup_fn(g, kind.n_params, const))
-        for name in _STEP:  # the vector flavour of the step functions
-            _specialise(gv, name, f"{name}v{i}__{key}")
-        gv["_rk4v"] = gv["_rk4"]
-        _specialise(gv, "_vstep", f"_vstep{i}__{key}")
-        g[f"_vstep{i}"] = gv["_vstep"]
-    for i in range(len(values) + 1, 4):
-        g[f"_vstep{i}"] = g["_vstep0"]
     _KERNELS[key] = g["_chunk"]
     _GLOBALS[key] = g
     return g["_chunk"]
+
+
+def _kernel_key(kind: ModelKind) -> str:
+    return f"{kind.name}_{kind.source_hash or 'x'}"
+
+
+def _chunk_switches(kind: ModelKind, P: np.ndarray, starts: list[int], chunk: int) -> set[int]:
+    """The switch-value indices (``swi`` of :func:`_chunk`) of the chunks starting at
+    ``starts``: the index of the chunk's common value of the switch row in :data:`SWV`, else
+    NSW - 1 (the generic step)."""
+    g = _GLOBALS[_kernel_key(kind)]
+    nsw, swr, swv = g["NSW"], g["SWR"], g["SWV"]
+    if swr < 0:
+        return {nsw - 1}
+    col = P[:, swr]
+    out = set()
+    for lo in starts:
+        seg = col[lo:lo + chunk]
+        swi = nsw - 1
+        for i in range(nsw - 1):
+            if swv[i] == seg[0]:
+                swi = i
+        if np.any(seg != seg[0]):
+            swi = nsw - 1
+        out.add(swi)
+    return out
+
+
+def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool) -> int:
+    """Address of the vector step (:func:`_vstep`, a C callback) of ``kind`` for the switch
+    value ``swi`` (index into the kind's switch values, the last: generic), the servo kind
+    ``sk``, without disturbance and input series (``nod``), with x and y (``xy``); compiled at
+    first use (cached on disk), only the variants a batch needs.
+
+    One variant per combination keeps the vector code free of the others' branches: the
+    servo's blend of the three kinds, the disturbance filter, the first-order-hold series and,
+    when neither x nor y is recorded, the position and the heading's rotation (the quiet lanes'
+    x and y then stay as they were: nothing reads them). The switch row of the parameters is a
+    literal in the variant of a switch value (e.g. one thrust law in the code, not all). A kind
+    whose right-hand side is not inlined (:data:`INLINE_MAX_PARAMS`: its lane loop is not
+    vectorised, the variants would gain little) has one variant per switch value: any servo
+    kind (``sk`` -1: the per-lane flavour's blend), disturbance, series, x and y."""
+    key = _kernel_key(kind)
+    kernel(kind)
+    g = _GLOBALS[key]
+    if g["NPK"] > INLINE_MAX_PARAMS or FORCE_GENERIC:
+        sk, nod, xy = -1, False, True
+    vk = (key, swi, sk, bool(nod), bool(xy))
+    if vk in _VSTEPS:
+        return _VSTEPS[vk].address
+    swv, nsw, swr = g["SWV"], g["NSW"], g["SWR"]
+    const = {swr: float(swv[swi])} if swr >= 0 and swi < nsw - 1 else {}
+    gv = dict(g, SK=sk, NOD=bool(nod), XY=bool(xy), _ptup=_ptup_fn(g, g["NPK"], const))
+    tag = f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
+    for name in _VTEMPLATES:
+        _specialise(gv, name, f"{name}{tag}__{key}")
+    _VSTEPS[vk] = _specialise(gv, "_vstep", f"_vstep{tag}__{key}", cfunc=True)
+    return _VSTEPS[vk].address
 
 
 def _ptup_fn(g: dict[str, Any], npk: int, const: dict[int, float] | None = None) -> Any:
@@ -1065,7 +1288,7 @@ def _ptup_fn(g: dict[str, Any], npk: int, const: dict[int, float] | None = None)
                     for i in range(npk))
     ns: dict[str, Any] = {}
     exec(f"def _ptup(V, j):\n    return ({src},)\n", ns)  # noqa: S102 - generated unpacking
-    return numba.njit(inline="always")(types.FunctionType(ns["_ptup"].__code__, g))
+    return numba.njit(forceinline=True)(types.FunctionType(ns["_ptup"].__code__, g))
 
 
 #: Kinds with more parameters than this keep one out-of-line copy of their right-hand side per
@@ -1074,8 +1297,9 @@ def _ptup_fn(g: dict[str, Any], npk: int, const: dict[int, float] | None = None)
 INLINE_MAX_PARAMS = 40
 
 
-def _specialise(g: dict[str, Any], name: str, qual: str) -> None:
-    """Compile the template ``name`` with the globals ``g`` under the name ``qual`` into g."""
+def _specialise(g: dict[str, Any], name: str, qual: str, cfunc: bool = False) -> Any:
+    """Compile the template ``name`` with the globals ``g`` under the name ``qual`` into g
+    (``cfunc``: as a C callback of signature :data:`_VSIG`, compiled now); returns it."""
     template = globals()[name]
     code = template.__code__.replace(co_name=qual, co_qualname=qual)
     fn = types.FunctionType(code, g, qual, template.__defaults__)
@@ -1084,10 +1308,14 @@ def _specialise(g: dict[str, Any], name: str, qual: str) -> None:
     opts: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": _FM}
     if name == "_chunk":
         opts["nogil"] = True
-    if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer"):
-        opts["inline"] = "always"  # tuples only: no reference counting
-    if name == "_deriv" and (g["NPK"] > INLINE_MAX_PARAMS or g["_rot"] is not _rot_nan):
+    if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer", "_vderiv",
+                "_vaxpy", "_vrk4"):
+        # inlined by LLVM (tuples only: no reference counting): numba's own inlining
+        # (inline="always") copies the IR at every call site, most of the compile time
+        opts["forceinline"] = True
+    if name == "_deriv" or (name == "_vderiv" and g["NPK"] > INLINE_MAX_PARAMS):
         # one out-of-line copy in the per-lane flavour (integrating only the steps with an
         # event inside, or lanes the vector step does not take): a quarter of the compile work
-        opts["inline"] = "never"
-    g[name] = numba.njit(**opts)(fn)
+        opts["forceinline"] = False
+    g[name] = numba.cfunc(_VSIG, **opts)(fn) if cfunc else numba.njit(**opts)(fn)
+    return g[name]

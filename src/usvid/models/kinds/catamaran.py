@@ -113,14 +113,14 @@ class Catamaran(Dynamics):
 _T0 = 12
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True)
 def _thrust_law(p):
     """The packed thrust law (``thrust_row``) of a lane's parameter tuple."""
     return (p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21],
             p[22], p[23], p[24], p[25], p[26], p[27], p[28], p[29], p[30], p[31])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True)
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
     """Module docstring equations; returns (u, v, r, u', v', r')."""
     u = s0

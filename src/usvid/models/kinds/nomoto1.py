@@ -41,7 +41,7 @@ class Nomoto1(Dynamics):
     kind: ClassVar[str] = "nomoto1"
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True)
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
     """r' = (K (delta + delta0) - r) / T; returns (U, 0, r, r'). Rows: K, T, delta0, U, 1/T."""
     r = s0

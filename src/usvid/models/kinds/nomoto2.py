@@ -43,7 +43,7 @@ class Nomoto2(Dynamics):
     kind: ClassVar[str] = "nomoto2"
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True)
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
     """Observable canonical form; rows K, T1, T2, T3, delta0, U, a1, a0, b1, b0."""
     x1 = s0

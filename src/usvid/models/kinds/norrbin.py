@@ -58,7 +58,7 @@ class Norrbin(Dynamics):
         return float(pick[np.argmax(np.abs(pick))])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True)
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
     """r' = (K (delta + delta0) - n1 r - n3 r^3) / T; rows K, T, n1, n3, delta0, U, 1/T."""
     r = s0
