@@ -1,18 +1,7 @@
-"""Fuzzing (``fuzz`` marker): the ROS 1 bag reader, in a file of its own so that
-``--dist loadfile`` spreads the message-log formats over the workers. See
-tests/test_fuzz_messages.py and tests/fuzzing.py."""
+"""Fuzzing of the ros1 reader, in a file of its own so that ``--dist loadfile`` spreads the
+formats over the workers (tests/test_fuzz_messages.py, which skips without the extras)."""
 
-from __future__ import annotations
-
-import pytest
-
-pytest.importorskip("rosbags")
-pytest.importorskip("pyulog")
-pytest.importorskip("pymavlink")
-
-from test_fuzz_messages import fuzz_message_log  # noqa: E402
-
-pytestmark = pytest.mark.fuzz
+from test_fuzz_messages import fuzz_message_log, pytestmark  # noqa: F401 - the fuzz marker
 
 
 def test_ros1_reader(tmp_path):
