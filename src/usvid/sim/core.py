@@ -689,36 +689,50 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
     return z, cmdin, ramp, rend, qh, qn
 
 
+def _chval(V, j, ch, dnow, cmdlog):
+    """Lane j's value of channel ``ch`` (:data:`CHANNELS`) at the step start."""
+    if ch <= 2:
+        return V[ch * CH + j]
+    if ch == 3:
+        return V[(VP + SPEED_ROW) * CH + j] if BU < 0 else V[ZU * CH + j]
+    if ch == 4:
+        return 0.0 if BV < 0 else V[ZV * CH + j]
+    if ch == 5:
+        return V[ZR * CH + j]
+    if ch == 6:
+        if BU < 0:
+            return V[(VP + SPEED_ROW) * CH + j]
+        vu = V[ZU * CH + j]
+        vv = V[ZV * CH + j]
+        return math.sqrt(vu * vu + vv * vv)
+    if ch == 7:
+        return dnow
+    if ch == 8:
+        return cmdlog
+    if ch <= 11:
+        return V[(VF + ch - 8) * CH + j]  # n, n_port, n_stbd at the step start
+    return DIST_B * V[10 * CH + j]
+
+
 def _record(V, j, b, jrec, slots, rec, dnow, cmdlog):
     """Record lane j (lane b of the batch) at the step start into ``rec[:, b, jrec]``."""
     for ch in range(13):
         sl = slots[ch]
+        if sl >= 0:
+            rec[sl, b, jrec] = _chval(V, j, ch, dnow, cmdlog)
+
+
+def _vrecord(V, lo, W, jrec, slots, rec):
+    """Record the quiet lanes (row LQ) of the chunk at the step start, channel by channel (the
+    values of :func:`_record`: the measured steering angle is absent on the quiet path)."""
+    for ch in range(13):
+        sl = slots[ch]
         if sl < 0:
             continue
-        if ch <= 2:
-            val = V[ch * CH + j]
-        elif ch == 3:
-            val = V[(VP + SPEED_ROW) * CH + j] if BU < 0 else V[ZU * CH + j]
-        elif ch == 4:
-            val = 0.0 if BV < 0 else V[ZV * CH + j]
-        elif ch == 5:
-            val = V[ZR * CH + j]
-        elif ch == 6:
-            if BU < 0:
-                val = V[(VP + SPEED_ROW) * CH + j]
-            else:
-                vu = V[ZU * CH + j]
-                vv = V[ZV * CH + j]
-                val = math.sqrt(vu * vu + vv * vv)
-        elif ch == 7:
-            val = dnow
-        elif ch == 8:
-            val = cmdlog
-        elif ch <= 11:
-            val = V[(VF + ch - 8) * CH + j]  # n, n_port, n_stbd at the step start
-        else:
-            val = DIST_B * V[10 * CH + j]
-        rec[sl, b, jrec] = val
+        for j in range(W):
+            if V[(VL + LQ) * CH + j] > 0.0:
+                rec[sl, lo + j, jrec] = _chval(V, j, ch, _clip(V[7 * CH + j], V[VS * CH + j]),
+                                               V[(VL + LCMDLOG) * CH + j])
 
 
 def _quiet_until(V, j, b, lk, L, qt, busy):
@@ -896,10 +910,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         nq = _vquiet(V, float(k), t1 + eps)
         nsimple = int(nq) if simd else 0
         if recnow and nq > 0.0:
-            for j in range(W):
-                if V[(VL + LQ) * CH + j] > 0.0:
-                    _record(V, j, lo + j, jrec, slots, rec,
-                            _clip(V[7 * CH + j], V[VS * CH + j]), V[(VL + LCMDLOG) * CH + j])
+            _vrecord(V, lo, W, jrec, slots, rec)
         # -- phase 1, per lane: inputs, logic, events at the step start, record, trig bases --
         for j in range(W if nq < nact else 0):
             if not act[j] or V[(VL + LQ) * CH + j] > 0.0:
@@ -1186,7 +1197,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
 
 
 _TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
-              "_vbases", "_base_far", "_substeps", "_record", "_quiet_until", "_vquiet",
+              "_vbases", "_base_far", "_substeps", "_chval", "_record", "_vrecord", "_quiet_until",
+              "_vquiet",
               "_vmaxd", "_restore", "_chunk")
 #: the vector step's templates (:func:`vector_step`)
 _VTEMPLATES = ("_vderiv", "_vaxpy", "_vrk4")
@@ -1313,7 +1325,7 @@ def _specialise(g: dict[str, Any], name: str, qual: str, cfunc: bool = False) ->
     if name == "_chunk":
         opts["nogil"] = True
     if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer", "_vderiv",
-                "_vaxpy", "_vrk4"):
+                "_vaxpy", "_vrk4", "_chval"):
         # inlined by LLVM (tuples only: no reference counting): numba's own inlining
         # (inline="always") copies the IR at every call site, most of the compile time
         opts["forceinline"] = True
