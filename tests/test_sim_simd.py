@@ -110,3 +110,18 @@ def test_simd_variants_equal_per_lane_path(kind, servo):
             a, b = _both(model, logic, generic=generic, t_end=30.0, dt=0.05, channels=channels,
                          psi0=np.linspace(-0.2, 0.2, B))
             _assert_same(a, b)
+
+
+@pytest.mark.parametrize("coupled", [False, True], ids=["uncoupled", "coupled"])
+def test_simd_path_equals_per_lane_path_threedof_coupling(coupled):
+    """A 3-DOF model with the coupling terms (m23, m32, d23, d32, sway force: the generic
+    vector step) or without them (the uncoupled equations of its switch value), propeller
+    law, turning circles: the per-lane path's runs."""
+    prop = Propeller(D=0.46, pitch_ratio=0.3, disk_ratio=0.516, t_P=0.05, w_P=0.04)
+    kw = dict(m23=20.0, m32=15.0, d23=10.0, d32=5.0, sway_force=True) if coupled else {}
+    dyn = mu2018_threedof(x_l=3.5, thrust=prop, n=52.88).replace(**kw)
+    model = VesselModel(dyn, servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.3),
+                        vessel=Vessel(length=7.02, speed=5.14))
+    a, b = _both(model, Turning(np.radians(np.linspace(-30.0, 30.0, B)),
+                                t_start=np.linspace(0.0, 3.0, B)), t_end=20.0, dt=0.02)
+    _assert_same(a, b)

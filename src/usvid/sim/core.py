@@ -99,6 +99,10 @@ VP = VL + NL
 #: Lanes per chunk (the row length of the chunk's work arrays; a compile-time constant so that
 #: LLVM sees the rows of ``V`` as one object at constant offsets and vectorises the lane loop).
 CH = 32
+#: Scratch rows of ``V`` after the parameters (rows VP + NPK ..; ``zb`` in :func:`_chunk`): the
+#: joint state and overshoot before the vector step (NT + 1 rows), then its new max |delta| and
+#: overshoot (copied into their rows after its lane loop, see :func:`_vstep`).
+NZB = NT + 3
 
 # -- kind-specific globals (replaced when a kind is specialised) -----------------------------
 NS = 1  # number of kind states
@@ -164,8 +168,9 @@ def _rot_nan(a: float, a0: float, c0: float, s0: float) -> tuple[float, float]:
     h2 = h * h
     ch = 1.0 - h2 * (0.5 - h2 * (1.0 / 24.0 - h2 * (1.0 / 720.0)))
     sh = h * (1.0 - h2 * (1.0 / 6.0 - h2 * (1.0 / 120.0 - h2 * (1.0 / 5040.0))))
-    far = abs(h) > 0.05
-    return (np.nan if far else c0 * ch - s0 * sh), (np.nan if far else s0 * ch + c0 * sh)
+    bad = np.nan if abs(h) > 0.05 else 0.0  # (added, not selected: with a select of the
+    # results LLVM loads c0, s0 only where they are used, masked)
+    return (c0 * ch - s0 * sh) + bad, (s0 * ch + c0 * sh) + bad
 
 
 @numba.njit(cache=True, error_model="numpy", fastmath=_FM)
@@ -489,7 +494,7 @@ def _base_far(V, j, i, a):
     V[o + 2 * CH] = s_ * g_
 
 
-def _vstep(Vp, zbp, h, frac, zig, sk):
+def _vstep(Vp, h, frac, zig, sk):
     """One step of all :data:`CH` lane slots of a chunk, vectorised across lanes (the lane loop
     innermost; a C callback, see :func:`vector_step`): the step's trig bases, one RK4 step of
     length h [s] (the fraction ``frac`` of the step), and the end of the step of the quiet
@@ -500,8 +505,9 @@ def _vstep(Vp, zbp, h, frac, zig, sk):
     chunking.
 
     ``Vp`` points to the chunk's work array ``V`` (rows: joint state, servo values, command /
-    ramp rate / noise, input series, trig bases, logic variables, parameters; :data:`VS` ..),
-    ``zbp`` to the scratch ``zb`` (NT + 2 rows). Per lane slot:
+    ramp rate / noise, input series, trig bases, logic variables, parameters, scratch;
+    :data:`VS` .., :data:`NZB`): one array, so that LLVM knows every access's offset and needs
+    no alias checks. Per lane slot:
 
     * trig bases: the heading's (with :data:`XY`) and, for a TRIG kind, the steering angle's,
       rotated from the previous step's (:func:`_rot_nan`) and renormalised; NaN where the angle
@@ -516,12 +522,12 @@ def _vstep(Vp, zbp, h, frac, zig, sk):
       reversal inside the step, or divergence (:data:`R_MAX`).
 
     The new rows (joint state, overshoot) of every lane slot go into ``V``, the old ones into
-    ``zb``, from which :func:`_chunk` restores the flagged and the inactive lanes
-    (:func:`_restore`): a blend stored in place (``V[o] = new if fast else V[o]``) compiles to
-    masked stores, microcoded on AMD Zen.
+    the scratch rows ``zb``, from which :func:`_chunk` restores the flagged and the inactive
+    lanes (:func:`_restore`): a blend stored in place (``V[o] = new if fast else V[o]``)
+    compiles to masked stores, microcoded on AMD Zen; for the same reason the new max |delta|
+    and overshoot (a select of the old value) go to scratch rows and are copied afterwards.
     """
-    V = numba.carray(Vp, (VP + NPK) * CH)
-    zb = numba.carray(zbp, (NT + 2) * CH)
+    V = numba.carray(Vp, (VP + NPK + NZB) * CH)
     w0 = 1.0 if sk == 0.0 else 0.0  # the servo blend's weights (variant SK = -1)
     w1 = 1.0 if sk == 1.0 else 0.0
     w2 = 1.0 if sk == 2.0 else 0.0
@@ -570,11 +576,8 @@ def _vstep(Vp, zbp, h, frac, zig, sk):
                   V[VNOISE * CH + j], fs, tr)
         quiet = V[(VL + LQ) * CH + j] > 0.0
         # max |delta| of the quiet lanes at the step start (the measured angle is absent on
-        # the quiet path: the servo's, limited); the old value also goes to a scratch row: a
-        # second use of it, else LLVM makes the store a masked one
-        m = V[(VL + LMAXD) * CH + j]
-        zb[(NT + 1) * CH + j] = m
-        V[(VL + LMAXD) * CH + j] = max(m, abs(d) if quiet else 0.0)
+        # the quiet path: the servo's, limited)
+        V[(VP + NPK + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(d) if quiet else 0.0)
         # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
         # every load unconditional, clips as selects: no masked loads and stores)
         ok = (np.isfinite(y[0]) & np.isfinite(y[1]) & np.isfinite(y[2]) & np.isfinite(y[3])
@@ -604,9 +607,9 @@ def _vstep(Vp, zbp, h, frac, zig, sk):
         flag = 0.0 if fast else 1.0
         V[(VL + LFLAG) * CH + j] = flag
         nslow += flag * V[(VL + LACT) * CH + j]  # (a product: a select would load it masked)
-        _zput(zb, j, z)
-        zb[NT * CH + j] = ovmax
-        V[(VL + LOVMAX) * CH + j] = ov if upd else ovmax
+        _zput(V, (VP + NPK) * CH + j, z)
+        V[(VP + NPK + NT) * CH + j] = ovmax
+        V[(VP + NPK + NT + 2) * CH + j] = ov if upd else ovmax
         if XY:
             V[j] = y[0]
             V[CH + j] = y[1]
@@ -620,23 +623,25 @@ def _vstep(Vp, zbp, h, frac, zig, sk):
         if not NOD:
             V[9 * CH + j] = y[9]
             V[10 * CH + j] = y[10]
+    for j in range(CH):
+        V[(VL + LMAXD) * CH + j] = V[(VP + NPK + NT + 1) * CH + j]
+        V[(VL + LOVMAX) * CH + j] = V[(VP + NPK + NT + 2) * CH + j]
     return nslow
 
 
 @numba.extending.intrinsic
-def _vcall(typingctx, addr, V, zb, h, frac, zig, sk):
-    """Call the vector step at address ``addr`` (:func:`vector_step`) on the arrays V, zb."""
+def _vcall(typingctx, addr, V, h, frac, zig, sk):
+    """Call the vector step at address ``addr`` (:func:`vector_step`) on the array V."""
     f8 = numba.types.float64
-    sig = f8(numba.types.int64, V, zb, f8, f8, f8, f8)
+    sig = f8(numba.types.int64, V, f8, f8, f8, f8)
 
     def codegen(context, builder, signature, args):
-        a, v, z, hh, fr, zg, k = args
+        a, v, hh, fr, zg, k = args
         pv = context.make_array(signature.args[1])(context, builder, v).data
-        pz = context.make_array(signature.args[2])(context, builder, z).data
         fnty = llvmir.FunctionType(llvmir.DoubleType(),
-                                   [pv.type, pz.type, hh.type, fr.type, zg.type, k.type])
+                                   [pv.type, hh.type, fr.type, zg.type, k.type])
         fn = builder.inttoptr(a, fnty.as_pointer())
-        return builder.call(fn, [pv, pz, hh, fr, zg, k])
+        return builder.call(fn, [pv, hh, fr, zg, k])
 
     return sig, codegen
 
@@ -684,36 +689,50 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
     return z, cmdin, ramp, rend, qh, qn
 
 
+def _chval(V, j, ch, dnow, cmdlog):
+    """Lane j's value of channel ``ch`` (:data:`CHANNELS`) at the step start."""
+    if ch <= 2:
+        return V[ch * CH + j]
+    if ch == 3:
+        return V[(VP + SPEED_ROW) * CH + j] if BU < 0 else V[ZU * CH + j]
+    if ch == 4:
+        return 0.0 if BV < 0 else V[ZV * CH + j]
+    if ch == 5:
+        return V[ZR * CH + j]
+    if ch == 6:
+        if BU < 0:
+            return V[(VP + SPEED_ROW) * CH + j]
+        vu = V[ZU * CH + j]
+        vv = V[ZV * CH + j]
+        return math.sqrt(vu * vu + vv * vv)
+    if ch == 7:
+        return dnow
+    if ch == 8:
+        return cmdlog
+    if ch <= 11:
+        return V[(VF + ch - 8) * CH + j]  # n, n_port, n_stbd at the step start
+    return DIST_B * V[10 * CH + j]
+
+
 def _record(V, j, b, jrec, slots, rec, dnow, cmdlog):
     """Record lane j (lane b of the batch) at the step start into ``rec[:, b, jrec]``."""
     for ch in range(13):
         sl = slots[ch]
+        if sl >= 0:
+            rec[sl, b, jrec] = _chval(V, j, ch, dnow, cmdlog)
+
+
+def _vrecord(V, lo, W, jrec, slots, rec):
+    """Record the quiet lanes (row LQ) of the chunk at the step start, channel by channel (the
+    values of :func:`_record`: the measured steering angle is absent on the quiet path)."""
+    for ch in range(13):
+        sl = slots[ch]
         if sl < 0:
             continue
-        if ch <= 2:
-            val = V[ch * CH + j]
-        elif ch == 3:
-            val = V[(VP + SPEED_ROW) * CH + j] if BU < 0 else V[ZU * CH + j]
-        elif ch == 4:
-            val = 0.0 if BV < 0 else V[ZV * CH + j]
-        elif ch == 5:
-            val = V[ZR * CH + j]
-        elif ch == 6:
-            if BU < 0:
-                val = V[(VP + SPEED_ROW) * CH + j]
-            else:
-                vu = V[ZU * CH + j]
-                vv = V[ZV * CH + j]
-                val = math.sqrt(vu * vu + vv * vv)
-        elif ch == 7:
-            val = dnow
-        elif ch == 8:
-            val = cmdlog
-        elif ch <= 11:
-            val = V[(VF + ch - 8) * CH + j]  # n, n_port, n_stbd at the step start
-        else:
-            val = DIST_B * V[10 * CH + j]
-        rec[sl, b, jrec] = val
+        for j in range(W):
+            if V[(VL + LQ) * CH + j] > 0.0:
+                rec[sl, lo + j, jrec] = _chval(V, j, ch, _clip(V[7 * CH + j], V[VS * CH + j]),
+                                               V[(VL + LCMDLOG) * CH + j])
 
 
 def _quiet_until(V, j, b, lk, L, qt, busy):
@@ -798,8 +817,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     """
     ID = S0 + NS
     W = hi - lo
-    V = np.zeros((VP + NPK) * CH)
-    zb = np.empty((NT + 2) * CH)  # scratch rows of _vstep, _vmaxd
+    V = np.zeros((VP + NPK + NZB) * CH)
+    zb = V[(VP + NPK) * CH:]  # the scratch rows (of _vstep, _vmaxd)
     for j in range(CH):
         V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
         V[(VT + 4) * CH + j] = 1.0
@@ -891,10 +910,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         nq = _vquiet(V, float(k), t1 + eps)
         nsimple = int(nq) if simd else 0
         if recnow and nq > 0.0:
-            for j in range(W):
-                if V[(VL + LQ) * CH + j] > 0.0:
-                    _record(V, j, lo + j, jrec, slots, rec,
-                            _clip(V[7 * CH + j], V[VS * CH + j]), V[(VL + LCMDLOG) * CH + j])
+            _vrecord(V, lo, W, jrec, slots, rec)
         # -- phase 1, per lane: inputs, logic, events at the step start, record, trig bases --
         for j in range(W if nq < nact else 0):
             if not act[j] or V[(VL + LQ) * CH + j] > 0.0:
@@ -992,7 +1008,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         # flagged, row LFLAG); else the max |delta| of the quiet lanes and the trig bases --
         nslow = float(nact)
         if nsimple > 0:
-            nslow = _vcall(vaddr[swi], V, zb, t1 - t, (t1 - t) * idt,
+            nslow = _vcall(vaddr[swi], V, t1 - t, (t1 - t) * idt,
                            1.0 if lk == ZIGZAG else 0.0, float(skind))
         else:
             _vmaxd(V, zb)
@@ -1181,16 +1197,16 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
 
 
 _TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
-              "_vbases", "_base_far", "_substeps", "_record", "_quiet_until", "_vquiet",
+              "_vbases", "_base_far", "_substeps", "_chval", "_record", "_vrecord", "_quiet_until",
+              "_vquiet",
               "_vmaxd", "_restore", "_chunk")
 #: the vector step's templates (:func:`vector_step`)
 _VTEMPLATES = ("_vderiv", "_vaxpy", "_vrk4")
 _KERNELS: dict[str, Any] = {}
 _GLOBALS: dict[str, dict[str, Any]] = {}  # the specialised functions, by kernel key
 _VSTEPS: dict[tuple[Any, ...], Any] = {}  # the compiled vector steps, by kernel key and variant
-#: C signature of the vector step: (V, zb, h, frac, zig, servo kind) -> number of flagged lanes
-_VSIG = numba.types.float64(numba.types.CPointer(numba.types.float64),
-                            numba.types.CPointer(numba.types.float64), numba.types.float64,
+#: C signature of the vector step: (V, h, frac, zig, servo kind) -> number of flagged lanes
+_VSIG = numba.types.float64(numba.types.CPointer(numba.types.float64), numba.types.float64,
                             numba.types.float64, numba.types.float64, numba.types.float64)
 
 
@@ -1309,7 +1325,7 @@ def _specialise(g: dict[str, Any], name: str, qual: str, cfunc: bool = False) ->
     if name == "_chunk":
         opts["nogil"] = True
     if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer", "_vderiv",
-                "_vaxpy", "_vrk4"):
+                "_vaxpy", "_vrk4", "_chval"):
         # inlined by LLVM (tuples only: no reference counting): numba's own inlining
         # (inline="always") copies the IR at every call site, most of the compile time
         opts["forceinline"] = True

@@ -120,31 +120,45 @@ class ThreeDOF(Dynamics):
 
 
 # P rows: 0-5 m11 m22 m33 d11 d22 d33, 6-9 m23 m32 d23 d32, 10 x_l, 11 sway, 12 n,
-# 13 1/m11, 14 1/det, 15.. thrust law
+# 13 1/m11, 14 1/det, 15-34 thrust law, 35 the switch row: the thrust law's mode when the model is
+# uncoupled (Assumption 1: m23 = m32 = d23 = d32 = 0, and no sway force), else -1
 _T0 = 15
+_SW = _T0 + THRUST_ROW
 
 
 @numba.njit(cache=True, forceinline=True)
-def _thrust_law(p):
-    """The packed thrust law (``thrust_row``) of a lane's parameter tuple."""
-    return (p[15], p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24],
+def _thrust_law(p, mode):
+    """The packed thrust law (``thrust_row``) of a lane's parameter tuple, its mode ``mode``."""
+    return (mode, p[16], p[17], p[18], p[19], p[20], p[21], p[22], p[23], p[24],
             p[25], p[26], p[27], p[28], p[29], p[30], p[31], p[32], p[33], p[34])
 
 
 @numba.njit(cache=True, forceinline=True)
 def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """Eq. 13 with the vector thruster (module docstring); returns (u, v, r, u', v', r')."""
+    """Eq. 13 with the vector thruster (module docstring); returns (u, v, r, u', v', r').
+
+    An uncoupled model (switch row ``_SW`` >= 0) takes the equations without the vanishing
+    coupling terms; with the switch row a constant (the core's vector step of a switch value)
+    only that branch and that thrust law are compiled."""
     u = s0
     v = s1
     r = s2
     nn = p[12] if np.isnan(n) else n
-    T = thrust_nb(_thrust_law(p), u, nn)
+    sw = p[_SW]
+    plain = sw >= 0.0
+    T = thrust_nb(_thrust_law(p, sw if plain else p[_T0]), u, nn)
     tu = T * cd
-    tv = -T * sd * p[11]
     tr = p[10] * T * sd
     m11 = p[0]
     m22 = p[1]
     m33 = p[2]
+    if plain:
+        a = m22 * v
+        f1 = tu + a * r - p[3] * u
+        f2 = -(m11 * u * r) - p[4] * v
+        f3 = tr - a * u + m11 * u * v - p[5] * r
+        return (u, v, r, f1 * p[13], m33 * f2 * p[14], m22 * f3 * p[14], 0.0)
+    tv = -T * sd * p[11]
     m23 = p[6]
     m32 = p[7]
     a = m22 * v + m23 * r
@@ -165,9 +179,12 @@ def pack(d: ThreeDOF, speed: Any) -> np.ndarray:
                                       "speed (vessel.speed or --speed): T = d11 U")
         T0 = np.asarray(d.d11, float) * np.asarray(speed, float)
     n0 = 0.0 if d.n is None else d.n
+    law = thrust_row(d.thrust, T0)
+    plain = ((m23 == 0.0) & (m32 == 0.0) & (np.asarray(d.d23, float) == 0.0)
+             & (np.asarray(d.d32, float) == 0.0) & (not d.sway_force))
     return rows([d.m11, d.m22, d.m33, d.d11, d.d22, d.d33, d.m23, d.m32, d.d23, d.d32, d.x_l,
                  1.0 if d.sway_force else 0.0, n0, 1.0 / m11, 1.0 / (m22 * m33 - m23 * m32),
-                 *thrust_row(d.thrust, T0)])
+                 *law, np.where(plain, law[0], -1.0)])
 
 
 def straight_speed(d: ThreeDOF) -> Any:
@@ -269,8 +286,10 @@ KIND = ModelKind(
     particulars=particulars,
     series=series,
     uses_trig=True,
-    switch_row=_T0,  # the thrust law: a constant thrust (null or a number) has its own step
-    switch_values=(0.0,),
+    # an uncoupled model's thrust law (a constant thrust: null or a number, a propeller, a pod
+    # law) has vector steps of its own (the coupled models and other laws: the generic one)
+    switch_row=_SW,
+    switch_values=(0.0, 1.0, 2.0),
 )
 
 __all__ = ["KIND", "MU2018_EQ37", "THRUST_ROW", "ThreeDOF"]
