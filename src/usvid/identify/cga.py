@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import IdentificationError
 
 PENALTY = 1e12

@@ -92,6 +92,7 @@ from typing import Any, Literal, NamedTuple
 import numba
 import numpy as np
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
 from usvid.models._validate import check_params
 from usvid.models.hull import (

@@ -26,6 +26,7 @@ from typing import Literal
 import numba
 import numpy as np
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
 from usvid.models._validate import check_params
 

@@ -90,6 +90,7 @@ import numba
 import numpy as np
 import pandas as pd
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
 from usvid.prep.filters import unwrap_angle
 from usvid.prep.geodesy import to_ned

@@ -34,6 +34,7 @@ import numba
 import numpy as np
 import pandas as pd
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
 from usvid.io.modelfile import model_from_dict
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag

@@ -51,6 +51,7 @@ import numba.extending
 import numpy as np
 from llvmlite import ir as llvmir
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.models.kind import S0, ModelKind
 
 #: fast-math flags: FMA contraction and reassociation, NaN/inf semantics kept (np.isnan)

@@ -41,6 +41,7 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import IdentificationError, UsvidError
 from usvid.models.kind import Dynamics, ModelKind, Regression, param, rows, submodel
 from usvid.models.kinds import _fossen

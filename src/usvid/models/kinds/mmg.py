@@ -29,6 +29,7 @@ from typing import Any
 import numba
 import numpy as np
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
 from usvid.models import mmg as _m
 from usvid.models.kind import (

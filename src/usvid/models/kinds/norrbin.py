@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.models.kind import Block, Dynamics, FitSpace, ModelKind, Regression, param, rows
 
 
