@@ -561,7 +561,7 @@ def test_full_disk_file_size_limit(ws: WS, tmp_path) -> None:
                                 str(out)])
     finally:
         resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
-    assert code == 2 and err.strip().count("\n") == 0
+    assert code == 2 and err.strip().count("\n") == 0, err
     assert "file too large" in err and str(out) in err
     assert list(tmp_path.iterdir()) == []
 
