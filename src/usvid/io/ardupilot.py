@@ -458,21 +458,21 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
     seen: dict[str, int] = {}
     checked: set[str] = set()
     with _quiet():
+        conn = None
         try:
-            mlog = mavutil.mavlink_connection(str(path), notimestamps=False,
-                                              robust_parsing=True)
-        except Exception as exc:  # noqa: BLE001 - pymavlink on a damaged first packet
+            conn = mavutil.mavlogfile(str(path), notimestamps=False, robust_parsing=True)
+            stream = _TlogStream(conn, conn.f.read())
+            stream.index()
+        except Exception as exc:  # noqa: BLE001 - pymavlink on a damaged first packets
+            if conn is not None:
+                conn.close()
             raise LogReadError(f"{path}: not a readable MAVLink telemetry log "
                                f"({type(exc).__name__})") from None
         try:
-            while True:
-                try:
-                    m = mlog.recv_msg()
-                except Exception:  # noqa: BLE001 - pymavlink on a damaged packet
+            for m in stream.messages():
+                if m is _FAILED:  # pymavlink raised on a damaged packet
                     state.reject("bad_data")
                     continue
-                if m is None:
-                    break
                 typ = m.get_type()
                 seen[typ] = seen.get(typ, 0) + 1
                 if typ == "BAD_DATA":
@@ -491,12 +491,12 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                 stamps[typ].append(int(round(ts * 1e6)) * 1000)
                 for col, st in getters:
                     values[col.name].append(_mav_raw(m, st, col))
-            left = mlog.mav.buf_len() if hasattr(mlog.mav, "buf_len") else 0
+            left = conn.mav.buf_len() if hasattr(conn.mav, "buf_len") else 0
             if left:  # a packet cut by the end of the file
                 state.reject("truncated")
         finally:
             with contextlib.suppress(Exception):
-                mlog.close()
+                conn.close()
     series = []
     for typ, getters in by_type.items():
         t = np.asarray(stamps[typ], dtype=np.int64)
@@ -509,6 +509,131 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
             raw = np.asarray(values[col.name], dtype=float)
             series.append(Series(col, t, raw))
     return build_trial(path, spec, series, state, reader="tlog", clock_epoch_ns=0)
+
+
+#: What :meth:`_TlogStream.messages` yields where pymavlink raised on a damaged packet.
+_FAILED = object()
+#: pymavlink's ``mavlogfile``: a record time further than this from the last good message's,
+#: after a damaged packet, is searched for byte by byte [s] (``scan_timestamp``).
+_TLOG_SCAN_S = 3 * 24 * 60 * 60
+
+
+class _TlogStream:
+    """The reading of pymavlink's ``mavutil.mavlink_connection(tlog)`` (a ``mavmmaplog``) over
+    the log's bytes in memory, message for message the same (pymavlink 2.4's ``pre_message``,
+    ``recv_msg``, ``post_message`` and ``init_arrays``), without the library's per-message
+    bookkeeping that a reader does not use.
+
+    ``conn`` is a ``mavutil.mavlogfile`` on the log: its dialect's ``MAVLink`` parser does all
+    framing, CRC checks and robust parsing (``parse_char`` fed ``bytes_needed()`` bytes at a
+    time) and its ``auto_mavlink_version`` sees the first bytes (switching to MAVLink 2 as
+    ``mavlink_connection`` does). Before each packet the 8-byte big-endian record time [us] is
+    read; after a BAD_DATA packet a time more than 3 days from the last good message's is
+    searched for byte by byte (``scan_timestamp``). ``mavfile.post_message``'s per-system
+    state (modes, parameters, packet loss, the latest message of each type) is not kept: only
+    each message's ``_timestamp`` [s] and what the next packet's reading depends on.
+    """
+
+    def __init__(self, conn: Any, data: bytes) -> None:
+        self.conn = conn
+        self.data = data
+        self.pos = 0
+        self.ts: float | None = None  # time of the record being read [s]
+        self.last_ts: float | None = None  # of the last message that was not BAD_DATA [s]
+        self.last_bad = False  # the last message was BAD_DATA
+
+    def recv(self) -> Any:
+        """The next message (``mavlogfile.recv_msg``), None at the end; what pymavlink raises
+        on a damaged packet propagates."""
+        data, n, conn = self.data, len(self.data), self.conn
+        pos = self.pos
+        if n - pos >= 8:  # pre_message
+            tbuf = data[pos:pos + 8]
+            pos += 8
+            t = int.from_bytes(tbuf, "big") * 1.0e-6
+            if self.last_ts is not None and self.last_bad and abs(t - self.last_ts) > _TLOG_SCAN_S:
+                while abs(t - self.last_ts) > _TLOG_SCAN_S and pos < n:  # scan_timestamp
+                    tbuf = tbuf[1:] + data[pos:pos + 1]
+                    pos += 1
+                    t = int.from_bytes(tbuf, "big") * 1.0e-6
+            self.ts = t
+        else:  # a short time stamp at the end: read and dropped
+            pos = n
+        self.pos = pos
+        while True:
+            k = conn.mav.bytes_needed()
+            s = data[self.pos:self.pos + k]
+            self.pos += len(s)
+            if s and conn.first_byte:
+                conn.auto_mavlink_version(s)
+            m = conn.mav.parse_char(s)
+            if m:
+                break
+            if not s:
+                return None
+        m._timestamp = self.ts  # post_message
+        self.last_bad = m.get_type() == "BAD_DATA"
+        if not self.last_bad:
+            self.last_ts = self.ts
+        return m
+
+    def index(self) -> None:
+        """``mavmmaplog.init_arrays``'s pass over the file (it indexes the records by message
+        type, reading the first message of each type on the way: what that leaves in the parser
+        and the clock is where the reading of the log starts). Raises what pymavlink raises
+        there (an ``AttributeError`` when such a first message cannot be read)."""
+        from pymavlink import mavutil
+
+        data, n = self.data, len(self.data)
+        seen: set[int] = set()
+        with_instance: set[int] = set()
+        ofs = 0
+        while ofs + 8 + 6 < n:
+            marker = data[ofs + 8]
+            payload_len = data[ofs + 9]
+            mlen = payload_len + 8
+            if marker == 0xFE:
+                mtype = data[ofs + 13]
+                mlen += 8
+                data_ofs = 14
+            elif marker == 0xFD:
+                if ofs + 8 + 10 > n:
+                    break
+                mtype = data[ofs + 15] | (data[ofs + 16] << 8) | (data[ofs + 17] << 16)
+                mlen += 12
+                data_ofs = 18
+                if data[ofs + 10] & mavutil.mavlink.MAVLINK_IFLAG_SIGNED:
+                    mlen += mavutil.mavlink.MAVLINK_SIGNATURE_BLOCK_LEN
+            else:
+                ofs += 1
+                continue
+            if mtype not in seen:
+                if mtype not in mavutil.mavlink.mavlink_map:
+                    ofs += mlen
+                    continue
+                seen.add(mtype)
+                self.pos = ofs
+                m = self.recv()
+                if m is None:  # pymavlink: add_message(..., None)
+                    raise AttributeError("'NoneType' object has no attribute '_instance_field'")
+                if m._instance_field is not None:
+                    with_instance.add(mtype)
+            if mtype in with_instance and ofs + data_ofs + payload_len > n:
+                break  # (pymavlink: a truncated log)
+            ofs += mlen
+        self.pos = 0
+
+    def messages(self):
+        """Every message from the start of the file (:data:`_FAILED` where pymavlink raised)."""
+        while True:
+            try:
+                m = self.recv()
+            except Exception:  # noqa: BLE001 - pymavlink on a damaged packet
+                yield _FAILED
+                continue
+            if m is None:
+                return
+            yield m
 
 
 def _mav_raw(m: Any, steps: list, col: ColumnSpec) -> float | tuple[float, ...]:
