@@ -206,7 +206,8 @@ def assemble(
     # time going backwards (small steps: jitter, records written slightly out of order)
     if len(t) > 1:
         runmax = np.maximum.accumulate(t)
-        late = np.r_[False, t[1:] < runmax[:-1]]
+        late = np.zeros(len(t), dtype=bool)
+        np.less(t[1:], runmax[:-1], out=late[1:])
         n_back = int(late.sum())
         if n_back:
             i0 = int(np.argmax(late))
@@ -231,7 +232,7 @@ def assemble(
             )
 
     # identical times -> one row (t is in time order here: a duplicate follows its twin)
-    if len(t) > 1 and (np.diff(t) == 0).any():
+    if len(t) > 1 and (t[1:] == t[:-1]).any():
         uniq, inv = np.unique(t, return_inverse=True)
         if count_duplicates:
             _add(rejected, "duplicate_time", len(t) - len(uniq))
@@ -293,11 +294,28 @@ JUMP_STEPS, JUMP_MIN_S = 10.0, 1.0
 BAD_STAMP_WINDOW = 5
 
 
+def _diff(t: np.ndarray) -> np.ndarray:
+    """``np.diff(t)`` of a 1-D float array (which is ``t[1:] - t[:-1]``), without its
+    argument handling (a few microseconds a call, as much as the subtraction of a short log)."""
+    return t[1:] - t[:-1]
+
+
+def _median(d: np.ndarray) -> float:
+    """``float(np.median(d))`` of a non-empty 1-D float array without NaN: the middle of the
+    sorted values, or the mean of the two middle ones (``(a + b) / 2``, as ``np.mean`` of two
+    values), without ``np.median``'s general machinery (30 us a call here, 2 us this way)."""
+    n = len(d)
+    s = np.sort(d)
+    if n % 2:
+        return float(s[n // 2])
+    return float((s[n // 2 - 1] + s[n // 2]) / 2.0)
+
+
 def jump_threshold(t: np.ndarray) -> float:
     """The step [s] beyond which a time step of ``t`` [s] is a jump (see ``JUMP_STEPS``)."""
-    d = np.diff(t)
+    d = _diff(t)
     d = d[d > 0]
-    med = float(np.median(d)) if len(d) else 0.0
+    med = _median(d) if len(d) else 0.0
     return max(JUMP_STEPS * med, JUMP_MIN_S)
 
 
@@ -308,7 +326,7 @@ def bad_stamps(t: np.ndarray) -> np.ndarray:
     stamp: on either side of it the running median follows the records.
     """
     n = len(t)
-    if n < BAD_STAMP_WINDOW or (np.diff(t) >= 0).all():
+    if n < BAD_STAMP_WINDOW or (_diff(t) >= 0).all():
         # (in time order the running median of each stamp is the stamp itself)
         return np.zeros(n, dtype=bool)
     h = BAD_STAMP_WINDOW // 2
@@ -347,12 +365,12 @@ def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
             f"{float(t[idx[0]]):.3f} s); each was re-timed between its neighbours",
             count=len(idx), data={"records": [int(i) for i in idx[:20]]}))
     thr = jump_threshold(t)
-    d = np.diff(t)
+    d = _diff(t)
     jumps = np.flatnonzero((d < -thr) | (d > thr))
     if not len(jumps):
         return t, chans, []
     pos = d[d > 0]
-    med = float(np.median(pos)) if len(pos) else 0.0
+    med = _median(pos) if len(pos) else 0.0
     t = t.copy()
     breaks = []
     repaired = []

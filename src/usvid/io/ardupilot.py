@@ -97,24 +97,39 @@ def _quiet() -> contextlib.ExitStack:
     return stack
 
 
+#: A temporary file kept for :func:`_fd2_captured` between reads (creating one costs more than
+#: a small log's indexing); taken while in use, so a nested capture makes its own.
+_FD2_SPARE: list = []
+#: A capture that held more than this [bytes] is not kept for the next.
+_FD2_KEEP_MAX = 1 << 20
+
+
 @contextlib.contextmanager
 def _fd2_captured(out: list[str]):
     """Capture what compiled code writes to file descriptor 2 (pymavlink's Cython DataFlash
     indexer prints one ``bad header`` line per damaged byte there, past ``sys.stderr``) into
     ``out``, so the command line keeps its one-line errors. Process-wide while it lasts."""
     sys.stderr.flush()
+    tmp = _FD2_SPARE.pop() if _FD2_SPARE else tempfile.TemporaryFile()
+    tmp.seek(0)
+    tmp.truncate()
     saved = os.dup(2)
-    with tempfile.TemporaryFile() as tmp:
-        os.dup2(tmp.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            tmp.seek(0)
-            out.append(tmp.read().decode("utf-8", "replace"))
+    os.dup2(tmp.fileno(), 2)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        tmp.seek(0)
+        text = tmp.read()
+        out.append(text.decode("utf-8", "replace"))
+        if len(text) <= _FD2_KEEP_MAX:
+            _FD2_SPARE.append(tmp)
+        else:
+            tmp.close()
 
 
+@functools.lru_cache(maxsize=1024)
 def _np_dtype(msg_struct: str) -> np.dtype:
     """numpy dtype of a DataFlash struct layout (``"<QBiiffH"``, strings ``"16s"``)."""
     fields = []
