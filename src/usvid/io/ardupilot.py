@@ -40,6 +40,7 @@ import re
 import struct
 import sys
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -259,13 +260,38 @@ def _gps_epoch_ns(time_us: np.ndarray, gwk: np.ndarray, gms: np.ndarray) -> int 
     return (utc_us - int(time_us[k])) * 1000
 
 
+class _Columns(Mapping):
+    """The numeric columns of one decoded DataFlash message type: name -> values, each times
+    its multiplier (pymavlink's ``msg_mults``; float) or as stored when it has none, converted
+    when first asked for (a reader uses a few of a message's columns)."""
+
+    def __init__(self, arr: np.ndarray, fields: dict[str, tuple[str, float | None]]) -> None:
+        self._arr = arr
+        self._fields = fields  # column name -> (record field, multiplier), in column order
+        self._done: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        v = self._done.get(name)
+        if v is None:
+            field, mult = self._fields[name]
+            v = self._arr[field]
+            v = self._done[name] = v.astype(float) * mult if mult is not None else v
+        return v
+
+    def __iter__(self):
+        return iter(self._fields)
+
+    def __len__(self) -> int:
+        return len(self._fields)
+
+
 def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
     dfr, state = _df_index(path)
     try:
         buf = np.frombuffer(dfr.data_map, dtype=np.uint8)
-        decoded: dict[str, dict[str, np.ndarray]] = {}
+        decoded: dict[str, _Columns] = {}
 
-        def decode(name: str) -> dict[str, np.ndarray] | None:
+        def decode(name: str) -> _Columns | None:
             if name in decoded:
                 return decoded[name]
             tid = dfr.name_to_id.get(name)
@@ -287,13 +313,9 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
                                    f"the {len(dt.names or ())} fields of format '{fmt.format}'")
             rows = np.ascontiguousarray(buf[offs[:, None] + 3 + np.arange(body)])
             arr = rows.view(dt).ravel()
-            out = {}
-            for k, c in enumerate(fmt.columns):
-                v = arr[f"f{k}"]
-                if v.dtype.kind == "S":
-                    continue
-                mult = fmt.msg_mults[k]
-                out[c] = v.astype(float) * mult if mult is not None else v
+            out = _Columns(arr, {c: (f"f{k}", fmt.msg_mults[k])
+                                 for k, c in enumerate(fmt.columns)
+                                 if arr.dtype[f"f{k}"].kind != "S"})
             decoded[name] = out
             return out
 
@@ -317,7 +339,7 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
     return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
 
 
-def _time_ns(path: Path, col: ColumnSpec, d: dict[str, np.ndarray]) -> np.ndarray:
+def _time_ns(path: Path, col: ColumnSpec, d: Mapping[str, np.ndarray]) -> np.ndarray:
     if "TimeUS" in d:
         return np.asarray(d["TimeUS"], dtype=np.int64) * 1000
     if "TimeMS" in d:
@@ -325,7 +347,7 @@ def _time_ns(path: Path, col: ColumnSpec, d: dict[str, np.ndarray]) -> np.ndarra
     raise LogReadError(f"{path}: message {col.topic} has no TimeUS / TimeMS column")
 
 
-def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: dict[str, np.ndarray]) -> Series:
+def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: Mapping[str, np.ndarray]) -> Series:
     """One column of a decoded DataFlash message type (arrays per column)."""
     t = _time_ns(path, col, d)
     keep = np.ones(len(t), dtype=bool)
