@@ -366,6 +366,8 @@ def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: Mapping[str, np.nd
         names = [f]
     if any(n not in d for n in names):
         raise missing_field(path, spec, col, "DataFlash message", sorted(d))
+    if col.instance is None and len(names) == 1:  # (the same values without the masking)
+        return Series(col, t, np.array(d[names[0]], dtype=float))
     raw = np.column_stack([np.asarray(d[n], dtype=float)[keep] for n in names])
     return Series(col, t[keep], raw if raw.shape[1] > 1 else raw[:, 0])
 
@@ -492,6 +494,9 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
         by_type.setdefault(col.topic, []).append((col, path_steps(str(col.col))))
     stamps: dict[str, list[int]] = {k: [] for k in by_type}
     values: dict[str, list] = {c.name: [] for c in spec.columns.values()}
+    # per message type: (list of the column's values, its value getter) for each column
+    fetch = {typ: [(values[col.name], _mav_getter(st, col.conversion)) for col, st in getters]
+             for typ, getters in by_type.items()}
     seen: dict[str, int] = {}
     checked: set[str] = set()
     with _quiet():
@@ -526,8 +531,8 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                     state.reject("bad_data")
                     continue
                 stamps[typ].append(int(round(ts * 1e6)) * 1000)
-                for col, st in getters:
-                    values[col.name].append(_mav_raw(m, st, col))
+                for vals, get in fetch[typ]:
+                    vals.append(get(m))
             left = conn.mav.buf_len() if hasattr(conn.mav, "buf_len") else 0
             if left:  # a packet cut by the end of the file
                 state.reject("truncated")
@@ -673,14 +678,32 @@ class _TlogStream:
             yield m
 
 
-def _mav_raw(m: Any, steps: list, col: ColumnSpec) -> float | tuple[float, ...]:
+def _mav_raw(m: Any, steps: list, conversion: str | None) -> float | tuple[float, ...]:
+    """The value of field path ``steps`` of MAVLink message ``m`` as float (a tuple of floats
+    for ``conversion`` ``yaw``); NaN when the path does not exist or is no number."""
     try:
         v = get_path(m, steps)
-        if col.conversion == "yaw":
+        if conversion == "yaw":
             return tuple(float(x) for x in v)
         return float(v)
     except (AttributeError, IndexError, TypeError, ValueError):
         return math.nan
+
+
+def _mav_getter(steps: list, conversion: str | None) -> Any:
+    """``m -> _mav_raw(m, steps, conversion)``; for a plain field name the same steps
+    (``float(getattr(m, name))``, NaN on the same errors) without the path walk."""
+    if conversion != "yaw" and len(steps) == 1 and isinstance(steps[0], str):
+        name = steps[0]
+
+        def get(m: Any) -> float:
+            try:
+                return float(getattr(m, name))
+            except (AttributeError, IndexError, TypeError, ValueError):
+                return math.nan
+
+        return get
+    return functools.partial(_mav_raw, steps=steps, conversion=conversion)
 
 
 def _check_mav(path: Path, spec: FormatSpec, m: Any, getters: list) -> None:
