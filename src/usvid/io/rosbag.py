@@ -385,15 +385,33 @@ def _cached_yaml_class() -> type:
     from ruamel.yaml import YAML
 
     class CachedYAML(YAML):
+        # ruamel.yaml's YAML() looks for plug-ins on the disk (a glob) when made: made here
+        # only when a text is parsed or the object is used otherwise
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            self.__dict__["_usvid_args"] = (args, kwargs)
+
+        def _usvid_made(self) -> None:
+            made = self.__dict__.pop("_usvid_args", None)
+            if made is not None:
+                YAML.__init__(self, *made[0], **made[1])
+
+        def __getattr__(self, name: str) -> Any:
+            if "_usvid_args" not in self.__dict__:
+                raise AttributeError(name)
+            self._usvid_made()
+            return getattr(self, name)
+
         def load(self, stream: Any) -> Any:
-            if (not isinstance(stream, str) or self.typ != ["safe"]
-                    or len(stream) > _YAML_TEXT_MAX):
+            safe = self.__dict__.get("_usvid_args") == ((), {"typ": "safe"})
+            if not safe or not isinstance(stream, str) or len(stream) > _YAML_TEXT_MAX:
+                self._usvid_made()
                 return super().load(stream)
             with _YAML_LOCK:
                 blob = _YAML.get(stream)
                 if blob is not None:
                     _YAML.move_to_end(stream)
             if blob is None:
+                self._usvid_made()
                 data = super().load(stream)
                 try:
                     blob = pickle.dumps(data, protocol=pickle.HIGHEST_PROTOCOL)
