@@ -573,7 +573,10 @@ class _TlogStream:
     read; after a BAD_DATA packet a time more than 3 days from the last good message's is
     searched for byte by byte (``scan_timestamp``). ``mavfile.post_message``'s per-system
     state (modes, parameters, packet loss, the latest message of each type) is not kept: only
-    each message's ``_timestamp`` [s] and what the next packet's reading depends on.
+    each message's ``_timestamp`` [s] and what the next packet's reading depends on. Unlike
+    ``mavlink_connection``, which picks the connection by the file's name (a DataFlash reader
+    for ``.bin``, UDP for a name with ``:``, running the file for a path with ``/bin/``), the
+    file is always read as a tlog.
     """
 
     def __init__(self, conn: Any, data: bytes) -> None:
