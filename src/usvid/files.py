@@ -26,6 +26,7 @@ nothing of usvid but :mod:`usvid.errors`. Every file usvid writes goes through
 from __future__ import annotations
 
 import errno
+import functools
 import json
 import math
 import os
@@ -395,6 +396,68 @@ def load_json_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
         raise UsvidError(f"{source}: not valid JSON ({_short(str(exc))})") from None
 
 
+@functools.cache
+def _bounded_loader_class() -> type:
+    """``yaml.SafeLoader`` refusing nodes nested deeper than its ``max_depth`` (naming its
+    ``source`` and the line); made once (a class made per document cost more than parsing a
+    small one)."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        depth = 0
+        max_depth = MAX_DEPTH
+        source = "?"
+
+        def compose_node(self, parent: Any, index: Any) -> Any:
+            self.depth += 1
+            if self.depth > self.max_depth:
+                mark = self.peek_event().start_mark
+                raise InputLimitError(f"{self.source} line {mark.line + 1}: nested more than "
+                                      f"{self.max_depth} levels deep")
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
+    return Loader
+
+
+def _expanded_nodes_exceed(root: Any, max_nodes: int) -> bool:
+    """True when the YAML node graph from ``root`` (``yaml.Node`` objects, aliases being shared
+    nodes) has more than ``max_nodes`` nodes once every alias is expanded into a copy, or has
+    a cycle (``&a [*a]``: infinitely many). Mappings count their keys and values, sequences
+    their items, every node itself. Each distinct node is visited once (an alias bomb's
+    billions of expanded nodes are counted as sums of its few distinct ones)."""
+    import yaml
+
+    def children(nd: Any) -> list:
+        if isinstance(nd, yaml.MappingNode):
+            return [x for kv in nd.value for x in kv]
+        if isinstance(nd, yaml.SequenceNode):
+            return nd.value
+        return []
+
+    size: dict[int, int | None] = {}  # id -> expanded size; None while its subtree is counted
+    stack: list[tuple[Any, bool]] = [(root, False)]
+    while stack:
+        nd, done = stack.pop()
+        k = id(nd)
+        if done:
+            total = 1 + sum(size[id(c)] for c in children(nd))  # type: ignore[misc]
+            if total > max_nodes:
+                return True
+            size[k] = total
+            continue
+        if k in size:
+            if size[k] is None:  # on the path being counted: a cycle
+                return True
+            continue
+        size[k] = None
+        stack.append((nd, True))
+        stack.extend((c, False) for c in children(nd))
+    return False
+
+
 def load_yaml_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
                    max_nodes: int = MAX_YAML_NODES) -> Any:
     """Parse untrusted YAML ``text`` the safe way (``yaml.SafeLoader``: plain data only) with
@@ -403,40 +466,18 @@ def load_yaml_text(text: str, source: str, *, max_depth: int = MAX_DEPTH,
     :class:`UsvidError` naming ``source`` and the line."""
     import yaml
 
-    class Loader(yaml.SafeLoader):
-        depth = 0
-
-        def compose_node(self, parent: Any, index: Any) -> Any:
-            self.depth += 1
-            if self.depth > max_depth:
-                mark = self.peek_event().start_mark
-                raise InputLimitError(f"{source} line {mark.line + 1}: nested more than "
-                                      f"{max_depth} levels deep")
-            try:
-                return super().compose_node(parent, index)
-            finally:
-                self.depth -= 1
-
     try:
-        loader = Loader(text)  # the reader refuses control characters here
+        loader = _bounded_loader_class()(text)  # the reader refuses control characters here
     except yaml.YAMLError as exc:
         raise UsvidError(f"{source}: not usable YAML ({_short(str(exc))})") from None
+    loader.max_depth, loader.source = max_depth, source
     try:
         node = loader.get_single_node()
         if node is None:
             return None
-        stack, n = [node], 0
-        while stack:
-            nd = stack.pop()
-            n += 1
-            if n > max_nodes:
-                raise InputLimitError(f"{source}: more than {max_nodes} YAML nodes once aliases "
-                                      "are expanded (an alias bomb?)")
-            if isinstance(nd, yaml.MappingNode):
-                for k, v in nd.value:
-                    stack.extend((k, v))
-            elif isinstance(nd, yaml.SequenceNode):
-                stack.extend(nd.value)
+        if _expanded_nodes_exceed(node, max_nodes):
+            raise InputLimitError(f"{source}: more than {max_nodes} YAML nodes once aliases "
+                                  "are expanded (an alias bomb?)")
         return loader.construct_document(node)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)

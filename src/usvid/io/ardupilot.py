@@ -40,6 +40,7 @@ import re
 import struct
 import sys
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -97,24 +98,39 @@ def _quiet() -> contextlib.ExitStack:
     return stack
 
 
+#: A temporary file kept for :func:`_fd2_captured` between reads (creating one costs more than
+#: a small log's indexing); taken while in use, so a nested capture makes its own.
+_FD2_SPARE: list = []
+#: A capture that held more than this [bytes] is not kept for the next.
+_FD2_KEEP_MAX = 1 << 20
+
+
 @contextlib.contextmanager
 def _fd2_captured(out: list[str]):
     """Capture what compiled code writes to file descriptor 2 (pymavlink's Cython DataFlash
     indexer prints one ``bad header`` line per damaged byte there, past ``sys.stderr``) into
     ``out``, so the command line keeps its one-line errors. Process-wide while it lasts."""
     sys.stderr.flush()
+    tmp = _FD2_SPARE.pop() if _FD2_SPARE else tempfile.TemporaryFile()
+    tmp.seek(0)
+    tmp.truncate()
     saved = os.dup(2)
-    with tempfile.TemporaryFile() as tmp:
-        os.dup2(tmp.fileno(), 2)
-        try:
-            yield
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            tmp.seek(0)
-            out.append(tmp.read().decode("utf-8", "replace"))
+    os.dup2(tmp.fileno(), 2)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        tmp.seek(0)
+        text = tmp.read()
+        out.append(text.decode("utf-8", "replace"))
+        if len(text) <= _FD2_KEEP_MAX:
+            _FD2_SPARE.append(tmp)
+        else:
+            tmp.close()
 
 
+@functools.lru_cache(maxsize=1024)
 def _np_dtype(msg_struct: str) -> np.dtype:
     """numpy dtype of a DataFlash struct layout (``"<QBiiffH"``, strings ``"16s"``)."""
     fields = []
@@ -244,13 +260,38 @@ def _gps_epoch_ns(time_us: np.ndarray, gwk: np.ndarray, gms: np.ndarray) -> int 
     return (utc_us - int(time_us[k])) * 1000
 
 
+class _Columns(Mapping):
+    """The numeric columns of one decoded DataFlash message type: name -> values, each times
+    its multiplier (pymavlink's ``msg_mults``; float) or as stored when it has none, converted
+    when first asked for (a reader uses a few of a message's columns)."""
+
+    def __init__(self, arr: np.ndarray, fields: dict[str, tuple[str, float | None]]) -> None:
+        self._arr = arr
+        self._fields = fields  # column name -> (record field, multiplier), in column order
+        self._done: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        v = self._done.get(name)
+        if v is None:
+            field, mult = self._fields[name]
+            v = self._arr[field]
+            v = self._done[name] = v.astype(float) * mult if mult is not None else v
+        return v
+
+    def __iter__(self):
+        return iter(self._fields)
+
+    def __len__(self) -> int:
+        return len(self._fields)
+
+
 def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
     dfr, state = _df_index(path)
     try:
         buf = np.frombuffer(dfr.data_map, dtype=np.uint8)
-        decoded: dict[str, dict[str, np.ndarray]] = {}
+        decoded: dict[str, _Columns] = {}
 
-        def decode(name: str) -> dict[str, np.ndarray] | None:
+        def decode(name: str) -> _Columns | None:
             if name in decoded:
                 return decoded[name]
             tid = dfr.name_to_id.get(name)
@@ -272,13 +313,9 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
                                    f"the {len(dt.names or ())} fields of format '{fmt.format}'")
             rows = np.ascontiguousarray(buf[offs[:, None] + 3 + np.arange(body)])
             arr = rows.view(dt).ravel()
-            out = {}
-            for k, c in enumerate(fmt.columns):
-                v = arr[f"f{k}"]
-                if v.dtype.kind == "S":
-                    continue
-                mult = fmt.msg_mults[k]
-                out[c] = v.astype(float) * mult if mult is not None else v
+            out = _Columns(arr, {c: (f"f{k}", fmt.msg_mults[k])
+                                 for k, c in enumerate(fmt.columns)
+                                 if arr.dtype[f"f{k}"].kind != "S"})
             decoded[name] = out
             return out
 
@@ -302,7 +339,7 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
     return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
 
 
-def _time_ns(path: Path, col: ColumnSpec, d: dict[str, np.ndarray]) -> np.ndarray:
+def _time_ns(path: Path, col: ColumnSpec, d: Mapping[str, np.ndarray]) -> np.ndarray:
     if "TimeUS" in d:
         return np.asarray(d["TimeUS"], dtype=np.int64) * 1000
     if "TimeMS" in d:
@@ -310,7 +347,7 @@ def _time_ns(path: Path, col: ColumnSpec, d: dict[str, np.ndarray]) -> np.ndarra
     raise LogReadError(f"{path}: message {col.topic} has no TimeUS / TimeMS column")
 
 
-def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: dict[str, np.ndarray]) -> Series:
+def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: Mapping[str, np.ndarray]) -> Series:
     """One column of a decoded DataFlash message type (arrays per column)."""
     t = _time_ns(path, col, d)
     keep = np.ones(len(t), dtype=bool)
@@ -329,6 +366,8 @@ def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: dict[str, np.ndarr
         names = [f]
     if any(n not in d for n in names):
         raise missing_field(path, spec, col, "DataFlash message", sorted(d))
+    if col.instance is None and len(names) == 1:  # (the same values without the masking)
+        return Series(col, t, np.array(d[names[0]], dtype=float))
     raw = np.column_stack([np.asarray(d[n], dtype=float)[keep] for n in names])
     return Series(col, t[keep], raw if raw.shape[1] > 1 else raw[:, 0])
 
@@ -455,24 +494,27 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
         by_type.setdefault(col.topic, []).append((col, path_steps(str(col.col))))
     stamps: dict[str, list[int]] = {k: [] for k in by_type}
     values: dict[str, list] = {c.name: [] for c in spec.columns.values()}
+    # per message type: (list of the column's values, its value getter) for each column
+    fetch = {typ: [(values[col.name], _mav_getter(st, col.conversion)) for col, st in getters]
+             for typ, getters in by_type.items()}
     seen: dict[str, int] = {}
     checked: set[str] = set()
     with _quiet():
+        conn = None
         try:
-            mlog = mavutil.mavlink_connection(str(path), notimestamps=False,
-                                              robust_parsing=True)
-        except Exception as exc:  # noqa: BLE001 - pymavlink on a damaged first packet
+            conn = mavutil.mavlogfile(str(path), notimestamps=False, robust_parsing=True)
+            stream = _TlogStream(conn, conn.f.read())
+            stream.index()
+        except Exception as exc:  # noqa: BLE001 - pymavlink on a damaged first packets
+            if conn is not None:
+                conn.close()
             raise LogReadError(f"{path}: not a readable MAVLink telemetry log "
                                f"({type(exc).__name__})") from None
         try:
-            while True:
-                try:
-                    m = mlog.recv_msg()
-                except Exception:  # noqa: BLE001 - pymavlink on a damaged packet
+            for m in stream.messages():
+                if m is _FAILED:  # pymavlink raised on a damaged packet
                     state.reject("bad_data")
                     continue
-                if m is None:
-                    break
                 typ = m.get_type()
                 seen[typ] = seen.get(typ, 0) + 1
                 if typ == "BAD_DATA":
@@ -489,14 +531,14 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                     state.reject("bad_data")
                     continue
                 stamps[typ].append(int(round(ts * 1e6)) * 1000)
-                for col, st in getters:
-                    values[col.name].append(_mav_raw(m, st, col))
-            left = mlog.mav.buf_len() if hasattr(mlog.mav, "buf_len") else 0
+                for vals, get in fetch[typ]:
+                    vals.append(get(m))
+            left = conn.mav.buf_len() if hasattr(conn.mav, "buf_len") else 0
             if left:  # a packet cut by the end of the file
                 state.reject("truncated")
         finally:
             with contextlib.suppress(Exception):
-                mlog.close()
+                conn.close()
     series = []
     for typ, getters in by_type.items():
         t = np.asarray(stamps[typ], dtype=np.int64)
@@ -511,14 +553,160 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
     return build_trial(path, spec, series, state, reader="tlog", clock_epoch_ns=0)
 
 
-def _mav_raw(m: Any, steps: list, col: ColumnSpec) -> float | tuple[float, ...]:
+#: What :meth:`_TlogStream.messages` yields where pymavlink raised on a damaged packet.
+_FAILED = object()
+#: pymavlink's ``mavlogfile``: a record time further than this from the last good message's,
+#: after a damaged packet, is searched for byte by byte [s] (``scan_timestamp``).
+_TLOG_SCAN_S = 3 * 24 * 60 * 60
+
+
+class _TlogStream:
+    """The reading of pymavlink's ``mavutil.mavlink_connection(tlog)`` (a ``mavmmaplog``) over
+    the log's bytes in memory, message for message the same (pymavlink 2.4's ``pre_message``,
+    ``recv_msg``, ``post_message`` and ``init_arrays``), without the library's per-message
+    bookkeeping that a reader does not use.
+
+    ``conn`` is a ``mavutil.mavlogfile`` on the log: its dialect's ``MAVLink`` parser does all
+    framing, CRC checks and robust parsing (``parse_char`` fed ``bytes_needed()`` bytes at a
+    time) and its ``auto_mavlink_version`` sees the first bytes (switching to MAVLink 2 as
+    ``mavlink_connection`` does). Before each packet the 8-byte big-endian record time [us] is
+    read; after a BAD_DATA packet a time more than 3 days from the last good message's is
+    searched for byte by byte (``scan_timestamp``). ``mavfile.post_message``'s per-system
+    state (modes, parameters, packet loss, the latest message of each type) is not kept: only
+    each message's ``_timestamp`` [s] and what the next packet's reading depends on. Unlike
+    ``mavlink_connection``, which picks the connection by the file's name (a DataFlash reader
+    for ``.bin``, UDP for a name with ``:``, running the file for a path with ``/bin/``), the
+    file is always read as a tlog.
+    """
+
+    def __init__(self, conn: Any, data: bytes) -> None:
+        self.conn = conn
+        self.data = data
+        self.pos = 0
+        self.ts: float | None = None  # time of the record being read [s]
+        self.last_ts: float | None = None  # of the last message that was not BAD_DATA [s]
+        self.last_bad = False  # the last message was BAD_DATA
+
+    def recv(self) -> Any:
+        """The next message (``mavlogfile.recv_msg``), None at the end; what pymavlink raises
+        on a damaged packet propagates."""
+        data, n, conn = self.data, len(self.data), self.conn
+        pos = self.pos
+        if n - pos >= 8:  # pre_message
+            tbuf = data[pos:pos + 8]
+            pos += 8
+            t = int.from_bytes(tbuf, "big") * 1.0e-6
+            if self.last_ts is not None and self.last_bad and abs(t - self.last_ts) > _TLOG_SCAN_S:
+                while abs(t - self.last_ts) > _TLOG_SCAN_S and pos < n:  # scan_timestamp
+                    tbuf = tbuf[1:] + data[pos:pos + 1]
+                    pos += 1
+                    t = int.from_bytes(tbuf, "big") * 1.0e-6
+            self.ts = t
+        else:  # a short time stamp at the end: read and dropped
+            pos = n
+        self.pos = pos
+        while True:
+            k = conn.mav.bytes_needed()
+            s = data[self.pos:self.pos + k]
+            self.pos += len(s)
+            if s and conn.first_byte:
+                conn.auto_mavlink_version(s)
+            m = conn.mav.parse_char(s)
+            if m:
+                break
+            if not s:
+                return None
+        m._timestamp = self.ts  # post_message
+        self.last_bad = m.get_type() == "BAD_DATA"
+        if not self.last_bad:
+            self.last_ts = self.ts
+        return m
+
+    def index(self) -> None:
+        """``mavmmaplog.init_arrays``'s pass over the file (it indexes the records by message
+        type, reading the first message of each type on the way: what that leaves in the parser
+        and the clock is where the reading of the log starts). Raises what pymavlink raises
+        there (an ``AttributeError`` when such a first message cannot be read)."""
+        from pymavlink import mavutil
+
+        data, n = self.data, len(self.data)
+        seen: set[int] = set()
+        with_instance: set[int] = set()
+        ofs = 0
+        while ofs + 8 + 6 < n:
+            marker = data[ofs + 8]
+            payload_len = data[ofs + 9]
+            mlen = payload_len + 8
+            if marker == 0xFE:
+                mtype = data[ofs + 13]
+                mlen += 8
+                data_ofs = 14
+            elif marker == 0xFD:
+                if ofs + 8 + 10 > n:
+                    break
+                mtype = data[ofs + 15] | (data[ofs + 16] << 8) | (data[ofs + 17] << 16)
+                mlen += 12
+                data_ofs = 18
+                if data[ofs + 10] & mavutil.mavlink.MAVLINK_IFLAG_SIGNED:
+                    mlen += mavutil.mavlink.MAVLINK_SIGNATURE_BLOCK_LEN
+            else:
+                ofs += 1
+                continue
+            if mtype not in seen:
+                if mtype not in mavutil.mavlink.mavlink_map:
+                    ofs += mlen
+                    continue
+                seen.add(mtype)
+                self.pos = ofs
+                m = self.recv()
+                if m is None:  # pymavlink: add_message(..., None)
+                    raise AttributeError("'NoneType' object has no attribute '_instance_field'")
+                if m._instance_field is not None:
+                    with_instance.add(mtype)
+            if mtype in with_instance and ofs + data_ofs + payload_len > n:
+                break  # (pymavlink: a truncated log)
+            ofs += mlen
+        self.pos = 0
+
+    def messages(self):
+        """Every message from the start of the file (:data:`_FAILED` where pymavlink raised)."""
+        while True:
+            try:
+                m = self.recv()
+            except Exception:  # noqa: BLE001 - pymavlink on a damaged packet
+                yield _FAILED
+                continue
+            if m is None:
+                return
+            yield m
+
+
+def _mav_raw(m: Any, steps: list, conversion: str | None) -> float | tuple[float, ...]:
+    """The value of field path ``steps`` of MAVLink message ``m`` as float (a tuple of floats
+    for ``conversion`` ``yaw``); NaN when the path does not exist or is no number."""
     try:
         v = get_path(m, steps)
-        if col.conversion == "yaw":
+        if conversion == "yaw":
             return tuple(float(x) for x in v)
         return float(v)
     except (AttributeError, IndexError, TypeError, ValueError):
         return math.nan
+
+
+def _mav_getter(steps: list, conversion: str | None) -> Any:
+    """``m -> _mav_raw(m, steps, conversion)``; for a plain field name the same steps
+    (``float(getattr(m, name))``, NaN on the same errors) without the path walk."""
+    if conversion != "yaw" and len(steps) == 1 and isinstance(steps[0], str):
+        name = steps[0]
+
+        def get(m: Any) -> float:
+            try:
+                return float(getattr(m, name))
+            except (AttributeError, IndexError, TypeError, ValueError):
+                return math.nan
+
+        return get
+    return functools.partial(_mav_raw, steps=steps, conversion=conversion)
 
 
 def _check_mav(path: Path, spec: FormatSpec, m: Any, getters: list) -> None:

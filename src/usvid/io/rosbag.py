@@ -20,10 +20,12 @@ file that is not a bag, a missing topic, a missing field or an unknown message t
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import operator
 import os
+import pickle
 import re
 import shutil
 import tempfile
@@ -298,11 +300,14 @@ def _reader_class() -> type:
     from rosbags.interfaces import MessageDefinitionFormat
     from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
 
+    yaml_class = _cached_yaml_class()
+
     class CachedAnyReader(AnyReader):
         def _open(self) -> None:
             assert self.stack
-            for reader in self.readers:
-                self.stack.enter_context(reader)
+            with _cached_yaml(yaml_class):
+                for reader in self.readers:
+                    self.stack.enter_context(reader)
             connections = [y for x in self.readers for y in x.connections]
             self.connections = connections
             key = (self.is2, id(self.default_typestore), tuple(
@@ -356,6 +361,88 @@ def _reader_class() -> type:
             return store
 
     return CachedAnyReader
+
+
+#: Parsed YAML texts of ROS 2 bags (``metadata.yaml``, QoS profiles), pickled, by text; the
+#: least recently used is dropped beyond ``_YAML_MAX``; texts longer than ``_YAML_TEXT_MAX``
+#: characters are not kept.
+_YAML: OrderedDict[str, bytes] = OrderedDict()
+_YAML_MAX, _YAML_TEXT_MAX = 64, 1_000_000
+_YAML_LOCK = threading.Lock()
+
+
+@functools.cache
+def _cached_yaml_class() -> type:
+    """ruamel.yaml's ``YAML`` whose safe ``load`` of a string keeps the result by text.
+
+    rosbags 0.11 parses a ROS 2 bag's ``metadata.yaml`` on every open, and each topic's
+    ``offered_qos_profiles`` string, with ``YAML(typ='safe').load`` (rosbag2/reader.py,
+    rosbag2/metadata.py): 1.5-2 ms a bag with ruamel.yaml's C parser, more than the rest of
+    opening a small bag (measured). The same text gives the same data, so the data of a text
+    parsed before is returned again, a fresh copy (unpickled) each time; a text that does not
+    parse raises from ruamel.yaml as before (not kept), and any other load is ruamel.yaml's.
+    """
+    from ruamel.yaml import YAML
+
+    class CachedYAML(YAML):
+        # ruamel.yaml's YAML() looks for plug-ins on the disk (a glob) when made: made here
+        # only when a text is parsed or the object is used otherwise
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            self.__dict__["_usvid_args"] = (args, kwargs)
+
+        def _usvid_made(self) -> None:
+            made = self.__dict__.pop("_usvid_args", None)
+            if made is not None:
+                YAML.__init__(self, *made[0], **made[1])
+
+        def __getattr__(self, name: str) -> Any:
+            if "_usvid_args" not in self.__dict__:
+                raise AttributeError(name)
+            self._usvid_made()
+            return getattr(self, name)
+
+        def load(self, stream: Any) -> Any:
+            safe = self.__dict__.get("_usvid_args") == ((), {"typ": "safe"})
+            if not safe or not isinstance(stream, str) or len(stream) > _YAML_TEXT_MAX:
+                self._usvid_made()
+                return super().load(stream)
+            with _YAML_LOCK:
+                blob = _YAML.get(stream)
+                if blob is not None:
+                    _YAML.move_to_end(stream)
+            if blob is None:
+                self._usvid_made()
+                data = super().load(stream)
+                try:
+                    blob = pickle.dumps(data, protocol=pickle.HIGHEST_PROTOCOL)
+                except Exception:  # noqa: BLE001 - data pickle cannot copy: not kept
+                    return data
+                with _YAML_LOCK:
+                    _YAML[stream] = blob
+                    while len(_YAML) > _YAML_MAX:
+                        _YAML.popitem(last=False)
+            return pickle.loads(blob)
+
+    return CachedYAML
+
+
+_YAML_SWAP_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _cached_yaml(yaml_class: type):
+    """While a ROS 2 bag's readers open (rosbags 0.11 only, see :func:`_reader_class`):
+    rosbags' ``rosbag2.reader`` and ``rosbag2.metadata`` modules use :func:`_cached_yaml_class`
+    for ``YAML`` (their own ``YAML`` is put back after; one swap at a time)."""
+    from rosbags.rosbag2 import metadata, reader
+
+    with _YAML_SWAP_LOCK:
+        saved = reader.YAML, metadata.YAML
+        reader.YAML = metadata.YAML = yaml_class
+        try:
+            yield
+        finally:
+            reader.YAML, metadata.YAML = saved
 
 
 def _why(exc: BaseException) -> str:

@@ -74,9 +74,12 @@ def _to_float(values: pd.Series | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if pd.api.types.is_numeric_dtype(s.dtype) and not pd.api.types.is_bool_dtype(s.dtype):
         return s.to_numpy(dtype=float), np.zeros(len(s), dtype=bool)
     num = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+    nan = np.isnan(num)
+    if not nan.any():  # every cell a number: none is bad (an empty cell is a NaN)
+        return num, np.zeros(len(s), dtype=bool)
     txt = s.astype(str).str.strip()
     empty = s.isna().to_numpy() | txt.isin(["", "nan", "NaN", "NA", "None", "-"]).to_numpy()
-    return num, np.isnan(num) & ~empty
+    return num, nan & ~empty
 
 
 def _to_seconds(values: pd.Series | np.ndarray) -> tuple[np.ndarray, np.ndarray, str | None]:
