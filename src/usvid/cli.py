@@ -72,6 +72,20 @@ _register_all()
 _CLICK_ERROR = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
 
 
+_COMMAND: tuple[tuple[int, int], typer.core.TyperGroup] | None = None
+
+
+def _command() -> typer.core.TyperGroup:
+    """The click command tree of :data:`app`, built once (typer rebuilds it from the commands'
+    signatures at every ``app(...)`` call: ~20 ms, which every in-process :func:`main` paid),
+    and again only when a command or group is registered after the build."""
+    global _COMMAND
+    key = (len(app.registered_commands), len(app.registered_groups))
+    if _COMMAND is None or _COMMAND[0] != key:
+        _COMMAND = (key, typer.main.get_command(app))
+    return _COMMAND[1]
+
+
 def _interrupted(exc: BaseException) -> bool:
     """True when ``exc`` is, or was raised while handling, a KeyboardInterrupt (Ctrl-C inside a
     compiled kernel can surface as another exception whose context is the interrupt)."""
@@ -108,7 +122,7 @@ def _main(argv: list[str] | None) -> int:
 
     try:
         # not standalone: click's usage errors come here (one line below), not as a usage box
-        rv = app(args=argv, prog_name="usvid", standalone_mode=False)
+        rv = _command()(args=argv, prog_name="usvid", standalone_mode=False)
         code = rv if isinstance(rv, int) and not isinstance(rv, bool) else 0  # typer.Exit(code)
         if code == 130:  # typer turns Ctrl-C into exit code 130, silently
             return done(130, "usvid: interrupted")

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -47,6 +47,7 @@ from usvid.identify.ls import autocorrelation_factor, numerical_jacobian
 from usvid.identify.metrics import rmse
 from usvid.models.kind import Dynamics, ModelKind
 from usvid.sim.replay import Windows, window_lanes
+from usvid.sim.simulate import Lanes, initial_state
 
 #: Fewest windows for the cluster-robust covariance; below it the autocorrelation factor is used.
 MIN_CLUSTERS = 8
@@ -105,6 +106,7 @@ class OEProblem:
         if held_by is not None:                                # sway coefficients
             self.held = tuple(self.held) + tuple(held_by(self.fixed))
         self.init_names = tuple(c for c in ("r", "psi", "u", "v") if c in kind.outputs)
+        self._lanes: Lanes | None = None  # the windows' lanes (simulate)
 
     def fit_values(self, params: Mapping[str, float]) -> np.ndarray:
         f = self._to_fit(params)
@@ -118,13 +120,23 @@ class OEProblem:
 
     def simulate(self, x: np.ndarray, init: Mapping[str, np.ndarray] | None = None
                  ) -> dict[str, np.ndarray]:
-        """Simulated outputs (B, W) of every window for fit-space values x."""
+        """Simulated outputs (B, W) of every window for fit-space values x.
+
+        The windows' lanes (inputs, run lengths, servo rows) are built once; each call sets
+        only the parameter rows and the initial states (of ``x``'s model and ``init``)."""
         dyn = self.dynamics(self.params(x))
         speed = self.win.init.get("u", 1.0) if self.kind.constant_speed else 1.0
         P = self.kind.pack(dyn, speed)
-        out = window_lanes(self.kind, P, dyn, self.win, init=init,
-                           channels=self.channels).run()
-        return out.channels
+        base = self._lanes
+        if base is None:
+            base = self._lanes = window_lanes(self.kind, P, dyn, self.win, init=init,
+                                              channels=self.channels)
+            return base.run().channels
+        values = {**self.win.init, **(init or {})}  # as window_lanes sets them
+        Z0 = initial_state(self.kind, dyn, base.size, psi0=values.get("psi", 0.0),
+                           values={k: v for k, v in values.items() if k != "psi"})
+        lanes = replace(base, P=np.broadcast_to(P, (P.shape[0], base.size)), Z0=Z0)
+        return lanes.run().channels
 
 
 def _bad_start(kind: ModelKind, exc: Exception) -> IdentificationError:

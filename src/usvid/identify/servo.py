@@ -36,6 +36,7 @@ resolution is one sample ``dt``; the scan (``delay_scan``) shows how sharply it 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -137,6 +138,22 @@ def _physical(theta: np.ndarray, dt: float) -> np.ndarray:
     return np.array([wn, den[1] / (2 * wn), c.dc_gain])
 
 
+@functools.lru_cache(maxsize=1)
+def _servo_rig() -> tuple[Any, np.ndarray, np.ndarray, int]:
+    """The constant part of :func:`_simulate`'s lanes: the zero-gain yaw model's kind, its
+    packed parameter column, its initial-state column at rest and the row of the servo angle
+    in it (built once: they cost half of a servo simulation)."""
+    kind = registry.get("nomoto1")
+    dyn = kind.dynamics(K=0.0, T=1.0)
+    P = kind.pack(dyn, 1.0).reshape(-1, 1)
+    Z0 = initial_state(kind, dyn, 1)
+    row = int(np.flatnonzero(initial_state(kind, dyn, 1, values={"delta": 1.0})[:, 0]
+                             != Z0[:, 0])[0])
+    for a in (P, Z0):
+        a.setflags(write=False)
+    return kind, P, Z0, row
+
+
 def _simulate(params: np.ndarray, u: np.ndarray, d: int, dt: float) -> np.ndarray:
     """The servo ``K wn^2 / (s^2 + 2 zeta wn s + wn^2) e^{-d dt s}`` driven by the command u
     (held over each sample), at rest on u[0]: integrated by the core (:mod:`usvid.sim.core`,
@@ -146,14 +163,14 @@ def _simulate(params: np.ndarray, u: np.ndarray, d: int, dt: float) -> np.ndarra
     cross K <= 0."""
     p = np.atleast_2d(np.asarray(params, dtype=float))
     B = p.shape[0]
-    kind = registry.get("nomoto1")
-    dyn = kind.dynamics(K=0.0, T=1.0)
+    kind, P, Z1, row = _servo_rig()
     S = np.zeros((7, B))
     S[0], S[1], S[5] = math.pi, math.inf, d * dt
     S[2:5] = p.T
-    Z0 = initial_state(kind, dyn, B, values={"delta": p[:, 2] * u[0]})
-    lanes = Lanes(kind=kind, P=np.repeat(kind.pack(dyn, 1.0).reshape(-1, 1), B, axis=1),
-                  servo=2, S=S, Z0=Z0, nsteps=np.full(B, u.size - 1), dt=dt,
+    Z0 = np.repeat(Z1, B, axis=1)
+    Z0[row] = p[:, 2] * u[0]
+    lanes = Lanes(kind=kind, P=np.repeat(P, B, axis=1), servo=2, S=S, Z0=Z0,
+                  nsteps=np.full(B, u.size - 1), dt=dt,
                   series={"delta_cmd": u[None, :]}, channels=("delta",))
     out = lanes.run().channels["delta"]
     return out[0] if np.ndim(params) == 1 else out
