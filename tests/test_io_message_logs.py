@@ -150,6 +150,19 @@ def test_cli_identify_without_format(campaign, tmp_path, fmt, capsys):
     assert (tmp_path / "m.json").is_file()
 
 
+@pytest.mark.parametrize("fmt", ["tlog", "dataflash"])
+def test_log_under_a_bin_folder_is_read_not_run(tmp_path, fmt):
+    """Read without a spec, a log whose path contains '/bin/' is read like any other: the
+    SERVO1_FUNCTION lookup once went through pymavlink's mavlink_connection, which runs such a
+    path as a program (here a PermissionError: the log is not executable)."""
+    (tmp_path / "bin").mkdir()
+    log = WRITERS[fmt](small_trial(), tmp_path / "bin")
+    tr = read_trial(log)
+    assert tr.meta["format_detected"].endswith("SERVO1_FUNCTION 26; format ardupilot_rover")
+    ref = read_trial(shutil.copy(log, tmp_path / log.name))
+    assert tr.data.equals(ref.data)
+
+
 # --- small logs for the unit and bad-input tests ----------------------------------------------
 def small_trial(T=4.0, dt=0.1):
     t = np.round(np.arange(0.0, T, dt), 6)

@@ -34,6 +34,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import io
+import itertools
 import math
 import os
 import re
@@ -422,6 +423,17 @@ def _read_df_text(path: Path, spec: FormatSpec) -> Trial:
     return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
 
 
+def _df_text_messages(dfr: Any, n: int):
+    """The first ``n`` messages of a DataFlash text log (:data:`_FAILED` for a line that does
+    not parse), then None."""
+    for _ in range(n):
+        try:
+            yield dfr.recv_msg()
+        except Exception:  # noqa: BLE001 - a line that does not parse
+            yield _FAILED
+    yield None
+
+
 def servo1_function(path: Path, reader: str) -> float | None:
     """The log's SERVO1_FUNCTION parameter (26 ground steering, 73 left throttle...) from the
     DataFlash ``PARM`` messages or the tlog's ``PARAM_VALUE`` (first 20000 messages), or None."""
@@ -445,23 +457,32 @@ def servo1_function(path: Path, reader: str) -> float | None:
         finally:
             with contextlib.suppress(Exception):
                 dfr.filehandle.close()
-    from pymavlink import mavutil
+    from pymavlink import DFReader, mavutil
 
+    # the readers themselves, not mavutil.mavlink_connection: that picks the connection by the
+    # file's name (UDP for a name with ':'; it runs the file as a program when its path contains
+    # '/bin/'); a tlog is read as read_tlog reads it (_TlogStream)
     with _quiet():
         if reader == "dataflash":
-            mlog = mavutil.mavlink_connection(str(path))
+            mlog = DFReader.DFReader_text(str(path))
+            messages = _df_text_messages(mlog, 20000)
             want, key, val = "PARM", "Name", "Value"
         else:
-            mlog = mavutil.mavlink_connection(str(path), notimestamps=False)
+            mlog = mavutil.mavlogfile(str(path), notimestamps=False, robust_parsing=True)
+            stream = _TlogStream(mlog, mlog.f.read())
+            try:
+                stream.index()
+            except Exception:  # noqa: BLE001 - damaged first packets: read_tlog says so
+                mlog.close()
+                return None
+            messages = itertools.islice(stream.messages(), 20000)
             want, key, val = "PARAM_VALUE", "param_id", "param_value"
         try:
-            for _ in range(20000):
-                try:
-                    m = mlog.recv_msg()
-                except Exception:  # noqa: BLE001
-                    continue
+            for m in messages:
                 if m is None:
                     return None
+                if m is _FAILED:
+                    continue
                 if m.get_type() == want and getattr(m, key, "") == "SERVO1_FUNCTION":
                     return float(getattr(m, val))
         finally:
