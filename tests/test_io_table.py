@@ -322,7 +322,8 @@ def _fast_and_slow(monkeypatch, p, spec):
     return fast, slow
 
 
-@pytest.mark.parametrize("variant", ["lf", "crlf", "blanks", "tab", "bom_skip", "missing"])
+@pytest.mark.parametrize("variant", ["lf", "crlf", "blanks", "tab", "bom_skip", "missing",
+                                     "text"])
 def test_clean_csv_fast_path_equals_line_reader(tmp_path, monkeypatch, variant) -> None:
     # the bytes fast path (pandas' C parser on the undecoded data) must read every clean table
     # exactly as the line-by-line reader does; CRLF line ends, blanks after the delimiter, a
@@ -335,6 +336,8 @@ def test_clean_csv_fast_path_equals_line_reader(tmp_path, monkeypatch, variant) 
             for i in range(50)]
     if variant == "missing":
         rows[3], rows[4], rows[5] = "0.3,,1,2", "0.4,nan,1,2", "0.5,1,-,2"
+    if variant == "text":  # a text cell in a number column: counted, named stripped
+        rows[6] = "0.6, dropout ,1,2"
     head = ["t", "psi", "r", "delta"]
     lines = ([d.join(head)] if variant != "bom_skip"
              else ["logger v1 export", "", d.join(head)]) + rows
@@ -347,6 +350,10 @@ def test_clean_csv_fast_path_equals_line_reader(tmp_path, monkeypatch, variant) 
     pd.testing.assert_frame_equal(fast.data, slow.data, check_exact=True)
     assert fast.rejected == slow.rejected
     assert [f.message for f in fast.findings] == [f.message for f in slow.findings]
+    if variant == "text":  # the row rejected, its cell named without the blanks around it
+        assert len(fast) == 49 and fast.rejected == {"bad_value": 1}
+        assert "(first at line 8: 'dropout')" in fast.findings[0].message
+        return
     assert len(fast) == 50 and np.isnan(fast.data["psi"]).sum() == (2 if variant == "missing"
                                                                      else 0)
 

@@ -401,8 +401,8 @@ def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
     cols = {}
     for name, p in pos.items():
         col = df[p]
-        if col.dtype == object:  # text cells: strip as the line reader does
-            col = col.str.strip()
+        if pd.api.types.is_string_dtype(col.dtype):  # text cells (object in pandas 2, str in
+            col = col.str.strip()                     # pandas 3): strip as the line reader does
         cols[name] = col
     rejected: dict[str, int] = {}
     findings: list[Finding] = []
