@@ -222,6 +222,28 @@ def test_step_runner_degrades_clearly(tmp_path: Path) -> None:
             "&#x27;usvid.no_such_module&#x27;") in html
 
 
+def test_step_failing_under_ctrl_c_is_an_interrupt(tmp_path: Path) -> None:
+    """An exception raised while a step unwinds from Ctrl-C (a library's clean-up failing on a
+    closed file) is the interrupt (exit 130 from the CLI), not a failed step of a run that
+    goes on."""
+    from usvid.demo.pipeline import DemoPipeline
+
+    p = DemoPipeline(tmp_path, seed=0)
+
+    def interrupted_cleanup() -> str:
+        try:
+            raise KeyboardInterrupt
+        finally:
+            raise OSError(9, "Bad file descriptor")
+
+    with pytest.raises(KeyboardInterrupt):
+        p.step("campaign", "Campaign", interrupted_cleanup)
+    assert p.run["steps"] == []
+    # the same error without an interrupt in its chain: a failed step, as before
+    assert not p.step("c", "C", lambda: (_ for _ in ()).throw(OSError(9, "Bad file descriptor")))
+    assert p.run["steps"][0]["message"] == "OSError: [Errno 9] Bad file descriptor"
+
+
 def test_finite_pair_trims_and_fills() -> None:
     import numpy as np
 

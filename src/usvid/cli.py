@@ -13,7 +13,7 @@ import traceback
 
 import typer
 
-from usvid.errors import UsvidError
+from usvid.errors import UsvidError, raised_by_interrupt
 from usvid.files import os_reason
 
 app = typer.Typer(
@@ -86,19 +86,6 @@ def _command() -> typer.core.TyperGroup:
     return _COMMAND[1]
 
 
-def _interrupted(exc: BaseException) -> bool:
-    """True when ``exc`` is, or was raised while handling, a KeyboardInterrupt (Ctrl-C inside a
-    compiled kernel can surface as another exception whose context is the interrupt)."""
-    seen = set()
-    e: BaseException | None = exc
-    while e is not None and id(e) not in seen:
-        if isinstance(e, KeyboardInterrupt):
-            return True
-        seen.add(id(e))
-        e = e.__cause__ or e.__context__
-    return False
-
-
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns (and exits with) the process exit code."""
     import warnings
@@ -147,14 +134,14 @@ def _main(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         return done(130, "usvid: interrupted")
     except OSError as exc:  # the environment (a file vanished, permissions, disk): not a bug
-        if exc.filename is not None and not _interrupted(exc):
+        if exc.filename is not None and not raised_by_interrupt(exc):
             return done(2, f"usvid: error: {exc.filename}: {os_reason(exc)}")
-        if _interrupted(exc):
+        if raised_by_interrupt(exc):
             return done(130, "usvid: interrupted")
         traceback.print_exc()
         return done(1, "usvid: internal error (please report with the traceback above)")
     except Exception as exc:  # a bug: say so, with the traceback
-        if _interrupted(exc):
+        if raised_by_interrupt(exc):
             return done(130, "usvid: interrupted")
         traceback.print_exc()
         return done(1, "usvid: internal error (please report with the traceback above)")

@@ -30,3 +30,17 @@ class IdentificationError(UsvidError):
 
 class SimulationError(UsvidError):
     """A simulation request is inconsistent (bad step, bad manoeuvre definition)."""
+
+
+def raised_by_interrupt(exc: BaseException) -> bool:
+    """True when ``exc`` is, or was raised while handling, a KeyboardInterrupt (Ctrl-C): an
+    interrupt inside compiled code or inside a library's clean-up can surface as another
+    exception (an ``OSError``, a ``RuntimeError``) whose cause or context is the interrupt."""
+    seen = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False

@@ -45,7 +45,7 @@ from usvid import __version__
 from usvid.control.design import design_autopilot
 from usvid.demo.analysis import course_keeping, turning_diameter_fit, validate_against
 from usvid.demo.campaign import generate_campaign, read_campaign_trial
-from usvid.errors import UsvidError
+from usvid.errors import UsvidError, raised_by_interrupt
 from usvid.files import claim_output_dir, move_into, to_json, write_atomic
 from usvid.identify.estimator import identify
 from usvid.identify.servo import identify_second_order_servo
@@ -165,6 +165,8 @@ class DemoPipeline:
         except KeyboardInterrupt:
             raise
         except Exception as exc:  # a bug or bad data in a present step: record, go on
+            if raised_by_interrupt(exc):  # (a library's clean-up failing under Ctrl-C)
+                raise KeyboardInterrupt from exc
             status, message = "failed", f"{type(exc).__name__}: {exc}"
             tb = traceback.format_exc(limit=6)
         seconds = time.perf_counter() - t0
