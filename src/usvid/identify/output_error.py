@@ -46,8 +46,8 @@ from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.ls import autocorrelation_factor, numerical_jacobian
 from usvid.identify.metrics import rmse
 from usvid.models.kind import Dynamics, ModelKind
-from usvid.sim.replay import Windows, window_lanes
-from usvid.sim.simulate import Lanes, initial_state
+from usvid.sim.replay import Windows, window_initial_state, window_lanes
+from usvid.sim.simulate import Lanes
 
 #: Fewest windows for the cluster-robust covariance; below it the autocorrelation factor is used.
 MIN_CLUSTERS = 8
@@ -132,10 +132,8 @@ class OEProblem:
             base = self._lanes = window_lanes(self.kind, P, dyn, self.win, init=init,
                                               channels=self.channels)
             return base.run().channels
-        values = {**self.win.init, **(init or {})}  # as window_lanes sets them
-        Z0 = initial_state(self.kind, dyn, base.size, psi0=values.get("psi", 0.0),
-                           values={k: v for k, v in values.items() if k != "psi"})
-        lanes = replace(base, P=np.broadcast_to(P, (P.shape[0], base.size)), Z0=Z0)
+        lanes = replace(base, P=np.broadcast_to(P, (P.shape[0], base.size)),
+                        Z0=window_initial_state(self.kind, dyn, self.win, init))
         return lanes.run().channels
 
 

@@ -125,6 +125,19 @@ def _concat(ws: list[Windows]) -> Windows:
         trial_index=np.arange(len(ws)), start=np.zeros(len(ws), dtype=int))
 
 
+def window_initial_state(kind: ModelKind, dynamics: Any, win: Windows,
+                         init: Mapping[str, np.ndarray] | None = None) -> np.ndarray:
+    """The joint initial state (rows of the core, one column per window) of the windows of
+    ``win``: their measured initial values, overridden by ``init``, through the kind's
+    initial-state map of ``dynamics``."""
+    values = dict(win.init)
+    values.update(init or {})
+    if not kind.constant_speed and "u" not in values:
+        raise SimulationError(f"a {kind.name} replay needs the measured surge speed u")
+    return initial_state(kind, dynamics, win.batch_size, psi0=values.get("psi", 0.0),
+                         values={k: v for k, v in values.items() if k != "psi"})
+
+
 def window_lanes(kind: ModelKind, P: np.ndarray, dynamics: Any, win: Windows,
                  init: Mapping[str, np.ndarray] | None = None,
                  channels: Sequence[str] = ("psi", "r")) -> Lanes:
@@ -132,18 +145,13 @@ def window_lanes(kind: ModelKind, P: np.ndarray, dynamics: Any, win: Windows,
     overrides the windows' initial values (output error estimates them); ``dynamics`` gives
     the kind's initial-state map."""
     B, W = win.batch_size, win.width
-    values = dict(win.init)
-    values.update(init or {})
-    if not kind.constant_speed and "u" not in values:
-        raise SimulationError(f"a {kind.name} replay needs the measured surge speed u")
+    Z0 = window_initial_state(kind, dynamics, win, init)
     nsteps = np.full(B, W - 1, dtype=np.int64)
     ref = win.outputs[next(iter(win.outputs))]
     nan_tail = np.isnan(ref)
     if nan_tail.any():  # padded free runs: each lane its own length
         nsteps = (W - 1 - np.argmax(nan_tail[:, ::-1] == 0, axis=1)).astype(np.int64)
     skind, S = servo_rows(IdealServo(max_angle=np.pi), B)
-    Z0 = initial_state(kind, dynamics, B, psi0=values.get("psi", 0.0),
-                       values={k: v for k, v in values.items() if k != "psi"})
     series = {k: np.nan_to_num(v, nan=0.0) for k, v in win.inputs.items()
               if k in kind.inputs or k == "delta"}
     return Lanes(kind=kind, P=np.broadcast_to(P, (P.shape[0], B)), servo=skind, S=S, Z0=Z0,
@@ -164,4 +172,5 @@ def replay_windows(model: VesselModel, win: Windows,
     return {c: out.channels[c] for c in chans}
 
 
-__all__ = ["Windows", "make_windows", "replay_windows", "window_lanes"]
+__all__ = ["Windows", "make_windows", "replay_windows", "window_initial_state",
+           "window_lanes"]
