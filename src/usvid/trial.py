@@ -8,6 +8,12 @@ columns are channels in SI units and radians:
 ``n`` [rps], ``n_port``, ``n_stbd`` [rps] or thruster commands, ``tau_u`` [N], ``tau_r`` [N m],
 plus ``lat``, ``lon`` [deg, only as read from a receiver, before conversion to NED].
 
+Environment and attitude: apparent wind ``wind_speed`` [m/s] and ``wind_angle`` [rad, from the
+bow, clockwise, the direction the wind comes from, in (-pi, pi]]; true wind ``wind_speed_true``
+[m/s] and ``wind_dir_true`` [rad, from north, clockwise, the direction it comes from, in
+[0, 2 pi)]; roll ``phi`` [rad, positive heel to starboard], roll rate ``p`` [rad/s], pitch
+``theta`` [rad, bow up positive]. A current is a speed and the direction it flows towards.
+
 A reader of a multi-rate source (NMEA) returns the union of all time stamps with NaN where a channel
 has no sample at that instant; :func:`usvid.prep.resample` puts such a trial on one uniform grid.
 Absent channels are simply absent columns.
@@ -46,6 +52,17 @@ CHANNEL_UNITS: dict[str, str] = {
     "cog": "rad",
     "sog": "m/s",
     "dist": "rad",
+    # environment (usvid.models.environment.wind): apparent wind, from the bow, clockwise, the
+    # direction it comes from (NMEA 0183 MWV "R"); true wind, from north, clockwise, coming from
+    # (NMEA 0183 MWD)
+    "wind_speed": "m/s",
+    "wind_angle": "rad",
+    "wind_speed_true": "m/s",
+    "wind_dir_true": "rad",
+    # attitude: roll (positive = heel to starboard, starboard side down), roll rate, pitch (bow up)
+    "phi": "rad",
+    "p": "rad/s",
+    "theta": "rad",
 }
 
 
@@ -58,6 +75,8 @@ VESSEL_FIELDS = (
     "mass",
     "displacement",
     "block_coefficient",
+    "frontal_area",
+    "lateral_area",
 )
 
 
@@ -76,6 +95,9 @@ class Vessel:
     mass: float | None = None
     displacement: float | None = None
     block_coefficient: float | None = None
+    #: windage: transverse (frontal) and lateral projected areas above the waterline [m^2]
+    frontal_area: float | None = None
+    lateral_area: float | None = None
     extra: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:

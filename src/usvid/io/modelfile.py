@@ -16,7 +16,8 @@ Schema (``ARCHITECTURE.md``, "Model file")::
   gain, delay [s]); each with ``max_angle_deg`` (default 35) and ``max_rate_deg_s`` (default
   none = unlimited; JSON has no infinity).
 * ``vessel``: length [m], speed [m/s], optional beam, draft [m], mass [kg], displacement [m^3],
-  block_coefficient, and ``extra`` (name -> number).
+  block_coefficient, windage areas frontal_area and lateral_area [m^2, projected above the
+  waterline], and ``extra`` (name -> number).
 * ``identification`` (optional): provenance written by :mod:`usvid.identify`; ``data`` (list of
   source names), ``method``, ``std_errors`` and ``fit`` dictionaries, and any further keys
   (free-form provenance is the one place unknown keys are accepted).
@@ -115,6 +116,8 @@ class VesselSpec(BaseModel):
     mass: Pos | None = None
     displacement: Pos | None = None
     block_coefficient: Annotated[float, Field(gt=0, le=1)] | None = None
+    frontal_area: Pos | None = None
+    lateral_area: Pos | None = None
     extra: dict[str, float] = Field(default_factory=dict)
 
 

@@ -128,6 +128,7 @@ def _unavailable(run: Mapping[str, Any], step: str, what: str) -> str:
 #: Units of the vessel particulars (usvid.trial.Vessel and the campaign extras), SI.
 VESSEL_UNITS = {"length": "m", "speed": "m/s", "beam": "m", "draft": "m", "mass": "kg",
                 "displacement": "m^3", "block_coefficient": "-", "x_l": "m",
+                "frontal_area": "m^2", "lateral_area": "m^2",
                 "propeller_D": "m"}
 #: Units of the fitted output channels (fit metrics ``<channel>.rmse`` ...), SI.
 CHANNEL_UNITS = {"psi": "rad", "r": "rad/s", "u": "m/s", "v": "m/s", "delta": "rad"}
