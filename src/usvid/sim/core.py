@@ -7,6 +7,8 @@ and cached on disk; chunks of lanes run in parallel on a thread pool.
 
 Joint state of a lane (a row of ``Z``, lanes along the first axis): x, y [m, NED], psi [rad],
 the kind's states, the servo angle delta [rad] and rate [rad/s], the disturbance filter (w1, w2).
+Inside a chunk its rows and the helpers that load, store and combine it are generated from the
+kind's state names (:mod:`usvid.sim.layout`): a kind has any number of states.
 
 Time stepping (step ``dt`` [s], lane ``b`` runs ``nsteps[b]`` steps):
 
@@ -41,6 +43,8 @@ the angle-sum formula (:func:`_rot`) instead of library calls.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
 import types
 from concurrent.futures import ThreadPoolExecutor
@@ -53,13 +57,57 @@ from llvmlite import ir as llvmir
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.models.kind import S0, ModelKind
+from usvid.sim import layout as _layout
+from usvid.sim.layout import (
+    CH,
+    JDD,
+    JDL,
+    JPSI,
+    JS,
+    JW1,
+    JW2,
+    LACT,
+    LCMDLOG,
+    LCUR,
+    LESD,
+    LFLAG,
+    LIAE,
+    LINTEG,
+    LITAE,
+    LMAXD,
+    LNS,
+    LOVMAX,
+    LPSI0,
+    LQ,
+    LQH,
+    LQN,
+    LREND,
+    LSW,
+    LTQ,
+    LZZN,
+    RDL,
+    RPSI,
+    RW2,
+    VCMD,
+    VF,
+    VL,
+    VNOISE,
+    VRAMP,
+    VS,
+    VT,
+    VZ,
+)
 
 #: fast-math flags: FMA contraction and reassociation, NaN/inf semantics kept (np.isnan)
 _FM = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 #: Recorded channels in this order (``slots[i]``: row of channel i in ``rec``, or -1).
 CHANNELS = ("x", "y", "psi", "u", "v", "r", "U", "delta", "delta_cmd", "n", "n_port", "n_stbd",
-            "dist")
+            "dist", "phi", "p")
+NCH = len(CHANNELS)
+#: Channels read from a kind state of the same name (roll angle [rad], roll rate [rad/s]):
+#: recorded for the kinds that have them.
+STATE_CHANNELS = ("phi", "p")
 #: Logic codes.
 COMMANDED, TURNING, ZIGZAG, COURSE = 0, 1, 2, 3
 #: FOH input series channels (rows of ``F0``/``F1``): measured rudder angle, n, n_port, n_stbd.
@@ -71,50 +119,38 @@ DIST_B, DIST_A1, DIST_A0 = 0.42, 0.36, 0.37
 #: Largest |r| [rad/s] before a lane is declared diverged.
 R_MAX = 100.0
 #: Servo row layout: max_angle, max_rate, T or omega_n, zeta, gain, delay [s], 1/T.
-SERVO_ROWS = 7
+SERVO_ROWS = len(_layout.SERVO)
+#: The external force passed to the kind's right-hand side in calm water: (X, Y, K, N) all
+#: -0.0, so that the kind's ``+ f[i]`` vanishes at compile time (x + -0.0 is x for every x).
+NOF = (-0.0, -0.0, -0.0, -0.0)
 
-#: Length of a lane's joint-state tuple in the step (x, y, psi, four kind states, servo angle
-#: and rate, disturbance filter).
-NT = 11
-#: Length of a lane's parameter tuple: the kind's packed length (a constant of the
-#: specialisation, see :func:`kernel`).
-NPK = 1
-BU, BV, BR = -1, -1, 0  # positions of u, v, r among the kind's states (-1: constant U / zero)
-ZU, ZV, ZR = 3, 4, 3  # their positions in the joint-state tuple (literal indices)
-SPEED_ROW = 3  # position of the constant speed U in a constant-speed kind's parameters
-
-#: Logic-variable rows of a chunk (rows ``VL + i`` of ``V``, :func:`_chunk`): command logged,
-#: ramp end, zig-zag sign and heading reference, reversals, PID integral, ITAE, IAE,
-#: max |delta|, dead-time queue head and length, overshoot so far, noise standard deviation,
-#: the time up to which the lane is quiet (no logic and no event due: :func:`_quiet_until`),
-#: the zig-zag switching angle, the lane's quiet flag of the step and its slow-path flag, the
-#: lane's active flag and its number of steps.
-(LCMDLOG, LREND, LCUR, LPSI0, LZZN, LINTEG, LITAE, LIAE, LMAXD, LQH, LQN, LOVMAX, LESD, LTQ,
- LSW, LQ, LFLAG, LACT, LNS) = range(19)
-NL = 19
-#: Rows of a chunk's work array ``V`` (:func:`_vstep`): joint state (NT rows), servo values,
-#: command in force / ramp rate / noise sample, input series (8), trig bases (6), the logic
-#: variables (NL rows), then the kind's parameters.
-VS, VCMD, VRAMP, VNOISE, VF, VT, VL = 11, 18, 19, 20, 21, 29, 35
-VP = VL + NL
-#: Lanes per chunk (the row length of the chunk's work arrays; a compile-time constant so that
-#: LLVM sees the rows of ``V`` as one object at constant offsets and vectorises the lane loop).
-CH = 32
-#: Scratch rows of ``V`` after the parameters (rows VP + NPK ..; ``zb`` in :func:`_chunk`): the
-#: joint state and overshoot before the vector step (NT + 1 rows), then its new max |delta| and
-#: overshoot (copied into their rows after its lane loop, see :func:`_vstep`).
-NZB = NT + 3
-
-# -- kind-specific globals (replaced when a kind is specialised) -----------------------------
+# -- kind-specific globals (replaced when a kind is specialised, see :func:`kernel`) ----------
 NS = 1  # number of kind states
+NPK = 1  # length of a lane's parameter tuple (the kind's packed length)
+NT = JS + 1  # length of a lane's joint-state tuple
+VP = VZ + NT  # first parameter row of V
+VB = VP + NPK  # first scratch row of V: the joint state and overshoot before the vector step
+# (NT + 1 rows), then its new max |delta| and overshoot (copied after its lane loop)
+VN = VB + NT + 3  # first row of the per-lane step's result
+VROWS = VN + NT  # rows of V
+BU, BV, BR = -1, -1, 0  # positions of u, v, r among the kind's states (-1: constant U / zero)
+ZU, ZV, ZR = JS, JS, JS  # their positions in the joint-state tuple (and rows VZ + ..)
+ZPHI, ZP = -1, -1  # positions of the states phi and p (-1: the kind has none)
+SPEED_ROW = 3  # position of the constant speed U in a constant-speed kind's parameters
 TRIG = False  # the kind reads cos/sin of the steering angle
 SWR = -1  # the kind's switch row of P (ModelKind.switch_row; -1: none)
 SWV = np.array([np.nan])  # its values with a vector step of their own (ModelKind.switch_values)
 NSW = 1  # number of vector steps (at most 4: one per switch value, then the generic one)
 
 
-def rhs(P, b, Z, D, delta, cd, sd, n, n_port, n_stbd):  # pragma: no cover - placeholder
-    return 0.0, 0.0, 0.0
+def rhs(p, s, a, f):  # pragma: no cover - placeholder, the kind's (see :func:`kernel`)
+    return 0.0, 0.0, 0.0, (0.0,)
+
+
+# the joint-state and parameter helpers, generated per kind and variant from the kind's state
+# names (:func:`usvid.sim.layout.joint_helpers`, :func:`usvid.sim.layout.param_tuple`)
+_ztup = _zput = _states = _joint = _with_dl = _with_servo = _finite = _axpy = _rk4sum = None
+_vaxpy = _vrk4sum = _vput = _ptup = None
 
 
 # -- scalar helpers ----------------------------------------------------------------------------
@@ -213,8 +249,9 @@ def _start_ramp(t, target, d, rate):
 
 # -- the kernel template (specialised per kind) -----------------------------------------------
 def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
-    """Time derivative of a lane's joint-state tuple ``z`` (x, y, psi, four kind states, servo
-    angle and rate, disturbance filter) at the fraction ``tau`` of the current step.
+    """Time derivative of a lane's joint-state tuple ``z`` (x, y, psi, servo angle and rate,
+    disturbance filter, the kind's states: :mod:`usvid.sim.layout`) at the fraction ``tau`` of
+    the current step.
 
     ``p`` the lane's parameter tuple, ``srv`` its servo values (max angle, max rate, T or
     omega_n, zeta, gain, delay, 1/T) blended with the batch's 0/1 weights w0 (ideal: ramp
@@ -223,37 +260,29 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
     delta, n, n_port, n_stbd; NaN when absent); ``tr`` the trig bases (psi0, cos, sin, de0,
     cos, sin) of the step start. Scalars and tuples only.
     """
-    zdl = z[7]
+    zdl = z[JDL]
     ma = srv[0]
     mr = srv[1]
     d = _clip(zdl, ma)
-    w = z[8]
+    w = z[JDD]
     rate = w1 * _clip((cmdin - zdl) * srv[6], mr) + w2 * _clip(w, mr)
     if (zdl >= ma and rate > 0.0) or (zdl <= -ma and rate < 0.0):
         rate = 0.0
     wn = srv[2]
-    w2d = z[10]
+    w2d = z[JW2]
     fd = fs[0] + tau * (fs[4] - fs[0])
     de = (d if np.isnan(fd) else fd) + DIST_B * w2d
     cd = 1.0
     sd = 0.0
     if TRIG:
         cd, sd = _rot(de, tr[3], tr[4], tr[5])
-    u, v, r, d0, d1, d2, d3 = rhs(p, z[3], z[4], z[5], z[6], de, cd, sd,
-                                  fs[1] + tau * (fs[5] - fs[1]),
-                                  fs[2] + tau * (fs[6] - fs[2]),
-                                  fs[3] + tau * (fs[7] - fs[3]))
-    cps, sps = _rot(z[2], tr[0], tr[1], tr[2])
-    return (u * cps - v * sps, u * sps + v * cps, r, d0, d1, d2, d3,
-            w0 * ramp + rate, w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w),
-            w2d, -DIST_A0 * z[9] - DIST_A1 * w2d + noise)
-
-
-def _axpy(z, h, k):
-    """z + h k for the joint-state tuples."""
-    return (z[0] + h * k[0], z[1] + h * k[1], z[2] + h * k[2], z[3] + h * k[3],
-            z[4] + h * k[4], z[5] + h * k[5], z[6] + h * k[6], z[7] + h * k[7],
-            z[8] + h * k[8], z[9] + h * k[9], z[10] + h * k[10])
+    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[5] - fs[1]),
+                                      fs[2] + tau * (fs[6] - fs[2]),
+                                      fs[3] + tau * (fs[7] - fs[3])), NOF)
+    cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
+    return _joint(u * cps - v * sps, u * sps + v * cps, r, w0 * ramp + rate,
+                  w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w),
+                  w2d, -DIST_A0 * z[JW1] - DIST_A1 * w2d + noise, ds)
 
 
 def _rk4(p, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
@@ -264,18 +293,7 @@ def _rk4(p, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
     k2 = _deriv(p, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k1))
     k3 = _deriv(p, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k2))
     k4 = _deriv(p, tau0 + frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, h, k3))
-    h6 = h / 6.0
-    return (z[0] + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-            z[1] + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-            z[2] + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
-            z[3] + h6 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
-            z[4] + h6 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
-            z[5] + h6 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]),
-            z[6] + h6 * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6]),
-            z[7] + h6 * (k1[7] + 2.0 * k2[7] + 2.0 * k3[7] + k4[7]),
-            z[8] + h6 * (k1[8] + 2.0 * k2[8] + 2.0 * k3[8] + k4[8]),
-            z[9] + h6 * (k1[9] + 2.0 * k2[9] + 2.0 * k3[9] + k4[9]),
-            z[10] + h6 * (k1[10] + 2.0 * k2[10] + 2.0 * k3[10] + k4[10]))
+    return _rk4sum(z, h / 6.0, k1, k2, k3, k4)
 
 
 # -- the vector step (compiled per kind and variant, see :func:`vector_step`) -----------------
@@ -302,11 +320,11 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     :data:`NOD`, :data:`XY` (the branches of the other variants vanish at compile time); returns
     (the derivative, the largest |angle - base angle| of its rotations). ``first``: the step
     start (stage 1), where the angles are the bases' own (no rotation)."""
-    zdl = z[7]
+    zdl = z[JDL]
     ma = srv[0]
     mr = srv[1]
     d = _clip(zdl, ma)
-    w = z[8]
+    w = z[JDD]
     if SK == 0:  # the ramp (not limited: it ends at the target)
         rate = ramp
     else:
@@ -327,7 +345,7 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
         n2 = np.nan
     else:
         fd = fs[0] + tau * (fs[4] - fs[0])
-        de = (d if np.isnan(fd) else fd) + DIST_B * z[10]
+        de = (d if np.isnan(fd) else fd) + DIST_B * z[JW2]
         n0 = fs[1] + tau * (fs[5] - fs[1])
         n1 = fs[2] + tau * (fs[6] - fs[2])
         n2 = fs[3] + tau * (fs[7] - fs[3])
@@ -340,14 +358,14 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             sd = tr[5]
         else:
             cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
-    u, v, r, d0, d1, d2, d3 = rhs(p, z[3], z[4], z[5], z[6], de, cd, sd, n0, n1, n2)
+    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), NOF)
     k0 = 0.0
     k1 = 0.0
     if XY:
         cps = tr[1]
         sps = tr[2]
         if not first:
-            cps, sps, hp = _rotv(z[2], tr[0], tr[1], tr[2])
+            cps, sps, hp = _rotv(z[JPSI], tr[0], tr[1], tr[2])
             hm = max(hm, hp)
         k0 = u * cps - v * sps
         k1 = u * sps + v * cps
@@ -357,20 +375,12 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
         acc = wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w
         if SK < 0:
             acc = srv[9] * acc
-    k9 = 0.0
-    k10 = 0.0
+    k5 = 0.0
+    k6 = 0.0
     if not NOD:
-        k9 = z[10]
-        k10 = -DIST_A0 * z[9] - DIST_A1 * z[10] + noise
-    return (k0, k1, r, d0, d1, d2, d3, rate, acc, k9, k10), hm
-
-
-def _vaxpy(z, h, k):
-    """:func:`_axpy` for the vector step (the rows the variant does not integrate kept)."""
-    return (z[0] + h * k[0] if XY else z[0], z[1] + h * k[1] if XY else z[1],
-            z[2] + h * k[2], z[3] + h * k[3], z[4] + h * k[4], z[5] + h * k[5],
-            z[6] + h * k[6], z[7] + h * k[7], z[8] + h * k[8],
-            z[9] if NOD else z[9] + h * k[9], z[10] if NOD else z[10] + h * k[10])
+        k5 = z[JW2]
+        k6 = -DIST_A0 * z[JW1] - DIST_A1 * z[JW2] + noise
+    return _joint(k0, k1, r, rate, acc, k5, k6, ds), hm
 
 
 def _vrk4(p, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
@@ -381,48 +391,11 @@ def _vrk4(p, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
     k2, m2 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
     k3, m3 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
     k4, m4 = _vderiv(p, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
-    h6 = h / 6.0
     far = max(max(m1, m2), max(m3, m4)) > 0.05
-    y2 = z[2] + h6 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
-    return (z[0] + h6 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]) if XY else z[0],
-            z[1] + h6 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]) if XY else z[1],
-            np.nan if far else y2,
-            z[3] + h6 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
-            z[4] + h6 * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
-            z[5] + h6 * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]),
-            z[6] + h6 * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6]),
-            z[7] + h6 * (k1[7] + 2.0 * k2[7] + 2.0 * k3[7] + k4[7]),
-            z[8] + h6 * (k1[8] + 2.0 * k2[8] + 2.0 * k3[8] + k4[8]),
-            z[9] if NOD else z[9] + h6 * (k1[9] + 2.0 * k2[9] + 2.0 * k3[9] + k4[9]),
-            z[10] if NOD else z[10] + h6 * (k1[10] + 2.0 * k2[10] + 2.0 * k3[10] + k4[10]))
+    return _vrk4sum(z, h / 6.0, k1, k2, k3, k4, far)
 
 
-# -- a chunk's work array V: row r of lane j at V[r * CH + j] (module docstring) --------------
-def _ptup(V, j):  # pragma: no cover - placeholder, generated per kind in kernel()
-    return (V[VP * CH + j],)
-
-
-def _ztup(V, j):
-    """Lane j's joint-state tuple from ``V`` (the rows 0..NT-1)."""
-    return (V[j], V[CH + j], V[2 * CH + j], V[3 * CH + j], V[4 * CH + j], V[5 * CH + j],
-            V[6 * CH + j], V[7 * CH + j], V[8 * CH + j], V[9 * CH + j], V[10 * CH + j])
-
-
-def _zput(A, j, z):
-    """Write a joint-state tuple into column j of the rows 0..NT-1 of ``A``."""
-    A[j] = z[0]
-    A[CH + j] = z[1]
-    A[2 * CH + j] = z[2]
-    A[3 * CH + j] = z[3]
-    A[4 * CH + j] = z[4]
-    A[5 * CH + j] = z[5]
-    A[6 * CH + j] = z[6]
-    A[7 * CH + j] = z[7]
-    A[8 * CH + j] = z[8]
-    A[9 * CH + j] = z[9]
-    A[10 * CH + j] = z[10]
-
-
+# -- a chunk's work array V: row r of lane j at V[r * CH + j] (:mod:`usvid.sim.layout`) -------
 def _inputs(V, j):
     """Lane j's servo values, input series and trig bases from ``V``."""
     o = VS * CH + j
@@ -450,10 +423,10 @@ def _steer(V, j):
     fd = V[VF * CH + j]
     # every value loaded whatever fd and the clip written as selects (:func:`_clip`): no
     # branch, no conditional load, so that the lane loop of :func:`_vbases` vectorises
-    x = V[7 * CH + j]
+    x = V[RDL * CH + j]
     ma = V[VS * CH + j]
     d = ma if x > ma else (-ma if x < -ma else x)
-    return (d if np.isnan(fd) else fd) + DIST_B * V[10 * CH + j]
+    return (d if np.isnan(fd) else fd) + DIST_B * V[RW2 * CH + j]
 
 
 def _vbases(V):
@@ -464,7 +437,7 @@ def _vbases(V):
     nfar = 0.0
     for j in range(CH):
         o = VT * CH + j
-        a = V[2 * CH + j]
+        a = V[RPSI * CH + j]
         c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
         g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
         V[o] = a
@@ -507,7 +480,7 @@ def _vstep(Vp, h, frac, zig, sk):
 
     ``Vp`` points to the chunk's work array ``V`` (rows: joint state, servo values, command /
     ramp rate / noise, input series, trig bases, logic variables, parameters, scratch;
-    :data:`VS` .., :data:`NZB`): one array, so that LLVM knows every access's offset and needs
+    :mod:`usvid.sim.layout`): one array, so that LLVM knows every access's offset and needs
     no alias checks. Per lane slot:
 
     * trig bases: the heading's (with :data:`XY`) and, for a TRIG kind, the steering angle's,
@@ -528,13 +501,13 @@ def _vstep(Vp, h, frac, zig, sk):
     compiles to masked stores, microcoded on AMD Zen; for the same reason the new max |delta|
     and overshoot (a select of the old value) go to scratch rows and are copied afterwards.
     """
-    V = numba.carray(Vp, (VP + NPK + NZB) * CH)
+    V = numba.carray(Vp, VROWS * CH)
     w0 = 1.0 if sk == 0.0 else 0.0  # the servo blend's weights (variant SK = -1)
     w1 = 1.0 if sk == 1.0 else 0.0
     w2 = 1.0 if sk == 2.0 else 0.0
     nslow = 0.0
     for j in range(CH):
-        a = V[2 * CH + j]
+        a = V[RPSI * CH + j]
         c0 = 1.0
         s0 = 0.0
         if XY:
@@ -546,7 +519,7 @@ def _vstep(Vp, h, frac, zig, sk):
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
-        x7 = V[7 * CH + j]
+        x7 = V[RDL * CH + j]
         ma = V[VS * CH + j]
         d = ma if x7 > ma else (-ma if x7 < -ma else x7)  # _clip, as selects
         a3 = 0.0
@@ -578,21 +551,20 @@ def _vstep(Vp, h, frac, zig, sk):
         quiet = V[(VL + LQ) * CH + j] > 0.0
         # max |delta| of the quiet lanes at the step start (the measured angle is absent on
         # the quiet path: the servo's, limited)
-        V[(VP + NPK + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(d) if quiet else 0.0)
+        V[(VB + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(d) if quiet else 0.0)
         # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
         # every load unconditional, clips as selects: no masked loads and stores)
-        ok = (np.isfinite(y[0]) & np.isfinite(y[1]) & np.isfinite(y[2]) & np.isfinite(y[3])
-              & np.isfinite(y[4]) & np.isfinite(y[5]) & np.isfinite(y[6]))
+        ok = _finite(y)
         cur = V[(VL + LCUR) * CH + j]
         cur = cur if zig > 0.0 else 0.0
         sw = V[(VL + LSW) * CH + j]
-        dev1 = y[2] - V[(VL + LPSI0) * CH + j]
+        dev1 = y[JPSI] - V[(VL + LPSI0) * CH + j]
         cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
         ovmax = V[(VL + LOVMAX) * CH + j]
         ov = -cur * dev1 - sw
         upd = (cur != 0.0) & (V[(VL + LZZN) * CH + j] >= 1.0) & (np.isnan(ovmax) | (ov > ovmax))
-        dl = y[7]
-        dd = y[8]
+        dl = y[JDL]
+        dd = y[JDD]
         if SK != 0:
             above = dl > ma
             below = dl < -ma
@@ -608,25 +580,13 @@ def _vstep(Vp, h, frac, zig, sk):
         flag = 0.0 if fast else 1.0
         V[(VL + LFLAG) * CH + j] = flag
         nslow += flag * V[(VL + LACT) * CH + j]  # (a product: a select would load it masked)
-        _zput(V, (VP + NPK) * CH + j, z)
-        V[(VP + NPK + NT) * CH + j] = ovmax
-        V[(VP + NPK + NT + 2) * CH + j] = ov if upd else ovmax
-        if XY:
-            V[j] = y[0]
-            V[CH + j] = y[1]
-        V[2 * CH + j] = y[2]
-        V[3 * CH + j] = y[3]
-        V[4 * CH + j] = y[4]
-        V[5 * CH + j] = y[5]
-        V[6 * CH + j] = y[6]
-        V[7 * CH + j] = dl
-        V[8 * CH + j] = dd
-        if not NOD:
-            V[9 * CH + j] = y[9]
-            V[10 * CH + j] = y[10]
+        _zput(V, VB * CH + j, z)
+        V[(VB + NT) * CH + j] = ovmax
+        V[(VB + NT + 2) * CH + j] = ov if upd else ovmax
+        _vput(V, j, y, dl, dd)
     for j in range(CH):
-        V[(VL + LMAXD) * CH + j] = V[(VP + NPK + NT + 1) * CH + j]
-        V[(VL + LOVMAX) * CH + j] = V[(VP + NPK + NT + 2) * CH + j]
+        V[(VL + LMAXD) * CH + j] = V[(VB + NT + 1) * CH + j]
+        V[(VL + LOVMAX) * CH + j] = V[(VB + NT + 2) * CH + j]
     return nslow
 
 
@@ -678,11 +638,10 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
             qh = (qh + 1) % cap
             qn -= 1
             if skind == 0:
-                dl, ramp, rend = _start_ramp(tb, _clip(cmdin, ma), z[7], mr)
-                z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, z[8], z[9], z[10])
+                dl, ramp, rend = _start_ramp(tb, _clip(cmdin, ma), z[JDL], mr)
+                z = _with_dl(z, dl)
         elif what == 2 and tb <= t1 + eps:
-            z = (z[0], z[1], z[2], z[3], z[4], z[5], z[6], _clip(cmdin, ma), z[8],
-                 z[9], z[10])
+            z = _with_dl(z, _clip(cmdin, ma))
             ramp = 0.0
             rend = math.inf
         if what == 0 or tb >= t1 - eps:
@@ -693,18 +652,18 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
 def _chval(V, j, ch, dnow, cmdlog):
     """Lane j's value of channel ``ch`` (:data:`CHANNELS`) at the step start."""
     if ch <= 2:
-        return V[ch * CH + j]
+        return V[(VZ + ch) * CH + j]  # x, y, psi
     if ch == 3:
-        return V[(VP + SPEED_ROW) * CH + j] if BU < 0 else V[ZU * CH + j]
+        return V[(VP + SPEED_ROW) * CH + j] if BU < 0 else V[(VZ + ZU) * CH + j]
     if ch == 4:
-        return 0.0 if BV < 0 else V[ZV * CH + j]
+        return 0.0 if BV < 0 else V[(VZ + ZV) * CH + j]
     if ch == 5:
-        return V[ZR * CH + j]
+        return V[(VZ + ZR) * CH + j]
     if ch == 6:
         if BU < 0:
             return V[(VP + SPEED_ROW) * CH + j]
-        vu = V[ZU * CH + j]
-        vv = V[ZV * CH + j]
+        vu = V[(VZ + ZU) * CH + j]
+        vv = V[(VZ + ZV) * CH + j]
         return math.sqrt(vu * vu + vv * vv)
     if ch == 7:
         return dnow
@@ -712,12 +671,16 @@ def _chval(V, j, ch, dnow, cmdlog):
         return cmdlog
     if ch <= 11:
         return V[(VF + ch - 8) * CH + j]  # n, n_port, n_stbd at the step start
-    return DIST_B * V[10 * CH + j]
+    if ch == 12:
+        return DIST_B * V[RW2 * CH + j]
+    if ch == 13:
+        return np.nan if ZPHI < 0 else V[(VZ + ZPHI) * CH + j]
+    return np.nan if ZP < 0 else V[(VZ + ZP) * CH + j]
 
 
 def _record(V, j, b, jrec, slots, rec, dnow, cmdlog):
     """Record lane j (lane b of the batch) at the step start into ``rec[:, b, jrec]``."""
-    for ch in range(13):
+    for ch in range(NCH):
         sl = slots[ch]
         if sl >= 0:
             rec[sl, b, jrec] = _chval(V, j, ch, dnow, cmdlog)
@@ -726,13 +689,13 @@ def _record(V, j, b, jrec, slots, rec, dnow, cmdlog):
 def _vrecord(V, lo, W, jrec, slots, rec):
     """Record the quiet lanes (row LQ) of the chunk at the step start, channel by channel (the
     values of :func:`_record`: the measured steering angle is absent on the quiet path)."""
-    for ch in range(13):
+    for ch in range(NCH):
         sl = slots[ch]
         if sl < 0:
             continue
         for j in range(W):
             if V[(VL + LQ) * CH + j] > 0.0:
-                rec[sl, lo + j, jrec] = _chval(V, j, ch, _clip(V[7 * CH + j], V[VS * CH + j]),
+                rec[sl, lo + j, jrec] = _chval(V, j, ch, _clip(V[RDL * CH + j], V[VS * CH + j]),
                                                V[(VL + LCMDLOG) * CH + j])
 
 
@@ -781,7 +744,7 @@ def _vmaxd(V, tmp):
     ``V[o] = new if cond else V[o]`` would compile to a masked store (``vmaskmovpd``, slow)."""
     o = (VL + LMAXD) * CH
     for j in range(CH):
-        x = V[7 * CH + j]
+        x = V[RDL * CH + j]
         ma = V[VS * CH + j]
         d = abs(ma if x > ma else (-ma if x < -ma else x))  # _clip, as selects
         m = V[o + j]
@@ -793,7 +756,7 @@ def _vmaxd(V, tmp):
 def _restore(V, zb, j):
     """Lane j's joint state and overshoot from before the vector step (:func:`_vstep`)."""
     for r in range(NT):
-        V[r * CH + j] = zb[r * CH + j]
+        V[(VZ + r) * CH + j] = zb[r * CH + j]
     V[(VL + LOVMAX) * CH + j] = zb[NT * CH + j]
 
 
@@ -818,8 +781,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     """
     ID = S0 + NS
     W = hi - lo
-    V = np.zeros((VP + NPK + NZB) * CH)
-    zb = V[(VP + NPK) * CH:]  # the scratch rows (of _vstep, _vmaxd)
+    V = np.zeros(VROWS * CH)
+    zb = V[VB * CH:]  # the scratch rows (of _vstep, _vmaxd)
     for j in range(CH):
         V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
         V[(VT + 4) * CH + j] = 1.0
@@ -845,12 +808,12 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         for i in range(SERVO_ROWS):
             V[(VS + i) * CH + j] = S[b, i]
         ma = S[b, 0]
-        for i in range(3):
-            V[i * CH + j] = Z[b, i]
+        for i in range(3):  # x, y, psi
+            V[(VZ + i) * CH + j] = Z[b, i]
         for i in range(NS):
-            V[(3 + i) * CH + j] = Z[b, S0 + i]
-        for i in range(4):
-            V[(7 + i) * CH + j] = Z[b, ID + i]
+            V[(VZ + JS + i) * CH + j] = Z[b, S0 + i]
+        for i in range(4):  # servo angle and rate, disturbance filter
+            V[(VZ + JDL + i) * CH + j] = Z[b, ID + i]
         # at rest on the initial angle: the command in force is the one that holds it
         cmdin = Z[b, ID] / S[b, 4] if skind == 2 else Z[b, ID]
         V[(VL + LREND) * CH + j] = math.inf
@@ -861,7 +824,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             cmdin = L[b, 5] * L[b, 0]
             if skind == 0:
                 dl, ramp, rend = _start_ramp(0.0, _clip(cmdin, ma), Z[b, ID], S[b, 1])
-                V[7 * CH + j] = dl
+                V[RDL * CH + j] = dl
                 V[VRAMP * CH + j] = ramp
                 V[(VL + LREND) * CH + j] = rend
         V[(VL + LCMDLOG) * CH + j] = cmdin
@@ -928,7 +891,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             cmdlog = V[(VL + LCMDLOG) * CH + j]
             rend = V[(VL + LREND) * CH + j]
             cur = V[(VL + LCUR) * CH + j]
-            z7 = V[7 * CH + j]
+            z7 = V[RDL * CH + j]
             # input series at the step ends (first-order hold)
             kk = k + 1 if k < n else k
             o = VF * CH + j
@@ -936,7 +899,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 _load_series(V, o, SER, sidx, row, k, kk)
             fd = V[o]
             # logic -> command events
-            psi = V[2 * CH + j]
+            psi = V[RPSI * CH + j]
             if lk == COMMANDED:
                 if s4_ >= 0:
                     c = SER[s4_, row, k]
@@ -958,7 +921,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                     qh, qn = _push(qt, qv, b, qh, qn, tev + delay, cmdlog)
             else:
                 err = _wrap(L[b, 0] - psi)
-                c = L[b, 1] * err + L[b, 2] * V[(VL + LINTEG) * CH + j] - L[b, 3] * V[ZR * CH + j]
+                c = (L[b, 1] * err + L[b, 2] * V[(VL + LINTEG) * CH + j]
+                     - L[b, 3] * V[(VZ + ZR) * CH + j])
                 sat = c > ma or c < -ma
                 if not (L[b, 4] != 0.0 and sat and c * err > 0.0):
                     V[(VL + LINTEG) * CH + j] += err * dt
@@ -978,7 +942,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 z7 = _clip(cmdin, ma)
                 ramp = 0.0
                 rend = math.inf
-            V[7 * CH + j] = z7
+            V[RDL * CH + j] = z7
             # record (at the step start)
             dnow = _clip(z7, ma) if np.isnan(fd) else fd
             if abs(dnow) > V[(VL + LMAXD) * CH + j]:
@@ -1015,7 +979,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             _vmaxd(V, zb)
             for j in range(W if _vbases(V) > 0.0 else 0):
                 if act[j] and np.isnan(V[(VT + 1) * CH + j]):
-                    _base_far(V, j, 0, V[2 * CH + j])
+                    _base_far(V, j, 0, V[RPSI * CH + j])
                 if TRIG and act[j] and np.isnan(V[(VT + 4) * CH + j]):
                     _base_far(V, j, 3, _steer(V, j))
         # -- phase 3, per lane: events inside the step, zig-zag switching, limits, divergence --
@@ -1027,16 +991,14 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 continue
             if nsimple > 0:  # a trig base the vector step left NaN: by the library
                 if np.isnan(V[(VT + 1) * CH + j]):
-                    _base_far(V, j, 0, V[2 * CH + j])
+                    _base_far(V, j, 0, V[RPSI * CH + j])
                 if TRIG and np.isnan(V[(VT + 4) * CH + j]):
                     _base_far(V, j, 3, _steer(V, j))
             b = lo + j
             ok = False
             if (simd and V[(VL + LQ) * CH + j] > 0.0) or simple[j]:
                 z = zv
-                ok = (np.isfinite(z[0]) and np.isfinite(z[1]) and np.isfinite(z[2])
-                      and np.isfinite(z[3]) and np.isfinite(z[4]) and np.isfinite(z[5])
-                      and np.isfinite(z[6]))
+                ok = _finite(z)
             if not ok:
                 z, cmdin, ramp, rend, qh, qn = _substeps(
                     V, j, _ztup(V, j), t, t1, eps, idt, w0, w1, w2, skind, V[VCMD * CH + j],
@@ -1057,8 +1019,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             if lk == ZIGZAG and cur != 0.0:  # zig-zag switching, event-located
                 sw = L[b, 1]
                 psi0 = V[(VL + LPSI0) * CH + j]
-                dev0 = V[2 * CH + j] - psi0  # the heading at the step start
-                dev1 = z[2] - psi0
+                dev0 = V[RPSI * CH + j] - psi0  # the heading at the step start
+                dev1 = z[JPSI] - psi0
                 if V[(VL + LZZN) * CH + j] >= 1.0:
                     ov = -cur * dev1 - sw
                     if np.isnan(V[(VL + LOVMAX) * CH + j]) or ov > V[(VL + LOVMAX) * CH + j]:
@@ -1098,8 +1060,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                     V[(VL + LQH) * CH + j] = qh
                     V[(VL + LQN) * CH + j] = qn
             # servo limits, divergence
-            dl = z[7]
-            dd = z[8]
+            dl = z[JDL]
+            dd = z[JDD]
             if skind != 0:
                 ma = V[VS * CH + j]
                 if dl > ma:
@@ -1110,11 +1072,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                     dd = max(dd, 0.0)
                 if skind == 2:
                     dd = _clip(dd, V[(VS + 1) * CH + j])
-            _zput(V, j, (z[0], z[1], z[2], z[3], z[4], z[5], z[6], dl, dd, z[9], z[10]))
-            if not (abs(z[ZR]) <= R_MAX and (ok or (
-                    np.isfinite(z[0]) and np.isfinite(z[1]) and np.isfinite(z[2])
-                    and np.isfinite(z[3]) and np.isfinite(z[4]) and np.isfinite(z[5])
-                    and np.isfinite(z[6])))):
+            _zput(V, VZ * CH + j, _with_servo(z, dl, dd))
+            if not (abs(z[ZR]) <= R_MAX and (ok or _finite(z))):
                 status[b, 0] = 1.0
                 status[b, 1] = t1
                 act[j] = False
@@ -1133,11 +1092,11 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         acc[b, 1] = V[(VL + LIAE) * CH + j]
         acc[b, 2] = V[(VL + LMAXD) * CH + j]
         for i in range(3):
-            Z[b, i] = V[i * CH + j]
+            Z[b, i] = V[(VZ + i) * CH + j]
         for i in range(NS):
-            Z[b, S0 + i] = V[(3 + i) * CH + j]
+            Z[b, S0 + i] = V[(VZ + JS + i) * CH + j]
         for i in range(4):
-            Z[b, ID + i] = V[(7 + i) * CH + j]
+            Z[b, ID + i] = V[(VZ + JDL + i) * CH + j]
 
 
 #: Set to False to integrate every step on the per-lane path (the reference for the benchmark).
@@ -1197,12 +1156,13 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
             fut.result()
 
 
-_TEMPLATES = ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_load_series", "_steer",
-              "_vbases", "_base_far", "_substeps", "_chval", "_record", "_vrecord", "_quiet_until",
-              "_vquiet",
-              "_vmaxd", "_restore", "_chunk")
+_TEMPLATES = ("_deriv", "_rk4", "_inputs", "_load_series", "_steer", "_vbases", "_base_far",
+              "_substeps", "_chval", "_record", "_vrecord", "_quiet_until", "_vquiet", "_vmaxd",
+              "_restore", "_chunk")
 #: the vector step's templates (:func:`vector_step`)
-_VTEMPLATES = ("_vderiv", "_vaxpy", "_vrk4")
+_VTEMPLATES = ("_vderiv", "_vrk4")
+#: the generated joint-state helpers of a vector-step variant (:func:`layout.joint_helpers`)
+_VHELPERS = ("_vaxpy", "_vrk4sum", "_vput")
 _KERNELS: dict[str, Any] = {}
 _GLOBALS: dict[str, dict[str, Any]] = {}  # the specialised functions, by kernel key
 _VSTEPS: dict[tuple[Any, ...], Any] = {}  # the compiled vector steps, by kernel key and variant
@@ -1223,15 +1183,21 @@ def kernel(kind: ModelKind) -> Any:
     if key in _KERNELS:
         return _KERNELS[key]
     g = dict(globals())
-    g.update(rhs=kind.rhs, NS=kind.n_states, TRIG=bool(kind.uses_trig), NPK=kind.n_params,
-             BU=kind.body[0], BV=kind.body[1], BR=kind.body[2], SPEED_ROW=kind.speed_row,
-             ZU=3 + max(kind.body[0], 0), ZV=3 + max(kind.body[1], 0), ZR=3 + kind.body[2])
+    lay = _layout.Layout(kind.n_states, kind.n_params)
+    g.update(lay.constants())
+    phi, p = kind.state_row("phi"), kind.state_row("p")
+    g.update(rhs=kind.rhs, TRIG=bool(kind.uses_trig), BU=kind.body[0], BV=kind.body[1],
+             BR=kind.body[2], SPEED_ROW=kind.speed_row, ZU=JS + max(kind.body[0], 0),
+             ZV=JS + max(kind.body[1], 0), ZR=JS + kind.body[2],
+             ZPHI=JS + phi if phi >= 0 else -1, ZP=JS + p if p >= 0 else -1, LAYOUT=lay)
     values = tuple(float(v) for v in kind.switch_values) if kind.switch_row >= 0 else ()
     if len(values) > 3:
         raise ValueError(f"kind {kind.name}: at most 3 switch values")
     g.update(SWR=kind.switch_row if values else -1, SWV=np.array(values or (np.nan,)),
              NSW=len(values) + 1)
-    g["_ptup"] = _ptup_fn(g, kind.n_params)
+    for name, fn in _layout.joint_helpers(lay, g).items():
+        g[name] = _helper(fn)
+    g["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, g))
     for name in _TEMPLATES:
         _specialise(g, name, f"{name}__{key}")
     _KERNELS[key] = g["_chunk"]
@@ -1240,7 +1206,26 @@ def kernel(kind: ModelKind) -> Any:
 
 
 def _kernel_key(kind: ModelKind) -> str:
-    return f"{kind.name}_{kind.source_hash or 'x'}"
+    """The name of a kind's specialisation: the kind, a hash of its sources (its module and
+    :mod:`usvid.models`, :mod:`usvid.models.registry`) and of the core's (this module and the
+    layout it generates code from), so that no on-disk cache of another kind or version is
+    taken for it."""
+    return f"{kind.name}_{kind.source_hash or 'x'}_{_core_digest()}"
+
+
+@functools.cache
+def _core_digest() -> str:
+    h = hashlib.sha256()
+    for mod in (__file__, _layout.__file__):
+        with open(mod, "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()[:8]
+
+
+def _helper(fn: Any) -> Any:
+    """Compile a generated joint-state helper (inlined by LLVM; not cached on disk: it is
+    compiled only into the cached kernels, which carry it)."""
+    return numba.njit(error_model="numpy", fastmath=_FM, forceinline=True)(fn)
 
 
 def _chunk_switches(kind: ModelKind, P: np.ndarray, starts: list[int], chunk: int) -> set[int]:
@@ -1289,23 +1274,16 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool) -> int:
         return _VSTEPS[vk].address
     swv, nsw, swr = g["SWV"], g["NSW"], g["SWR"]
     const = {swr: float(swv[swi])} if swr >= 0 and swi < nsw - 1 else {}
-    gv = dict(g, SK=sk, NOD=bool(nod), XY=bool(xy), _ptup=_ptup_fn(g, g["NPK"], const))
+    gv = dict(g, SK=sk, NOD=bool(nod), XY=bool(xy))
+    gv["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(g["LAYOUT"], gv, const))
+    helpers = _layout.joint_helpers(g["LAYOUT"], gv, xy=bool(xy), nod=bool(nod))
+    for name in _VHELPERS:
+        gv[name] = _helper(helpers[name])
     tag = f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
     for name in _VTEMPLATES:
         _specialise(gv, name, f"{name}{tag}__{key}")
     _VSTEPS[vk] = _specialise(gv, "_vstep", f"_vstep{tag}__{key}", cfunc=True)
     return _VSTEPS[vk].address
-
-
-def _ptup_fn(g: dict[str, Any], npk: int, const: dict[int, float] | None = None) -> Any:
-    """The generated unpacking of a lane's parameter tuple from ``V`` (rows VP..), with the
-    rows of ``const`` replaced by literals (compile-time constants)."""
-    const = const or {}
-    src = ", ".join(repr(const[i]) if i in const else f"V[{VP + i} * CH + j]"
-                    for i in range(npk))
-    ns: dict[str, Any] = {}
-    exec(f"def _ptup(V, j):\n    return ({src},)\n", ns)  # noqa: S102 - generated unpacking
-    return numba.njit(forceinline=True)(types.FunctionType(ns["_ptup"].__code__, g))
 
 
 #: Kinds with more parameters than this keep one out-of-line copy of their right-hand side per
@@ -1325,8 +1303,7 @@ def _specialise(g: dict[str, Any], name: str, qual: str, cfunc: bool = False) ->
     opts: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": _FM}
     if name == "_chunk":
         opts["nogil"] = True
-    if name in ("_deriv", "_axpy", "_rk4", "_ztup", "_zput", "_inputs", "_steer", "_vderiv",
-                "_vaxpy", "_vrk4", "_chval"):
+    if name in ("_deriv", "_rk4", "_inputs", "_steer", "_vderiv", "_vrk4", "_chval"):
         # inlined by LLVM (tuples only: no reference counting): numba's own inlining
         # (inline="always") copies the IR at every call site, most of the compile time
         opts["forceinline"] = True

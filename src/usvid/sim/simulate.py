@@ -153,6 +153,10 @@ class Lanes:
             if name not in core.CHANNELS:
                 raise SimulationError(f"unknown channel '{name}' (known: "
                                       f"{', '.join(core.CHANNELS)})")
+            if name in core.STATE_CHANNELS and name not in self.kind.states:
+                raise SimulationError(
+                    f"channel '{name}' needs a kind with the state '{name}' (a "
+                    f"{self.kind.name} model has {', '.join(self.kind.states)})")
         slots = np.full(len(core.CHANNELS), -1, dtype=np.int64)
         for j, name in enumerate(self.channels):
             slots[core.CHANNELS.index(name)] = j
@@ -374,8 +378,9 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         init_vals["delta"] = series["delta"][:, 0]
     Z0 = initial_state(kind, model.dynamics, B, psi0=psi0, values=init_vals)
     if channels is None:
-        wanted = list(_BASE_CHANNELS) + [n for n in ("n", "n_port", "n_stbd")
-                                         if n in kind.inputs]
+        wanted = (list(_BASE_CHANNELS) + [n for n in ("n", "n_port", "n_stbd")
+                                          if n in kind.inputs]
+                  + [n for n in core.STATE_CHANNELS if n in kind.states])
         if dist is not None:
             wanted.append("dist")
     else:

@@ -159,25 +159,32 @@ def law_to_pwm(n: Any, neutral: float, span: float) -> Any:
 
 
 @numba.njit(cache=True, inline="always")
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - kind contract
-    """Y&Y 2015 eq. 4 with the variant's actuator forces; returns (u, v, r, u', v', r', 0)."""
-    u = s0
-    v = s1
-    r = s2
+def rhs(p, s, a, f):
+    """Y&Y 2015 eq. 4 with the variant's actuator forces and the external force f = (X, Y, K,
+    N) [N, N, N m, N m] about midship (K unused: no roll); returns (u, v, r, (u', v', r'))."""
+    u = s[0]
+    v = s[1]
+    r = s[2]
+    delta = a[0]
+    n = a[3]
     nn = p[IDX_N_NOM] if np.isnan(n) else n
     var = p[_m.IDX_VARIANT]
     if var == 0.0:
-        du, dv, dr = _m.mmg_accelerations_cs(p, u, v, r, cd, sd, nn)
+        du, dv, dr = _m.mmg_accelerations_cs(p, u, v, r, a[1], a[2], nn)
     elif var == 1.0:
         du, dv, dr = _m.mmg_pod_accelerations(p, u, v, r, delta, nn)
     else:
-        npo = nn + p[IDX_STEER] * delta if np.isnan(n_port) else n_port
-        nst = nn - p[IDX_STEER] * delta if np.isnan(n_stbd) else n_stbd
+        npo = nn + p[IDX_STEER] * delta if np.isnan(a[4]) else a[4]
+        nst = nn - p[IDX_STEER] * delta if np.isnan(a[5]) else a[5]
         if p[IDX_PWM_K] > 0.0:
             npo = _pwm_n(npo, p[IDX_PWM0], p[IDX_PWM_K], 1.0 + p[IDX_ASYM])
             nst = _pwm_n(nst, p[IDX_PWM0], p[IDX_PWM_K], 1.0 - p[IDX_ASYM])
         du, dv, dr = _m.mmg_twin_accelerations(p, u, v, r, npo, nst)
-    return (u, v, r, du, dv, dr, 0.0)
+    # the external force through the inverse mass matrix of eq. 4 (the accelerations are linear
+    # in the forces)
+    return u, v, r, (du + p[_m.IDX_INV11] * f[0],
+                     dv + p[_m.IDX_INV22] * f[1] + p[_m.IDX_INV23] * f[3],
+                     dr + p[_m.IDX_INV23] * f[1] + p[_m.IDX_INV33] * f[3])
 
 
 def surge_acceleration(p: _m.MMGParameters, u: Any, n: Any) -> np.ndarray:

@@ -43,10 +43,11 @@ class Nomoto1(Dynamics):
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """r' = (K (delta + delta0) - r) / T; returns (U, 0, r, r'). Rows: K, T, delta0, U, 1/T."""
-    r = s0
-    return p[3], 0.0, r, (p[0] * (delta + p[2]) - r) * p[4], 0.0, 0.0, 0.0
+def rhs(p, s, a, f):  # noqa: ARG001 - the kind contract
+    """r' = (K (delta + delta0) - r) / T; returns (U, 0, r, (r',)). Rows: K, T, delta0, U,
+    1/T."""
+    r = s[0]
+    return p[3], 0.0, r, ((p[0] * (a[0] + p[2]) - r) * p[4],)
 
 
 def pack(d: Nomoto1, speed: Any) -> np.ndarray:

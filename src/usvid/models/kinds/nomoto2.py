@@ -45,12 +45,11 @@ class Nomoto2(Dynamics):
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
+def rhs(p, s, a, f):  # noqa: ARG001 - the kind contract
     """Observable canonical form; rows K, T1, T2, T3, delta0, U, a1, a0, b1, b0."""
-    x1 = s0
-    ue = delta + p[4]
-    return (p[5], 0.0, x1, -p[6] * x1 + s1 + p[8] * ue,
-            -p[7] * x1 + p[9] * ue, 0.0, 0.0)
+    x1 = s[0]
+    ue = a[0] + p[4]
+    return p[5], 0.0, x1, (-p[6] * x1 + s[1] + p[8] * ue, -p[7] * x1 + p[9] * ue)
 
 
 def _coefficients(d: Nomoto2) -> tuple[np.ndarray, ...]:

@@ -60,11 +60,11 @@ class Norrbin(Dynamics):
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
+def rhs(p, s, a, f):  # noqa: ARG001 - the kind contract
     """r' = (K (delta + delta0) - n1 r - n3 r^3) / T; rows K, T, n1, n3, delta0, U, 1/T."""
-    r = s0
-    dr = (p[0] * (delta + p[4]) - p[2] * r - p[3] * r * r * r) * p[6]
-    return p[5], 0.0, r, dr, 0.0, 0.0, 0.0
+    r = s[0]
+    dr = (p[0] * (a[0] + p[4]) - p[2] * r - p[3] * r * r * r) * p[6]
+    return p[5], 0.0, r, (dr,)
 
 
 def pack(d: Norrbin, speed: Any) -> np.ndarray:

@@ -135,39 +135,40 @@ def _thrust_law(p, mode):
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """Eq. 13 with the vector thruster (module docstring); returns (u, v, r, u', v', r').
+def rhs(p, s, a, f):
+    """Eq. 13 with the vector thruster (module docstring) and the external force f = (X, Y, K,
+    N) [N, N, N m, N m] (K unused: no roll); returns (u, v, r, (u', v', r')).
 
     An uncoupled model (switch row ``_SW`` >= 0) takes the equations without the vanishing
     coupling terms; with the switch row a constant (the core's vector step of a switch value)
     only that branch and that thrust law are compiled."""
-    u = s0
-    v = s1
-    r = s2
+    u = s[0]
+    v = s[1]
+    r = s[2]
+    n = a[3]
     nn = p[12] if np.isnan(n) else n
     sw = p[_SW]
     plain = sw >= 0.0
     T = thrust_nb(_thrust_law(p, sw if plain else p[_T0]), u, nn)
-    tu = T * cd
-    tr = p[10] * T * sd
+    tu = T * a[1]
+    tr = p[10] * T * a[2]
     m11 = p[0]
     m22 = p[1]
     m33 = p[2]
     if plain:
-        a = m22 * v
-        f1 = tu + a * r - p[3] * u
-        f2 = -(m11 * u * r) - p[4] * v
-        f3 = tr - a * u + m11 * u * v - p[5] * r
-        return (u, v, r, f1 * p[13], m33 * f2 * p[14], m22 * f3 * p[14], 0.0)
-    tv = -T * sd * p[11]
+        c = m22 * v
+        f1 = tu + c * r - p[3] * u + f[0]
+        f2 = -(m11 * u * r) - p[4] * v + f[1]
+        f3 = tr - c * u + m11 * u * v - p[5] * r + f[3]
+        return u, v, r, (f1 * p[13], m33 * f2 * p[14], m22 * f3 * p[14])
+    tv = -T * a[2] * p[11]
     m23 = p[6]
     m32 = p[7]
-    a = m22 * v + m23 * r
-    f1 = tu + a * r - p[3] * u
-    f2 = tv - m11 * u * r - p[4] * v - p[8] * r
-    f3 = tr - a * u + m11 * u * v - p[9] * v - p[5] * r
-    return (u, v, r, f1 * p[13], (m33 * f2 - m23 * f3) * p[14],
-            (m22 * f3 - m32 * f2) * p[14], 0.0)
+    c = m22 * v + m23 * r
+    f1 = tu + c * r - p[3] * u + f[0]
+    f2 = tv - m11 * u * r - p[4] * v - p[8] * r + f[1]
+    f3 = tr - c * u + m11 * u * v - p[9] * v - p[5] * r + f[3]
+    return u, v, r, (f1 * p[13], (m33 * f2 - m23 * f3) * p[14], (m22 * f3 - m32 * f2) * p[14])
 
 
 def pack(d: ThreeDOF, speed: Any) -> np.ndarray:
