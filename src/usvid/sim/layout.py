@@ -9,7 +9,12 @@ slot ``j`` is ``V[R * CH + j]`` (:data:`CH` lanes per chunk). The rows, in this 
   same rows for every kind;
 * the joint state (:func:`joint_names`): x, y, psi, the servo angle and rate, the disturbance
   filter (w1, w2), then the kind's own states, by name;
-* the kind's packed parameters, and scratch rows.
+* the kind's packed parameters, and scratch rows (the joint state before the vector step, the
+  per-lane step's result).
+
+The chunk driver (:mod:`usvid.sim.chunk`) is the same for every kind: it reads a kind's rows
+at run time (:data:`KINFO`); the kind's own code (the per-lane step, the vector step) has them
+as compile-time constants.
 
 A lane's joint state is a tuple in the order of its rows (position ``i`` is row ``VZ + i``), so
 that the helpers that load, store and combine it (:func:`joint_helpers`: one line per state,
@@ -22,6 +27,30 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
+
+# ---------------------------------------------------------------------------------------------
+# constants of the integration core
+# ---------------------------------------------------------------------------------------------
+#: Recorded channels in this order (``slots[i]``: row of channel i in ``rec``, or -1).
+CHANNELS = ("x", "y", "psi", "u", "v", "r", "U", "delta", "delta_cmd", "n", "n_port", "n_stbd",
+            "dist", "phi", "p")
+NCH = len(CHANNELS)
+#: Channels read from a kind state of the same name (roll angle [rad], roll rate [rad/s]):
+#: recorded for the kinds that have them.
+STATE_CHANNELS = ("phi", "p")
+#: Logic codes.
+COMMANDED, TURNING, ZIGZAG, COURSE = 0, 1, 2, 3
+#: FOH input series channels (rows of ``F0``/``F1``): measured rudder angle, n, n_port, n_stbd.
+SERIES = ("delta", "n", "n_port", "n_stbd")
+#: Zig-zag overshoots tracked online.
+N_ZZ = 8
+#: Seed disturbance filter 0.42 s / (s^2 + 0.36 s + 0.37) (Mu et al. 2018, section 6.1).
+DIST_B, DIST_A1, DIST_A0 = 0.42, 0.36, 0.37
+#: Largest |r| [rad/s] before a lane is declared diverged.
+R_MAX = 100.0
+#: The external force passed to the kind's right-hand side in calm water: (X, Y, K, N) all
+#: -0.0, so that the kind's ``+ f[i]`` vanishes at compile time (x + -0.0 is x for every x).
+NOF = (-0.0, -0.0, -0.0, -0.0)
 
 #: Lanes per chunk (the row length of the chunk's work arrays; a compile-time constant so that
 #: LLVM sees the rows of ``V`` as one object at constant offsets and vectorises the lane loop).
@@ -41,6 +70,8 @@ SERVO = ("max_angle", "max_rate", "t_or_wn", "zeta", "gain", "delay", "inv_t")
 SERIES_ROWS = 8
 #: Trig-base rows: heading angle, cos, sin; steering angle, cos, sin (at the step start).
 TRIG_ROWS = 6
+
+SERVO_ROWS = len(SERVO)
 
 (LCMDLOG, LREND, LCUR, LPSI0, LZZN, LINTEG, LITAE, LIAE, LMAXD, LQH, LQN, LOVMAX, LESD, LTQ,
  LSW, LQ, LFLAG, LACT, LNS) = range(len(LOGIC))
@@ -68,6 +99,16 @@ RS = VZ + JS
 def joint_names(states: Sequence[str]) -> tuple[str, ...]:
     """The joint state's names in tuple (and row) order: :data:`COMMON`, then the kind's."""
     return COMMON + tuple(f"s:{s}" for s in states)
+
+
+#: What the kind-independent chunk driver reads of a kind at run time (rows of the kind's
+#: ``kinfo`` array, :meth:`Layout.kinfo`): its number of states and parameters, the joint-state
+#: length, the rows of the parameters, the scratch and the per-lane result, the rows in all, the
+#: joint-state positions of u, v, r, phi, p (-1: none; u -1: the constant speed of the
+#: parameter row ``speed_row``, v -1: zero), and whether it reads cos/sin of the steering angle.
+KINFO = ("ns", "npk", "nt", "vp", "vb", "vn", "rows", "zu", "zv", "zr", "zphi", "zp",
+         "speed_row", "trig")
+(KNS, KNPK, KNT, KVP, KVB, KVN, KROWS, KZU, KZV, KZR, KZPHI, KZP, KSPEED, KTRIG) = range(len(KINFO))
 
 
 @dataclass(frozen=True)
@@ -102,9 +143,15 @@ class Layout:
         return self.vn + self.nt
 
     def constants(self) -> dict[str, int]:
-        """The kind-dependent constants the templates read as globals."""
+        """The kind-dependent constants the kind's templates read as globals."""
         return {"NS": self.ns, "NPK": self.npk, "NT": self.nt, "VP": self.vp, "VB": self.vb,
                 "VN": self.vn, "VROWS": self.rows}
+
+    def kinfo(self, *, zu: int, zv: int, zr: int, zphi: int, zp: int, speed_row: int,
+              trig: bool) -> tuple[int, ...]:
+        """The values of :data:`KINFO` (positions ``z..`` in the joint-state tuple)."""
+        return (self.ns, self.npk, self.nt, self.vp, self.vb, self.vn, self.rows, zu, zv, zr,
+                zphi, zp, speed_row, int(trig))
 
 
 # ---------------------------------------------------------------------------------------------
