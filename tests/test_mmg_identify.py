@@ -15,8 +15,8 @@ import pytest
 from usvid.errors import UsvidError
 from usvid.identify.estimator import ModelEstimator
 from usvid.identify.series import trial_series
-from usvid.models import mmg
-from usvid.models.kinds import _mmg_fit
+from usvid.models.kinds.mmg import physics as mmg
+from usvid.models.kinds.mmg import fit as _mmg_fit
 from usvid.models.kinds.mmg import (
     ParticularsWarning,
     equilibrium_rps,

@@ -67,8 +67,7 @@ def _truth(kind: str) -> tuple[VesselModel, dict[str, float]]:
     if kind == "mmg":
         # the published KVLCC2 MMG model (Yasukawa & Yoshimura 2015) at the HSVA model scale,
         # R_0 = 0.016 (the HSVA runs' resistance) and the shaft speed holding 1.18 m/s
-        from usvid.models.kinds.mmg import equilibrium_rps, from_physics
-        from usvid.models.mmg import kvlcc2
+        from usvid.models.kinds.mmg import equilibrium_rps, from_physics, kvlcc2
 
         p = kvlcc2("hsva").replace(R_0=0.016)
         n0 = equilibrium_rps(p, 1.18)
