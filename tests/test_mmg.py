@@ -1,4 +1,5 @@
-"""Tests of usvid.models.kinds.mmg.physics (MMG standard method, Yasukawa & Yoshimura 2015) and its priors.
+"""Tests of usvid.models.kinds.mmg.physics (MMG standard method, Yasukawa & Yoshimura 2015)
+and its priors.
 
 By-hand values are written out with the paper's own formulas (with J, atan and sin alpha_R),
 not the division-free forms the kernel uses, so an algebra slip in either shows. The cross-check
@@ -13,8 +14,8 @@ import numpy as np
 import pytest
 
 from usvid.errors import UsvidError
-from usvid.models.kinds.mmg import physics as mmg
 from usvid.models.hull import kijima1990_linear_derivatives
+from usvid.models.kinds.mmg import physics as mmg
 
 RHO = 1025.0
 # Same formulas evaluated in a different algebraic arrangement: float rounding only.
@@ -762,6 +763,7 @@ def test_mmg_thrust_laws_are_the_thrust_modules():
     J = 0.7 / (10.0 * 0.216)
     T = 1025.0 * 100.0 * 0.216 ** 4 * (0.2931 - 0.2753 * J - 0.1385 * J * J)
     assert mmg._kt_thrust_nb(p, 10.0, 0.7) == pytest.approx(T, rel=1e-12)
-    assert kt_thrust_nb(10.0, 0.7, 1025.0 * 0.216 ** 4, 1025.0 * 0.216 ** 3,
-                        1025.0 * 0.216 ** 2, 0.2931, -0.2753, -0.1385) == pytest.approx(T, rel=1e-12)
+    got = kt_thrust_nb(10.0, 0.7, 1025.0 * 0.216 ** 4, 1025.0 * 0.216 ** 3,
+                       1025.0 * 0.216 ** 2, 0.2931, -0.2753, -0.1385)
+    assert got == pytest.approx(T, rel=1e-12)
     assert pod_thrust_nb(1.2, -3.0, 2.0, 5.0) == 2.0 * 1.2 * -3.0 + 5.0 * 3.0 * -3.0

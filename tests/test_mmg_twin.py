@@ -20,8 +20,8 @@ from usvid.identify.validation import validate_trial
 from usvid.io import read_trial, shipped_spec
 from usvid.io.modelfile import load_model
 from usvid.manoeuvres import find_manoeuvres, manoeuvre_metrics
-from usvid.models.kinds.mmg import fit as _mmg_fit
 from usvid.models.kinds.mmg import KIND, MMG, particulars, rhs
+from usvid.models.kinds.mmg import fit as _mmg_fit
 from usvid.trial import Trial
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "usv_twin_mmg.json"
