@@ -12,7 +12,7 @@ import pytest
 
 from usvid.errors import ModelFileError, UsvidError
 from usvid.io.modelfile import load_model, model_from_dict, model_to_dict, save_model
-from usvid.models import Nomoto1, VesselModel
+from usvid.models import Nomoto1, VesselModel, registry
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -118,8 +118,8 @@ def _bad(path_and_value):
     ([(("parameters", "K"), "0.7")], 'm.json: parameters.K must be a number (got "0.7")'),
     ([(("parameters", "K"), True)], "m.json: parameters.K must be a number"),
     ([(("parameters", "alpha"), 1.1)], "m.json: unknown key parameters.alpha"),
-    ([(("kind",), "nomoto3")], "m.json: kind must be one of nomoto1, nomoto2, norrbin, "
-                               "threedof, catamaran, mmg (got \"nomoto3\")"),
+    ([(("kind",), "nomoto3")], "m.json: kind must be one of " + ", ".join(registry.names())
+     + " (got \"nomoto3\")"),
     ([(("usvid_model",), 2)], "m.json: usvid_model must be 1"),
     ([(("servo", "kind"), "hydraulic")], "m.json: servo.kind must be one of ideal"),
     ([(("servo", "zeta"), KeyError)], "m.json: servo.zeta is missing"),

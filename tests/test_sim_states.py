@@ -92,3 +92,46 @@ def test_a_seven_state_kind_matches_the_exact_solution(simd):
         np.testing.assert_allclose(out.channels["psi"][b], psi, rtol=0.0, atol=1e-5 * K[b])
     assert np.all(out.channels["U"] == 1.5)
     assert np.all(out.status[0] == 0)
+
+
+@dataclass
+class Roller(Dynamics):
+    """A yaw lag and a linear roll oscillator: omega [rad/s], zeta [-]."""
+
+    omega: Any = param("rad/s", "roll natural frequency", gt=0.0)
+    zeta: Any = param("-", "roll damping ratio", ge=0.0)
+    kind: ClassVar[str] = "roller"
+
+
+@numba.njit(cache=False, forceinline=True)
+def _roll_rhs(p, s, a, f):  # noqa: ARG001 - the kind contract
+    w = p[0]
+    return 1.0, 0.0, s[0], (-s[0], -w * w * s[2] - 2.0 * p[1] * w * s[1], s[1])
+
+
+ROLLER = ModelKind(name="roller", title="roll oscillator", equation="phi'' + 2 z w phi' + w^2 phi",
+                   reference="test", dynamics=Roller, states=("r", "p", "phi"),
+                   body=(-1, -1, 0), speed_row=2, inputs=("delta",), rhs=_roll_rhs,
+                   pack=lambda d, speed: rows([d.omega, d.zeta, speed]), outputs=("psi", "r"))
+
+
+def test_roll_states_are_recorded_as_channels_phi_and_p():
+    """A kind with states named phi and p: the core records them as channels phi, p (the
+    roll angle of a damped oscillator from phi0 = 0.1 rad, exact solution), with any number and
+    order of states."""
+    B, dt, n = 3, 0.01, 1000
+    dyn = Roller(omega=np.array([1.0, 2.0, 3.0]), zeta=0.1)
+    skind, S = servo_rows(IdealServo(), B)
+    Z0 = initial_state(ROLLER, dyn, B, values={"phi": 0.1})
+    lanes = Lanes(kind=ROLLER, P=ROLLER.pack(dyn, 1.0), servo=skind, S=S, Z0=Z0,
+                  nsteps=np.full(B, n), dt=dt, channels=("phi", "p"))
+    out = lanes.run()
+    for b, w in enumerate((1.0, 2.0, 3.0)):
+        z = 0.1
+        wd = w * math.sqrt(1 - z * z)
+        t = out.t
+        want = 0.1 * np.exp(-z * w * t) * (np.cos(wd * t) + z * w / wd * np.sin(wd * t))
+        # RK4 at w dt <= 0.03 over w t <= 30 rad: global error <= A (w dt)^4 w t / 120 = 2e-8
+        np.testing.assert_allclose(out.channels["phi"][b], want, rtol=0.0, atol=2e-8)
+        rate = -0.1 * w * w / wd * np.exp(-z * w * t) * np.sin(wd * t)
+        np.testing.assert_allclose(out.channels["p"][b], rate, rtol=0.0, atol=2e-8 * w)

@@ -228,6 +228,7 @@ def initial_state(kind: ModelKind, dynamics: Any, B: int, *, psi0: Any = 0.0,
     return Z0
 
 
+#: Initial values by name (besides the kind's own states, e.g. a roll angle phi).
 _INITIAL = ("x", "y", "v", "r", "delta", "delta_dot")
 
 
@@ -266,7 +267,8 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         Channels to record (default: all relevant to the model kind).
     initial : dict, optional
         Initial values by name: ``x``, ``y`` [m], ``v`` [m/s], ``r`` [rad/s], ``delta`` [rad]
-        (servo angle; also the command in force before t = 0), ``delta_dot`` [rad/s].
+        (servo angle; also the command in force before t = 0), ``delta_dot`` [rad/s], or any
+        other state of the kind by its name (e.g. a roll angle ``phi`` [rad]).
 
     Returns
     -------
@@ -304,9 +306,10 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         if value is not None and not np.all(np.isfinite(_arr(value))):
             raise SimulationError(f"simulate: {name} must be finite (got {value!r})")
     for name in initial:
-        if name not in _INITIAL:
+        if name not in _INITIAL and (name not in kind.states or name == "u"):
             raise SimulationError(f"simulate: initial['{name}'] is not an initial state "
-                                  f"(use {', '.join(_INITIAL)}; u0= and psi0= for u, psi)")
+                                  f"(use {', '.join(_INITIAL)} or a state of the kind: "
+                                  f"{', '.join(kind.states)}; u0= and psi0= for u, psi)")
         if name == "v" and kind.constant_speed:
             raise SimulationError("simulate: initial['v'] needs a 3-DOF model with sway (not a "
                                   "constant-speed response model)")
