@@ -434,6 +434,11 @@ def batch_size(values: Mapping[str, Any]) -> int:
     return int(shape[0]) if shape else 1
 
 
+def inverse(value: Any) -> Any:
+    """1 / value of an optional positive parameter (scalar or (B,)); 0 where it is None."""
+    return 0.0 if value is None else 1.0 / np.asarray(value, dtype=float)
+
+
 def rows(values: Sequence[Any], B: int | None = None) -> np.ndarray:
     """Stack scalars/(B,) arrays into a (len(values), B) float array."""
     if B is None:

@@ -84,12 +84,15 @@ from usvid.sim.layout import (
     LZZN,
     N_ZZ,
     NCH,
+    NSER,
     R_MAX,
     RDD,
     RDL,
     RPSI,
     RW2,
+    SCUR,
     SERVO_ROWS,
+    SFORCE,
     TURNING,
     VCMD,
     VF,
@@ -144,11 +147,13 @@ def _lcall(typingctx, addr, V, qt, qv, out, cap, b, j, skind, qh, qn, t, t1, eps
 
 
 def _load_series(V, o, SER, sidx, row, k, kk):
-    """The input series at the step ends (first-order hold) into the rows VF.. of ``V``."""
-    for i in range(4):
+    """The input series at the step ends (first-order hold) into the rows VF.. of ``V``
+    (absent: NaN for the actuators, 0 for the environment)."""
+    for i in range(NSER):
         s = sidx[i]
-        V[o + i * CH] = SER[s, row, k] if s >= 0 else np.nan
-        V[o + (4 + i) * CH] = SER[s, row, kk] if s >= 0 else np.nan
+        none = np.nan if i < SFORCE else 0.0
+        V[o + i * CH] = SER[s, row, k] if s >= 0 else none
+        V[o + (NSER + i) * CH] = SER[s, row, kk] if s >= 0 else none
 
 
 def _vbases(V, trig):
@@ -195,19 +200,24 @@ def _chval(V, j, ch, dnow, cmdlog, ki):
     (``ki`` the kind's :data:`usvid.sim.layout.KINFO`)."""
     if ch <= 2:
         return V[(VZ + ch) * CH + j]  # x, y, psi
-    zu = ki[KZU]
-    if ch == 3:
-        return V[(ki[KVP] + ki[KSPEED]) * CH + j] if zu < 0 else V[(VZ + zu) * CH + j]
-    if ch == 4:
-        return 0.0 if ki[KZV] < 0 else V[(VZ + ki[KZV]) * CH + j]
+    if ch <= 4 or ch == 6:  # u, v, U over ground: through the water plus the current
+        zu = ki[KZU]
+        vu = V[(ki[KVP] + ki[KSPEED]) * CH + j] if zu < 0 else V[(VZ + zu) * CH + j]
+        vv = 0.0 if ki[KZV] < 0 else V[(VZ + ki[KZV]) * CH + j]
+        cx = V[(VF + SCUR) * CH + j]
+        cy = V[(VF + SCUR + 1) * CH + j]
+        if cx != 0.0 or cy != 0.0:
+            psi = V[RPSI * CH + j]
+            c = math.cos(psi)
+            s = math.sin(psi)
+            vu, vv = vu + cx * c + cy * s, vv - cx * s + cy * c
+        if ch == 3:
+            return vu
+        if ch == 4:
+            return vv
+        return math.sqrt(vu * vu + vv * vv)
     if ch == 5:
         return V[(VZ + ki[KZR]) * CH + j]
-    if ch == 6:
-        if zu < 0:
-            return V[(ki[KVP] + ki[KSPEED]) * CH + j]
-        vu = V[(VZ + zu) * CH + j]
-        vv = V[(VZ + ki[KZV]) * CH + j]
-        return math.sqrt(vu * vu + vv * vv)
     if ch == 7:
         return dnow
     if ch == 8:
@@ -338,13 +348,17 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     for j in range(CH):
         V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
         V[(VT + 4) * CH + j] = 1.0
-        for i in range(8):  # input series: absent
-            V[(VF + i) * CH + j] = np.nan
+        for i in range(NSER):  # input series: absent (actuators NaN, environment 0)
+            none = np.nan if i < SFORCE else 0.0
+            V[(VF + i) * CH + j] = none
+            V[(VF + NSER + i) * CH + j] = none
     act = np.zeros(W, dtype=np.bool_)
     simple = np.zeros(W, dtype=np.bool_)
     rngs = np.zeros(W, dtype=np.uint64)
-    s4_ = sidx[4]
-    series = sidx[0] >= 0 or sidx[1] >= 0 or sidx[2] >= 0 or sidx[3] >= 0
+    s4_ = sidx[NSER]  # the commanded rudder angle (delta_cmd)
+    series = False
+    for i in range(NSER):
+        series = series or sidx[i] >= 0
     cap = qt.shape[1]
     eps = 1e-9 * dt
     idt = 1.0 / dt

@@ -74,6 +74,7 @@ from usvid.sim.layout import (
     DIST_B,
     N_ZZ,
     NCH,
+    NSER,
     R_MAX,
     SERIES,
     SERVO_ROWS,
@@ -84,8 +85,9 @@ from usvid.sim.layout import (
 from usvid.sim.specialise import INLINE_MAX_PARAMS, KindCode
 
 __all__ = ["CH", "CHANNELS", "COMMANDED", "COURSE", "DIST_A0", "DIST_A1", "DIST_B",
-           "FORCE_GENERIC", "INLINE_MAX_PARAMS", "N_ZZ", "NCH", "R_MAX", "SERIES", "SERVO_ROWS",
-           "SIMD", "STATE_CHANNELS", "TURNING", "ZIGZAG", "kernel", "run", "vector_step"]
+           "FORCE_GENERIC", "INLINE_MAX_PARAMS", "N_ZZ", "NCH", "NSER", "R_MAX", "SERIES",
+           "SERVO_ROWS", "SIMD", "STATE_CHANNELS", "TURNING", "ZIGZAG", "kernel", "run",
+           "vector_step"]
 
 #: Set to False to integrate every step on the per-lane path (the reference for the benchmark).
 SIMD = True
@@ -136,7 +138,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     vaddr = dict.fromkeys(starts, 0)
     if simd:
         ID = S0 + kind.n_states
-        nod = (not bool(np.any(sidx[:4] >= 0)) and not bool(np.any(Dq[:, 0] > 0.0))
+        nod = (not bool(np.any(sidx[:NSER] >= 0)) and not bool(np.any(Dq[:, 0] > 0.0))
                and not bool(np.any(Z[:, ID + 2:ID + 4] != 0.0)))
         xy = bool(slots[0] >= 0 or slots[1] >= 0)
         steps: dict[int, int] = {}

@@ -33,7 +33,6 @@ from usvid.sim.layout import (
     JPSI,
     JW1,
     JW2,
-    NOF,
     VF,
     VNOISE,
     VS,
@@ -55,7 +54,9 @@ def _inputs(V, j):
            V[o + 6 * CH])
     o = VF * CH + j
     fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
-          V[o + 6 * CH], V[o + 7 * CH])
+          V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
+          V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH], V[o + 15 * CH],
+          V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH], V[o + 19 * CH])
     o = VT * CH + j
     tr = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH])
     return srv, fs, tr
@@ -70,8 +71,13 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
     omega_n, zeta, gain, delay, 1/T) blended with the batch's 0/1 weights w0 (ideal: ramp
     rate ``ramp``), w1 (first order), w2 (second order) driven by ``cmdin``; ``noise`` the
     step's white-noise sample; ``fs`` the first-order-hold series (start and end values of
-    delta, n, n_port, n_stbd; NaN when absent); ``tr`` the trig bases (psi0, cos, sin, de0,
-    cos, sin) of the step start. Scalars and tuples only.
+    :data:`usvid.sim.layout.SERIES`: delta, n, n_port, n_stbd (NaN when absent), the external
+    force X, Y, K, N and the current north, east (0 when absent)); ``tr`` the trig bases (psi0,
+    cos, sin, de0, cos, sin) of the step start. Scalars and tuples only.
+
+    The environment enters here, once for every kind: the kind's right-hand side takes the
+    external force ``f`` and its states are its velocities through the water; the kinematics
+    add the current (the velocity over ground, Fossen 2021 ch. 10.3).
     """
     zdl = z[JDL]
     ma = srv[0]
@@ -83,17 +89,20 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
         rate = 0.0
     wn = srv[2]
     w2d = z[JW2]
-    fd = fs[0] + tau * (fs[4] - fs[0])
+    fd = fs[0] + tau * (fs[10] - fs[0])
     de = (d if np.isnan(fd) else fd) + DIST_B * w2d
     cd = 1.0
     sd = 0.0
     if TRIG:
         cd, sd = _rot(de, tr[3], tr[4], tr[5])
-    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[5] - fs[1]),
-                                      fs[2] + tau * (fs[6] - fs[2]),
-                                      fs[3] + tau * (fs[7] - fs[3])), NOF)
+    f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
+         fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
+    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[11] - fs[1]),
+                                      fs[2] + tau * (fs[12] - fs[2]),
+                                      fs[3] + tau * (fs[13] - fs[3])), f)
     cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
-    return _joint(u * cps - v * sps, u * sps + v * cps, r, w0 * ramp + rate,
+    return _joint(u * cps - v * sps + (fs[8] + tau * (fs[18] - fs[8])),
+                  u * sps + v * cps + (fs[9] + tau * (fs[19] - fs[9])), r, w0 * ramp + rate,
                   w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w),
                   w2d, -DIST_A0 * z[JW1] - DIST_A1 * w2d + noise, ds)
 

@@ -40,8 +40,17 @@ NCH = len(CHANNELS)
 STATE_CHANNELS = ("phi", "p")
 #: Logic codes.
 COMMANDED, TURNING, ZIGZAG, COURSE = 0, 1, 2, 3
-#: FOH input series channels (rows of ``F0``/``F1``): measured rudder angle, n, n_port, n_stbd.
-SERIES = ("delta", "n", "n_port", "n_stbd")
+#: First-order-hold input series (rows ``VF + i`` at the step start, ``VF + NSER + i`` at its
+#: end): the measured rudder angle [rad], shaft speed n [rps], thruster commands n_port, n_stbd
+#: (absent: NaN, the servo's angle and the kind's nominal); the environment: the external force
+#: on the hull in body axes X, Y [N], K, N [N m] and the current's velocity over ground, north
+#: and east [m/s] (absent: 0, calm water).
+SERIES = ("delta", "n", "n_port", "n_stbd", "force_X", "force_Y", "force_K", "force_N",
+          "current_x", "current_y")
+NSER = len(SERIES)
+#: Positions in :data:`SERIES` of the external force (X, Y, K, N) and of the current (north,
+#: east); the series before :data:`SFORCE` are absent as NaN, the others as 0.
+SFORCE, SCUR = 4, 8
 #: Zig-zag overshoots tracked online.
 N_ZZ = 8
 #: Seed disturbance filter 0.42 s / (s^2 + 0.36 s + 0.37) (Mu et al. 2018, section 6.1).
@@ -66,8 +75,8 @@ LOGIC = ("cmdlog", "rend", "cur", "psi0", "zzn", "integ", "itae", "iae", "maxd",
 #: Servo rows (:func:`usvid.sim.simulate.servo_rows`): max angle, max rate, T or omega_n, zeta,
 #: gain, dead time [s], 1/T.
 SERVO = ("max_angle", "max_rate", "t_or_wn", "zeta", "gain", "delay", "inv_t")
-#: Input-series rows: delta, n, n_port, n_stbd at the step start, then at the step end.
-SERIES_ROWS = 8
+#: Input-series rows: :data:`SERIES` at the step start, then at the step end.
+SERIES_ROWS = 2 * NSER
 #: Trig-base rows: heading angle, cos, sin; steering angle, cos, sin (at the step start).
 TRIG_ROWS = 6
 

@@ -102,17 +102,24 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             rate = 0.0
         if SK < 0:
             rate = srv[7] * ramp + rate
-    if NOD:
+    if NOD:  # no series: calm water (-0.0 forces vanish in the kind's sums), no current
         de = d
         n0 = np.nan
         n1 = np.nan
         n2 = np.nan
+        f = NOF
+        cx = 0.0
+        cy = 0.0
     else:
-        fd = fs[0] + tau * (fs[4] - fs[0])
+        fd = fs[0] + tau * (fs[10] - fs[0])
         de = (d if np.isnan(fd) else fd) + DIST_B * z[JW2]
-        n0 = fs[1] + tau * (fs[5] - fs[1])
-        n1 = fs[2] + tau * (fs[6] - fs[2])
-        n2 = fs[3] + tau * (fs[7] - fs[3])
+        n0 = fs[1] + tau * (fs[11] - fs[1])
+        n1 = fs[2] + tau * (fs[12] - fs[2])
+        n2 = fs[3] + tau * (fs[13] - fs[3])
+        f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
+             fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
+        cx = fs[8] + tau * (fs[18] - fs[8])
+        cy = fs[9] + tau * (fs[19] - fs[9])
     cd = 1.0
     sd = 0.0
     hm = 0.0
@@ -122,7 +129,7 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             sd = tr[5]
         else:
             cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
-    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), NOF)
+    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), f)
     k0 = 0.0
     k1 = 0.0
     if XY:
@@ -133,6 +140,9 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             hm = max(hm, hp)
         k0 = u * cps - v * sps
         k1 = u * sps + v * cps
+        if not NOD:  # the velocity over ground: through the water plus the current
+            k0 += cx
+            k1 += cy
     acc = 0.0
     if SK == 2 or SK < 0:
         wn = srv[2]
@@ -231,11 +241,15 @@ def _vstep(Vp, h, frac, zig, sk):
         srv = (ma, V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
                V[o + 6 * CH], w0, w1, w2)
         if NOD:
-            fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan)
+            fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
+                  np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan)
         else:
             o = VF * CH + j
             fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
-                  V[o + 6 * CH], V[o + 7 * CH])
+                  V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
+                  V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH],
+                  V[o + 15 * CH], V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH],
+                  V[o + 19 * CH])
         z = _ztup(V, j)
         y = _vrk4(_ptup(V, j), z, h, frac, srv, V[VCMD * CH + j], V[VRAMP * CH + j],
                   V[VNOISE * CH + j], fs, tr)
