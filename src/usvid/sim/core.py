@@ -78,6 +78,7 @@ from usvid.sim.layout import (
     R_MAX,
     SERIES,
     SERVO_ROWS,
+    SFORCE,
     STATE_CHANNELS,
     TURNING,
     ZIGZAG,
@@ -131,6 +132,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         return
     drive = specialise.driver()
     code = kernel(kind)
+    env = bool(np.any(sidx[SFORCE:NSER] >= 0))  # force or current series
+    lstep = specialise.lane_step(kind, env)
     qt, qv = np.empty((B, qcap)), np.empty((B, qcap))
     sstride = 1 if SER.shape[1] > 1 else 0
     simd = bool(SIMD)
@@ -151,7 +154,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     def task(lo: int) -> None:
         drive(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,
               dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd, vaddr[lo],
-              code.lstep, code.kinfo)
+              lstep, code.kinfo)
 
     threads = min(numba.get_num_threads(), len(starts))
     if threads <= 1:

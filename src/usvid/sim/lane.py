@@ -33,6 +33,7 @@ from usvid.sim.layout import (
     JPSI,
     JW1,
     JW2,
+    NOF,
     VF,
     VNOISE,
     VS,
@@ -42,6 +43,7 @@ from usvid.sim.scalar import _clip, _rot, _start_ramp
 
 # -- set by the specialisation (placeholders) --------------------------------------------------
 TRIG = False  # the kind reads cos/sin of the steering angle
+ENV = True  # the batch has an environment (force or current series): else compiled away
 VN = 0  # first row of the per-lane step's result
 VROWS = 1  # rows of the chunk array
 rhs = _ztup = _zput = _states = _joint = _with_dl = _axpy = _rk4sum = _ptup = None
@@ -95,14 +97,24 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
     sd = 0.0
     if TRIG:
         cd, sd = _rot(de, tr[3], tr[4], tr[5])
-    f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
-         fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
+    f = NOF  # calm water: the -0.0 forces vanish in the kind's sums
+    cx = 0.0
+    cy = 0.0
+    if ENV:
+        f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
+             fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
+        cx = fs[8] + tau * (fs[18] - fs[8])
+        cy = fs[9] + tau * (fs[19] - fs[9])
     u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[11] - fs[1]),
                                       fs[2] + tau * (fs[12] - fs[2]),
                                       fs[3] + tau * (fs[13] - fs[3])), f)
     cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
-    return _joint(u * cps - v * sps + (fs[8] + tau * (fs[18] - fs[8])),
-                  u * sps + v * cps + (fs[9] + tau * (fs[19] - fs[9])), r, w0 * ramp + rate,
+    k0 = u * cps - v * sps
+    k1 = u * sps + v * cps
+    if ENV:  # the velocity over ground: through the water plus the current
+        k0 += cx
+        k1 += cy
+    return _joint(k0, k1, r, w0 * ramp + rate,
                   w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w),
                   w2d, -DIST_A0 * z[JW1] - DIST_A1 * w2d + noise, ds)
 

@@ -9,7 +9,7 @@ specialisation is never taken for another's:
   (:func:`core_digest`);
 * per kind (:func:`kernel`): its per-lane step (a C callback: the kind's right-hand side out of
   line once, RK4, the sub-steps at events), named for the kind, a hash of its sources and the
-  core's;
+  core's; with an environment (force or current series, :func:`lane_step`) a second one;
 * per kind and variant (:func:`vector_step`): its vector step (a C callback, the right-hand
   side inlined four times), compiled only for the variants a batch needs.
 
@@ -19,6 +19,7 @@ The joint-state and parameter helpers of a kind are generated from its state nam
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import types
@@ -137,6 +138,7 @@ class KindCode:
     swv: tuple[float, ...]
     key: str
     g: dict[str, Any]
+    env: dict[str, int] = dataclasses.field(default_factory=dict)
 
     def chunk_switch(self, P: np.ndarray, lo: int, hi: int) -> int:
         """The vector step index of the lanes lo..hi-1 of the (lanes x rows) parameters P: the
@@ -173,13 +175,11 @@ def kernel(kind: ModelKind) -> KindCode:
            "zp": js + p if p >= 0 else -1}
     g = _globals()
     g.update(lay.constants())
-    g.update(rhs=kind.rhs, TRIG=bool(kind.uses_trig), ZR=pos["zr"])
+    g.update(rhs=kind.rhs, TRIG=bool(kind.uses_trig), ZR=pos["zr"], ENV=False)
     for name, fn in _layout.joint_helpers(lay, g).items():
         g[name] = _helper(fn)
     g["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, g))
-    for name in LANE_TEMPLATES:
-        _specialise(g, name, f"{name}__{key}", forceinline=False if name == "_deriv" else None)
-    lstep = _specialise(g, "_lstep", f"_lstep__{key}", _lane_mod.LSIG)
+    lstep = _lane_step(dict(g), key, "")
     values = tuple(float(v) for v in kind.switch_values) if kind.switch_row >= 0 else ()
     if len(values) > 3:
         raise ValueError(f"kind {kind.name}: at most 3 switch values")
@@ -188,6 +188,25 @@ def kernel(kind: ModelKind) -> KindCode:
         lstep=lstep.address, swr=kind.switch_row if values else -1, swv=values, key=key, g=g)
     _KINDS[key] = code
     return code
+
+
+def _lane_step(g: dict[str, Any], key: str, tag: str) -> Any:
+    """The per-lane step (:func:`usvid.sim.lane._lstep`) of the globals ``g``."""
+    for name in LANE_TEMPLATES:
+        _specialise(g, name, f"{name}{tag}__{key}",
+                    forceinline=False if name == "_deriv" else None)
+    return _specialise(g, "_lstep", f"_lstep{tag}__{key}", _lane_mod.LSIG)
+
+
+def lane_step(kind: ModelKind, env: bool) -> int:
+    """Address of the per-lane step of ``kind``: calm water, or (``env``) with the environment
+    series (external force, current); the latter compiled at first use."""
+    code = kernel(kind)
+    if not env:
+        return code.lstep
+    if "lstep" not in code.env:
+        code.env["lstep"] = _lane_step(dict(code.g, ENV=True), code.key, "e").address
+    return code.env["lstep"]
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
