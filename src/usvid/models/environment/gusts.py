@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.models.environment._spectral import components
+from usvid.models.environment._spectral import components, sum_cos
 
 #: Harris (1971): length scale [m] and surface drag coefficient [-].
 HARRIS_L, HARRIS_KAPPA = 1800.0, 0.0026
@@ -92,8 +92,7 @@ def gust_series(t: Any, mean_speed: float, *, spectrum: str = "norsok", z: float
     f, a, ph = components(gust_spectrum(spectrum, float(mean_speed), float(z)), band[0],
                           band[1], n_components, seed, n_batch, log=True)
     u = np.full((f.shape[0], t.size), float(mean_speed))
-    for i in range(f.shape[1]):  # a loop over components, each vectorised over lanes and time
-        u += a[:, i:i + 1] * np.cos(2.0 * np.pi * f[:, i:i + 1] * t + ph[:, i:i + 1])
+    sum_cos(2.0 * np.pi * f, a, ph, np.ascontiguousarray(t), u)
     return np.maximum(u, 0.0)
 
 
