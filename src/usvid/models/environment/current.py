@@ -5,7 +5,7 @@ TOWARDS [rad, from north, clockwise] (the oceanographic convention, the Trial co
 in space, constant or slowly varying in time (any argument may be an array over time or a
 batch). Body frame x forward, y starboard; heading :math:`\psi` [rad, NED, clockwise].
 
-Fossen (2021), eq. 10.103-10.106 (irrotational current in the horizontal plane):
+Fossen (2021), ch. 10.3 (irrotational current in the horizontal plane):
 
 .. math::
 

@@ -36,8 +36,8 @@ First-order wave-induced motion (:func:`wave_motion_scalar`): the component sum 
 vessel's motion response. usvid has no hydrodynamic RAO of a vessel, so it uses the long-wave
 limit of a freely floating body: a body whose mass equals its displaced mass takes the
 horizontal acceleration of the water around it (Froude-Krylov plus the diffraction force of
-its added mass, the "G. I. Taylor" long-wave approximation; Newman 1977, Marine Hydrodynamics,
-ch. 4.17; Faltinsen 1990, Sea Loads on Ships and Offshore Structures, ch. 3), and with a mass
+its added mass, the "G. I. Taylor" long-wave approximation; Newman 1977, Marine Hydrodynamics;
+Faltinsen 1990, Sea Loads on Ships and Offshore Structures, ch. 3), and with a mass
 distributed like the displacement a slender hull takes the rotation of the water's horizontal
 displacement field along its length. The water's horizontal displacement in a deep-water Airy
 wave is :math:`\xi = -a \sin\theta` along :math:`\chi`. Averaged over the hull length L (an

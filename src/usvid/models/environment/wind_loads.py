@@ -171,27 +171,34 @@ FUJIWARA_NEEDS = ("frontal_area", "lateral_area", "superstructure_area", "latera
 @numba.njit(cache=True)
 def wind_coefficients_scalar(p, angle):
     """(C_X, C_Y, C_N, C_K) of the packed model ``p`` at the apparent wind angle ``angle`` [rad,
-    from the bow, clockwise, coming from]; zeros for code 0 (calm)."""
+    from the bow, clockwise, coming from]; zeros for code 0 (calm). One cosine and one sine per
+    call: the multiple angles by their polynomials (cos 3g = 4c^3 - 3c, ...)."""
     code = int(p[0])
+    if code == 0:
+        return 0.0, 0.0, 0.0, 0.0
     g = -angle  # the published angle: counter-clockwise, positive for a wind from port
+    c, s = math.cos(g), math.sin(g)
+    c2, s2 = c * c, s * s
     if code == 1:  # Fujiwara et al. 1998
-        cx = p[6] + p[7] * math.cos(g) + p[8] * math.cos(3.0 * g) + p[9] * math.cos(5.0 * g)
-        cy = p[10] * math.sin(g) + p[11] * math.sin(3.0 * g) + p[12] * math.sin(5.0 * g)
-        cn = p[13] * math.sin(g) + p[14] * math.sin(2.0 * g) + p[15] * math.sin(3.0 * g)
+        cos3 = c * (4.0 * c2 - 3.0)
+        cos5 = c * (16.0 * c2 * c2 - 20.0 * c2 + 5.0)
+        sin2 = 2.0 * s * c
+        sin3 = s * (3.0 - 4.0 * s2)
+        sin5 = s * (16.0 * s2 * s2 - 20.0 * s2 + 5.0)
+        cx = p[6] + p[7] * c + p[8] * cos3 + p[9] * cos5
+        cy = p[10] * s + p[11] * sin3 + p[12] * sin5
+        cn = p[13] * s + p[14] * sin2 + p[15] * sin3
         return cx, cy, cn, math.nan
-    if code == 2:  # Blendermann 1994: p[6:] = C_Dt, C_DlAF bow, stern, delta, kappa, A_T/A_L,
-        # s_L/L_OA, s_H/H_M
-        g = (g + math.pi) % (2.0 * math.pi) - math.pi
-        ag = abs(g)
-        cdl_af = p[7] if ag <= 0.5 * math.pi else p[8]
-        s2 = math.sin(2.0 * g)
-        den = 1.0 - 0.5 * p[9] * (1.0 - cdl_af * p[11] / p[6]) * s2 * s2
-        cx = -cdl_af * math.cos(g) / den
-        cy = p[6] * math.sin(g) / den
-        cn = (p[12] - 0.18 * (ag - 0.5 * math.pi)) * cy
-        ck = p[10] * p[13] * cy
-        return cx, cy, cn, ck
-    return 0.0, 0.0, 0.0, 0.0
+    # Blendermann 1994: p[6:] = C_Dt, C_Dl,AF bow, stern, delta, kappa, A_T/A_L, s_L/L_OA,
+    # s_H/H_M
+    ag = abs((g + math.pi) % (2.0 * math.pi) - math.pi)  # |g| in [0, pi]
+    cdl_af = p[7] if c >= 0.0 else p[8]
+    sin2 = 2.0 * s * c
+    den = 1.0 - 0.5 * p[9] * (1.0 - cdl_af * p[11] / p[6]) * sin2 * sin2
+    cx = -cdl_af * c / den
+    cy = p[6] * s / den
+    cn = (p[12] - 0.18 * (ag - 0.5 * math.pi)) * cy
+    return cx, cy, cn, p[10] * p[13] * cy
 
 
 @numba.njit(cache=True)
