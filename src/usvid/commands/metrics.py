@@ -7,7 +7,11 @@ the keys are those of ``usvid simulate``: ``overshoot_deg`` (list, first first),
 ``tactical_diameter_m``, ``steady_diameter_m``, ``steady_yaw_rate_rad_s``, ``steady_speed_m_s`` for
 a turning circle. JSON: ``file``, ``format``, ``rejected`` (per reason), ``count`` and
 ``manoeuvres`` (one object each: kind, times, command, delta_amp_deg, psi_switch_deg, and the
-metric keys); when the log holds exactly one manoeuvre its keys are also at the top level.
+metric keys); when the log holds exactly one manoeuvre its keys are also at the top level. A
+turning circle also has ``current`` (the current measured from positions 360 deg of heading
+apart, IMO MSC/Circ.1053 3.4.2.5: ``speed_m_s``, ``dir_deg`` towards, ``spread_m_s``, ...) and
+``corrected`` (its metrics with the current's drift removed, the same keys as the raw ones),
+both null for a turn of less than 540 deg.
 """
 
 from __future__ import annotations
@@ -100,4 +104,12 @@ def register(app: typer.Typer) -> None:
             for k in keys[m["kind"]]:
                 if k in m:
                     table.add_row(k, _fmt(m[k]))
+            cur, corr = m.get("current"), m.get("corrected")
+            if cur:  # IMO MSC/Circ.1053 3.4.2.5 (turns of 540 deg or more)
+                table.add_row("current_speed_m_s", _fmt(cur["speed_m_s"]))
+                table.add_row("current_dir_deg (towards)", _fmt(cur["dir_deg"]))
+                table.add_row("current_spread_m_s", _fmt(cur["spread_m_s"]))
+                for k in ("advance_m", "transfer_m", "tactical_diameter_m",
+                          "steady_diameter_m"):
+                    table.add_row(f"{k} (current-corrected)", _fmt(corr[k]))
             con.print(table)

@@ -13,6 +13,9 @@ Layer: above :mod:`usvid.prep`, below :mod:`usvid.sim` (imports only ``usvid.tri
   (:func:`find_manoeuvres` -> :class:`Segment`).
 - :mod:`.metrics`: zig-zag and turning-circle metrics of a time history (IMO MSC.137(76), ITTC
   7.5-04-02-01): :func:`zigzag_metrics`, :func:`turning_metrics`.
+- :mod:`.drift`: the current measured by a turning test of 540 deg or more and the turning
+  metrics corrected for it (IMO MSC/Circ.1053 3.4.2.5): :func:`imo_current`,
+  :func:`current_corrected_turning`.
 - :mod:`.measure`: the segments of a log measured with those metrics (:func:`measured_metrics`).
 - :mod:`.imo`: the IMO MSC.137(76) criteria.
 """
@@ -28,6 +31,12 @@ from usvid.manoeuvres.detect import (
     rudder_rate,
     steady_turn,
     zigzag_crossings,
+)
+from usvid.manoeuvres.drift import (
+    CurrentEstimate,
+    current_corrected_track,
+    current_corrected_turning,
+    imo_current,
 )
 from usvid.manoeuvres.imo import (
     imo_turning_applies,
@@ -45,8 +54,10 @@ from usvid.manoeuvres.metrics import (
 )
 
 __all__ = [
-    "PID", "Commanded", "CourseChange", "Disturbance", "Segment", "SteadyTurn", "Turning",
-    "TurningMetrics", "ZigZag", "ZigZagMetrics", "find_execute", "find_manoeuvres",
+    "PID", "Commanded", "CourseChange", "CurrentEstimate", "Disturbance", "Segment",
+    "SteadyTurn", "Turning", "TurningMetrics", "ZigZag", "ZigZagMetrics",
+    "current_corrected_track", "current_corrected_turning", "find_execute", "find_manoeuvres",
+    "imo_current",
     "imo_turning_applies", "imo_turning_check", "imo_zigzag_check", "manoeuvre_metrics",
     "measured_metrics", "nominal_switch", "plateau_level", "rudder_amplitude", "rudder_rate",
     "steady_turn", "turning_metrics", "zigzag_crossings", "zigzag_kind", "zigzag_metrics",

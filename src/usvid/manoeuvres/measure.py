@@ -9,6 +9,7 @@ import numpy as np
 
 from usvid.errors import UsvidError
 from usvid.manoeuvres.detect import Segment, find_manoeuvres
+from usvid.manoeuvres.drift import current_corrected_turning
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.prep.filters import savgol_smooth, unwrap_angle
 from usvid.prep.glitches import repair_trial_heading
@@ -29,8 +30,10 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
 
     Zig-zag: :func:`usvid.manoeuvres.metrics.zigzag_metrics` (overshoot_deg, period_s,
     initial_turning_time_s, time_to_check_yaw_s, ...); turning: :func:`turning_metrics`
-    (advance_m, transfer_m, tactical_diameter_m, steady_diameter_m, ...). Returns the segment's
-    description merged with its metrics.
+    (advance_m, transfer_m, tactical_diameter_m, steady_diameter_m, ...), and for a turn of 540
+    deg or more the current of :func:`usvid.manoeuvres.drift.imo_current` (key ``current``) and
+    the metrics corrected for it (key ``corrected``, the same keys as the raw ones); both None
+    for a shorter turn. Returns the segment's description merged with its metrics.
     """
     trial, n_glitch = repair_trial_heading(trial)
     if not trial.is_uniform or (trial.has("lat") and not trial.has("x")):
@@ -46,6 +49,7 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
         part = part.with_data(data)
     out = segment.to_dict()
     out["heading_glitches"] = n_glitch  # repaired before the metrics (log's count)
+    drift = None
     if segment.kind == "zigzag":
         rudder = segment.command.startswith("delta")
         m = zigzag_metrics(
@@ -58,16 +62,23 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
         if not (part.has("x") and part.has("y")):
             raise UsvidError(f"trial {trial.name or '?'}: a turning circle needs positions x, y")
         meas_r = "r" in part.channels and "r" not in trial.meta.get("derived", [])
+        r = part["r"] if meas_r else None
         m = turning_metrics(
             t, part["x"], part["y"], part["psi"],
-            U=part["U"] if part.has("U") else None, r=part["r"] if meas_r else None,
-            t_execute=segment.t_execute,
+            U=part["U"] if part.has("U") else None, r=r, t_execute=segment.t_execute,
         )
+        drift = current_corrected_turning(t, part["x"], part["y"], part["psi"], r=r,
+                                          t_execute=segment.t_execute)
     else:  # pragma: no cover - kinds are ours
         raise UsvidError(f"unknown manoeuvre kind {segment.kind!r}")
     metrics = m.to_dict()
     metrics.pop("first_side", None)
     out.update(metrics)
+    if segment.kind == "turning":
+        # IMO MSC/Circ.1053 3.4.2.5: the current from a turn of 540 deg or more, and the
+        # metrics of the track corrected for it (None for a shorter turn)
+        out["current"] = drift[0].to_dict() if drift else None
+        out["corrected"] = drift[1].to_dict() if drift else None
     return out
 
 
