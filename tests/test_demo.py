@@ -90,7 +90,7 @@ def test_demo_writes_a_ros2_bag(demo_runs) -> None:
 @pytest.mark.slow
 def test_demo_json_and_run_contents(demo_runs) -> None:
     a, _, out, _ = demo_runs
-    assert [s["status"] for s in out["steps"]] == ["ok"] * 7, out["steps"]
+    assert [s["status"] for s in out["steps"]] == ["ok"] * 8, out["steps"]
     assert set(out["models"]) == {"servo", "nomoto1", "norrbin", "threedof"}
     acc = out["acceptance"]
     # quick mode (45 s zig-zag): the Nomoto K, T and the 3-DOF coefficients still land within
@@ -110,6 +110,25 @@ def test_demo_json_and_run_contents(demo_runs) -> None:
 
     for kind in ("nomoto1", "norrbin", "threedof"):
         assert load_model(a / "models" / f"{kind}.json").kind == kind
+
+
+@pytest.mark.slow
+def test_demo_papers_rows_are_the_pages(demo_runs) -> None:
+    """The report's "Papers" rows carry the numbers docs/papers.md states: each row's usvid
+    value and command on the page's line for that quantity."""
+    a, _, _, _ = demo_runs
+    run = json.loads((a / "run.json").read_text())
+    rows = run["papers"]["rows"]
+    assert len(rows) == 10
+    page = (REPO / "docs" / "papers.md").read_text(encoding="utf-8").splitlines()
+    for r in rows:
+        lines = [ln for ln in page if ln.startswith(f"| {r['paper']} | {r['quantity']}")]
+        assert len(lines) == 1, r["quantity"]
+        assert f"| {r['usvid_value']} |" in lines[0], (r["usvid_value"], lines[0])
+        assert f"`{r['command']}`" in lines[0], (r["command"], lines[0])
+        assert r["paper_value"] in lines[0], (r["paper_value"], lines[0])
+    html = (a / "report.html").read_text(encoding="utf-8")
+    assert 'id="papers"' in html and "38.06" in html and "85.42 m" in html
 
 
 @pytest.mark.slow

@@ -9,7 +9,7 @@ max_rel_error, at_bounds and method details. With ``--predict-fr`` and ``--predi
 it adds ``"prediction"``: D/L at that point by each fit and its profile-likelihood interval
 (:mod:`usvid.identify.turning_diameter_interval`; keys ``Fr``, ``delta_deg``, ``level``,
 ``low``, ``high``, ``by_fit``, ``inside_data``, ``ssr_min``, ``ssr_limit``, ``a_low``,
-``a_high``).
+``a_high``, ``a_opt``).
 """
 
 from __future__ import annotations

@@ -98,12 +98,17 @@ class PairedItae:
 
 def paired_itae(model: Any, *, noise_deg: float, seeds: Any, horizons: Any,
                 target_deg: float = 100.0, gains: tuple[float, float, float] = TABLE3_GAINS,
-                dt: float = 0.02, u0: Any = None) -> PairedItae:
+                dt: float = 0.02, u0: Any = None,
+                from_arrival_deg: float | None = None) -> PairedItae:
     """PID and PD ITAE of the course change 0 -> ``target_deg`` [deg] of ``model`` under the
     rudder-equivalent disturbance of std ``noise_deg`` [deg] (0: calm), realisation ``seeds``
     (whole numbers; realisation s is ``usvid simulate course-keeping --seed s``), for each
     horizon in ``horizons`` [s] (whole numbers of ``dt``), gains ``(kp, ki, kd)`` (the PD drops
-    ki). One batch of 2 S lanes run to the longest horizon."""
+    ki). One batch of 2 S lanes run to the longest horizon.
+
+    ``from_arrival_deg``: the ITAE of the course-keeping phase only, ``int_ta^H (t - ta) |e|
+    dt`` with ta [s] the first instant the error is below that many degrees (each lane its
+    own); default: from the course order, t = 0."""
     seeds = np.atleast_1d(np.asarray(seeds, dtype=float))
     horizons = np.atleast_1d(np.asarray(horizons, dtype=float))
     if seeds.ndim != 1 or horizons.ndim != 1 or not np.all(horizons > 0):
@@ -115,7 +120,12 @@ def paired_itae(model: Any, *, noise_deg: float, seeds: Any, horizons: Any,
     err, t = _course_errors(model, ki, noise_deg=noise_deg, seeds=np.tile(seeds, 2),
                             t_end=float(horizons.max()), target_deg=target_deg, gains=gains,
                             dt=dt, u0=u0)
-    cum = cumulative_trapezoid(t * err, t, axis=1, initial=0.0)[:, _horizon_index(t, horizons)]
+    if from_arrival_deg is None:
+        w = t * err
+    else:
+        ta = t[np.argmax(err < math.radians(from_arrival_deg), axis=1)]
+        w = np.where(t[None, :] >= ta[:, None], (t[None, :] - ta[:, None]) * err, 0.0)
+    cum = cumulative_trapezoid(w, t, axis=1, initial=0.0)[:, _horizon_index(t, horizons)]
     return PairedItae(pid=cum[:S], pd=cum[S:], seeds=seeds, horizons=horizons,
                       noise_deg=float(noise_deg))
 

@@ -43,8 +43,9 @@ class PredictionInterval:
     profile-likelihood interval, ``by_fit`` the point predictions of the given fits,
     ``ssr_min`` [-] (smallest residual sum of squares found within the bounds) and
     ``ssr_limit`` [-] (the largest SSR inside the interval's set), ``a_low``/``a_high`` the
-    coefficients a1..a5 at the ends, ``inside_data`` whether (Fr, delta) lies within the ranges
-    of the data."""
+    coefficients a1..a5 at the ends, ``a_opt`` those of the smallest SSR found (the bounded
+    least-squares optimum; ``sqrt(ssr_min / N)`` is its objective F of Ma et al. eq. 2),
+    ``inside_data`` whether (Fr, delta) lies within the ranges of the data."""
 
     Fr: float
     delta: float
@@ -55,6 +56,7 @@ class PredictionInterval:
     ssr_limit: float
     a_low: np.ndarray
     a_high: np.ndarray
+    a_opt: np.ndarray
     inside_data: bool
     by_fit: dict[str, float] = field(default_factory=dict)
 
@@ -65,7 +67,7 @@ class PredictionInterval:
                 "low": self.low, "high": self.high, "by_fit": dict(self.by_fit),
                 "ssr_min": self.ssr_min, "ssr_limit": self.ssr_limit,
                 "inside_data": self.inside_data, "a_low": self.a_low.tolist(),
-                "a_high": self.a_high.tolist()}
+                "a_high": self.a_high.tolist(), "a_opt": self.a_opt.tolist()}
 
 
 def _shape(Fr: np.ndarray, delta: np.ndarray, A: np.ndarray) -> np.ndarray:
@@ -152,8 +154,11 @@ def prediction_interval(Fr: Any, delta: Any, DL: Any, Fr0: float, delta0: float,
 
     x0s = [a[1:] for a in arrays.values()]
     best = search(lambda A: prof.ssr_min(A)[0], x0s)
-    ssr_min = float(min(prof.ssr_min(best[None])[0][0],
-                        *(prof.ssr_min(a[None])[0][0] for a in x0s)))
+    cands = [best, *x0s]
+    sm = [prof.ssr_min(x[None]) for x in cands]
+    k = int(np.argmin([v[0][0] for v in sm]))
+    ssr_min = float(sm[k][0][0])
+    a_opt = np.concatenate([sm[k][1], cands[k]])
     limit = ssr_min * math.exp(stats.chi2.ppf(level, 1) / Fr.size)
     ends = {}
     for sign in (1.0, -1.0):
@@ -173,5 +178,5 @@ def prediction_interval(Fr: Any, delta: Any, DL: Any, Fr0: float, delta0: float,
     return PredictionInterval(
         Fr=float(Fr0), delta=float(delta0), level=float(level), low=pred(ends[-1.0]),
         high=pred(ends[1.0]), ssr_min=float(ssr_min), ssr_limit=float(limit),
-        a_low=ends[-1.0], a_high=ends[1.0], inside_data=inside,
+        a_low=ends[-1.0], a_high=ends[1.0], a_opt=a_opt, inside_data=inside,
         by_fit={k: pred(a) for k, a in arrays.items()})
