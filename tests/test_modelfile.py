@@ -119,7 +119,7 @@ def _bad(path_and_value):
     ([(("parameters", "K"), True)], "m.json: parameters.K must be a number"),
     ([(("parameters", "alpha"), 1.1)], "m.json: unknown key parameters.alpha"),
     ([(("kind",), "nomoto3")], "m.json: kind must be one of nomoto1, nomoto2, norrbin, "
-                               "threedof, catamaran, mmg (got \"nomoto3\")"),
+                               "threedof, catamaran, mmg, nomoto2_nonlinear (got \"nomoto3\")"),
     ([(("usvid_model",), 2)], "m.json: usvid_model must be 1"),
     ([(("servo", "kind"), "hydraulic")], "m.json: servo.kind must be one of ideal"),
     ([(("servo", "zeta"), KeyError)], "m.json: servo.zeta is missing"),
