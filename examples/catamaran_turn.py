@@ -8,8 +8,8 @@ simulated turn (7.38 m at 0.209 m/s) shows it; the measured turn is not used. Pr
 1. the prediction of the measured turn and its error;
 2. that the steady turn at these codes does not depend on the assumed masses once the model
    reproduces the paper's simulated turn (d11 and d33 re-solved for halved and doubled masses);
-3. what matching the measured speed instead would do: the measured 0.246 m/s by 18 % more
-   thrust per code, or by 18 % less surge damping (each uses one number of the measured turn to
+3. what matching the measured speed instead would do: the thrust per code times, or the surge
+   damping divided by, 0.246 / 0.209 = 1.177 (each uses one number of the measured turn to
    predict the other);
 4. the arm read as the spacing b (the former reading).
 """
