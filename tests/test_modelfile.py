@@ -119,7 +119,7 @@ def _bad(path_and_value):
     ([(("parameters", "K"), True)], "m.json: parameters.K must be a number"),
     ([(("parameters", "alpha"), 1.1)], "m.json: unknown key parameters.alpha"),
     ([(("kind",), "nomoto3")], "m.json: kind must be one of nomoto1, nomoto2, norrbin, "
-                               "threedof, catamaran, mmg (got \"nomoto3\")"),
+                               "threedof, catamaran, mmg, nomoto2_nonlinear (got \"nomoto3\")"),
     ([(("usvid_model",), 2)], "m.json: usvid_model must be 1"),
     ([(("servo", "kind"), "hydraulic")], "m.json: servo.kind must be one of ideal"),
     ([(("servo", "zeta"), KeyError)], "m.json: servo.zeta is missing"),
@@ -177,7 +177,7 @@ def test_batch_model_cannot_be_saved():
 
 
 @pytest.mark.parametrize("name", ["lanxin.json", "lanxin_norrbin.json", "lanxin_threedof.json",
-                                  "pod_usv.json"])
+                                  "pod_usv.json", "pod_usv_eq25.json", "catamaran.json"])
 def test_examples_load(name):
     m = load_model(EXAMPLES / name)
     assert m.vessel.speed is not None and m.vessel.speed > 0
