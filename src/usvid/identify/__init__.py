@@ -29,21 +29,23 @@ from usvid.identify.turning_diameter import (
     leave_one_out_rmse,
     load_turning_table,
 )
-from usvid.identify.validate import (
-    cross_validate,
-    validation_table,
-    zigzag_check,
-    zigzag_response,
+from usvid.identify.validate import cross_validate, zigzag_response
+from usvid.identify.validation import (
+    TrialValidation,
+    ValidationResult,
+    validate_model,
+    validate_trial,
 )
 from usvid.models.d2c import ContinuousTF, d2c, d2c_ss, split_delay
 
 __all__ = [
     "CGAResult", "ContinuousTF", "EquationErrorFit", "FitMetrics", "IdentificationWarning",
     "IdentifiedModel", "LeastSquares", "ModelEstimator", "NotFittedError", "OEResult",
-    "RecursiveLeastSquares", "Series", "ServoIdentification", "TurningDiameterFit",
+    "RecursiveLeastSquares", "Series", "ServoIdentification", "TrialValidation",
+    "TurningDiameterFit", "ValidationResult",
     "arx_regressors", "arx_transfer_function", "cga", "check_regression_data", "compare_kinds",
     "cross_validate", "d2c", "d2c_ss", "fit", "fit_equation_error", "fit_metrics",
     "fit_turning_diameter", "identify", "identify_second_order_servo", "leave_one_out_rmse",
     "load_turning_table", "max_error", "nrmse", "r_squared", "refine_output_error", "rmse",
-    "split_delay", "trial_series", "validation_table", "zigzag_check", "zigzag_response",
+    "split_delay", "trial_series", "validate_model", "validate_trial", "zigzag_response",
 ]

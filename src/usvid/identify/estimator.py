@@ -36,6 +36,7 @@ clusters and Student-t intervals with (windows - 1) degrees of freedom.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import html
 import math
@@ -51,19 +52,20 @@ import pandas as pd
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.equation_error import fit_equation_error, two_step_norrbin
 from usvid.identify.ls import FittedAttributes, interval95, quantile975, standard_errors
-from usvid.identify.metrics import fit_metrics
+from usvid.identify.metrics import replay_metrics
 from usvid.identify.output_error import OEResult, refine_output_error
 from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import helm_from_zigzags, identify_second_order_servo
 from usvid.io.modelfile import model_to_dict
-from usvid.manoeuvres import find_manoeuvres, measured_metrics, rudder_rate
+from usvid.manoeuvres import find_manoeuvres, measured_metrics
+from usvid.manoeuvres.detect import approach
 from usvid.models.kind import ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
 from usvid.models.registry import names as kind_names
 from usvid.models.servo import IdealServo
-from usvid.prep import prepare, resample
+from usvid.prep import PreparedTrial, as_prepared, prepare
 from usvid.prep.segments import MIN_SEGMENT_S, split_at_breaks, time_breaks
 from usvid.sim.replay import Windows, make_windows, replay_windows
 from usvid.trial import Trial, Vessel
@@ -96,23 +98,10 @@ def _as_list(trials: Any) -> list[Trial]:
     return out
 
 
-def _is_turning(tr: Trial) -> bool:
+def _is_turning(tr: Trial, psi_switch: float | None = None) -> bool:
     """A turning test: a turning circle and no zig-zag found in it (``find_manoeuvres``)."""
-    kinds = {g.kind for g in find_manoeuvres(tr)}
+    kinds = {g.kind for g in find_manoeuvres(tr, psi_switch=psi_switch)}
     return "turning" in kinds and "zigzag" not in kinds
-
-
-def pwm_commands(tr: Trial) -> Trial:
-    """Thruster commands ``n_port``/``n_stbd`` from logged PWM pulse widths ``pwm_port``/
-    ``pwm_stbd`` [us] where the log has no other commands: the kinds' thrust map then reads the
-    pulse width (``twin_thrust`` with ``command: pwm``, the catamaran's particulars)."""
-    if tr.has("pwm_port") and tr.has("pwm_stbd") and not (tr.has("n_port")
-                                                          or tr.has("n_stbd")):
-        data = tr.data.copy()
-        data["n_port"] = data["pwm_port"]
-        data["n_stbd"] = data["pwm_stbd"]
-        tr = tr.with_data(data, meta={**tr.meta, "commands_from": "pwm"})
-    return tr
 
 
 def split_discontinuities(trials: Sequence[Trial]) -> list[Trial]:
@@ -142,34 +131,31 @@ def split_discontinuities(trials: Sequence[Trial]) -> list[Trial]:
     return out
 
 
-def one_grid(trials: Sequence[Trial]) -> list[Trial]:
-    """Trials on uniform grids of one step: multi-rate or jittered logs are prepared
-    (:func:`usvid.prep.prepare`), logs of different rates resampled to the coarsest one
+def repair_warnings(trial: PreparedTrial, stacklevel: int = 3) -> None:
+    """Say what :func:`usvid.prep.prepare` repaired in ``trial`` before identification sees
+    it: a log resampled onto a uniform grid, the gaps of a single-rate log interpolated."""
+    if trial.resampled_hz is not None:
+        warnings.warn(f"trial {trial.name or '?'}: not on a uniform time grid; resampled to "
+                      f"{trial.resampled_hz:.4g} Hz with usvid.prep.prepare",
+                      IdentificationWarning, stacklevel=stacklevel)
+    for ch, k in trial.filled.items():
+        warnings.warn(f"trial {trial.name or '?'}: channel '{ch}' has {k} NaN samples; "
+                      "interpolated linearly (usvid.prep.prepare)", IdentificationWarning,
+                      stacklevel=stacklevel)
+
+
+def one_grid(trials: Sequence[Trial]) -> list[PreparedTrial]:
+    """Prepared trials (:func:`usvid.prep.as_prepared`: a prepared one is used as it is) on
+    uniform grids of one step: logs of different rates are resampled to the coarsest one
     (never upsampled), with a warning saying so."""
-    out = []
-    for tr in trials:
-        tr = pwm_commands(tr)
-        if not tr.is_uniform or tr.data.isna().any().any():
-            uniform, before = tr.is_uniform, tr.data.isna().sum()
-            if not uniform:  # a multi-rate or jittered log (NMEA, virtual sensors)
-                warnings.warn(f"trial {tr.name or '?'}: not on a uniform time grid; resampled "
-                              "with usvid.prep.prepare", IdentificationWarning, stacklevel=3)
-            tr = prepare(tr, derivatives=False)
-            after = tr.data.isna().sum()
-            for ch, n in before.items():  # gaps of a single-rate log: say what was repaired
-                k = int(n - after.get(ch, 0))
-                if uniform and k > 0:
-                    warnings.warn(f"trial {tr.name}: channel '{ch}' has {k} NaN samples; "
-                                  "interpolated linearly (usvid.prep.prepare)",
-                                  IdentificationWarning, stacklevel=3)
-        out.append(tr)
+    out = [as_prepared(tr, derivatives=False) for tr in trials]
     rates = [tr.sample_rate for tr in out]
     if len({round(r, 6) for r in rates}) > 1:
         target = min(rates)
         warnings.warn(f"trials have different sample rates ({', '.join(f'{r:.4g}' for r in rates)}"
                       f" Hz); resampled to {target:.4g} Hz", IdentificationWarning, stacklevel=3)
         out = [tr if abs(tr.sample_rate - target) < 1e-6 * target else
-               resample(tr, rate_hz=target) for tr in out]
+               prepare(tr, rate_hz=target, derivatives=False) for tr in out]
     return out
 
 
@@ -192,24 +178,22 @@ def _vessel(trials: Sequence[Trial]) -> Vessel:
                 Vessel())
 
 
-def _approach_speed(trials: Sequence[Trial], vessel: Vessel) -> float | None:
-    """The vessel's nominal speed [m/s], else the median measured speed over the first 5 s of
-    the training trials (the approach of a manoeuvre)."""
-    if vessel.speed is not None:
-        return float(vessel.speed)
+def training_speed(trials: Sequence[Trial], psi_switch: float | None = None) -> float | None:
+    """The approach speed [m/s] of the training trials: the median over their manoeuvres of
+    the approach speed (:func:`usvid.manoeuvres.detect.approach`, the one definition), a trial
+    without a manoeuvre counting with its first :data:`~usvid.manoeuvres.detect.APPROACH_S`;
+    None when no trial logs a speed."""
     vals = []
     for tr in trials:
-        t = tr.t
-        sel = t <= t[0] + 5.0
-        for ch in ("U", "u"):
-            if tr.has(ch):
-                vals.append(np.nanmedian(tr[ch][sel]))
-                break
-    vals = [v for v in vals if np.isfinite(v) and v > 0]
+        segs = [g for g in find_manoeuvres(tr, psi_switch=psi_switch)
+                if g.approach is not None] if tr.has("psi") else []
+        aps = [g.approach for g in segs] or [approach(tr, float(tr.t[0]))]
+        vals += [a.speed for a in aps if a.speed is not None]
+    vals = [v for v in vals if math.isfinite(v) and v > 0]
     return float(np.median(vals)) if vals else None
 
 
-def _reversal_windows(trials: Sequence[Trial], rate: float
+def _reversal_windows(trials: Sequence[Trial], rate: float, psi_switch: float | None = None
                       ) -> list[tuple[np.ndarray, np.ndarray, float]]:
     """The rudder records around the measured zig-zag reversals of ``trials`` (for
     :func:`usvid.identify.servo.helm_from_zigzags`): from 0.5 s before each heading crossing
@@ -219,7 +203,7 @@ def _reversal_windows(trials: Sequence[Trial], rate: float
         if not (tr.has("delta") and tr.has("psi")):
             continue
         t, d = tr.t, tr["delta"]
-        for m in measured_metrics(tr):
+        for m in measured_metrics(tr, psi_switch=psi_switch):
             if m["kind"] != "zigzag":
                 continue
             tc = list(m.get("reversal_times_s") or [])
@@ -462,15 +446,21 @@ class ModelEstimator(FittedAttributes):
                                           "the yaw equation cannot be identified")
 
     # -- fitting ---------------------------------------------------------------------------------
-    def fit(self, trials: Any, *, turning: Any = None) -> ModelEstimator:
-        """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list); returns
-        self. ``turning``: extra turning trials for the two-step Norrbin fit."""
+    def fit(self, trials: Any, *, turning: Any = None,
+            psi_switch: float | None = None) -> ModelEstimator:
+        """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list, each
+        prepared once: :func:`usvid.prep.as_prepared`); returns self. ``turning``: extra
+        turning trials for the two-step Norrbin fit; ``psi_switch`` [rad]: the zig-zag
+        switching angle of the trials when known (default: detected)."""
         kind = self.kind_
-        trials = one_grid(split_discontinuities(_as_list(trials)))
+        given = [as_prepared(tr, derivatives=False) for tr in _as_list(trials)]
+        turning = [as_prepared(tr, derivatives=False) for tr in _as_list(turning)]
+        for tr in (*given, *turning):
+            repair_warnings(tr)
+        trials = one_grid(split_discontinuities(given))
         if not trials:
             raise IdentificationError("no trials given")
-        turning = (one_grid(split_discontinuities(_as_list(turning))) if turning is not None
-                   else [])
+        turning = one_grid(split_discontinuities(turning)) if turning else []
         fixed = self._fixed(trials)
         series = self._series(trials, fixed)
         tseries = self._series(turning, fixed) if turning else []
@@ -481,7 +471,7 @@ class ModelEstimator(FittedAttributes):
         diag: dict[str, Any] = {}
         fit_series = series
         if self.kind == "norrbin" and self.norrbin == "two_step":
-            turn = [_is_turning(tr) for tr in trials]
+            turn = [_is_turning(tr, psi_switch) for tr in trials]
             zz = [s for s, tu in zip(series, turn, strict=True) if not tu]
             tt = list(tseries) + [s for s, tu in zip(series, turn, strict=True) if tu]
             params, cov, diag = two_step_norrbin(get_kind("nomoto1"), zz, tt, h=h,
@@ -515,7 +505,7 @@ class ModelEstimator(FittedAttributes):
             zz_trials = [t for t, s in zip(trials, series, strict=True)
                          if any(s is f for f in fit_series)]
             m = self._decimation(series[0])
-            runs = zigzag_runs(zz_trials, fit_series, kind, step=h * m)
+            runs = zigzag_runs(zz_trials, fit_series, kind, step=h * m, psi_switch=psi_switch)
             oe = refine_zigzag_oe(kind, params, fixed, runs)
             zz_rate = float(np.median([r.rate for r in runs]))
             diag["oe_zigzag"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
@@ -544,13 +534,10 @@ class ModelEstimator(FittedAttributes):
             raise IdentificationError(f"identified {self.kind} parameters are not a valid "
                                       f"model: {exc}{hint}") from exc
         vessel = _vessel(trials)
-        speed = _approach_speed(trials, vessel)
-        if speed is not None and vessel.speed is None:
-            vessel = Vessel(**{**{k: getattr(vessel, k) for k in ("length", "beam", "draft",
-                                                                 "mass", "displacement",
-                                                                 "block_coefficient")},
-                               "speed": speed}, extra=dict(vessel.extra))
-        servo, servo_diag = self._servo(trials, zz_rate, vessel)
+        speed = training_speed(trials, psi_switch) if vessel.speed is None else None
+        if speed is not None:
+            vessel = dataclasses.replace(vessel, extra=dict(vessel.extra), speed=speed)
+        servo, servo_diag = self._servo(trials, zz_rate, vessel, psi_switch)
         if servo_diag:
             diag["servo"] = servo_diag
         self.series_ = series
@@ -579,8 +566,8 @@ class ModelEstimator(FittedAttributes):
         self.result_ = result
         return self
 
-    def _servo(self, trials: Sequence[Trial], zz_rate: float | None, vessel: Vessel
-               ) -> tuple[Any, dict[str, Any]]:
+    def _servo(self, trials: Sequence[Trial], zz_rate: float | None, vessel: Vessel,
+               psi_switch: float | None = None) -> tuple[Any, dict[str, Any]]:
         if self.servo not in (None, "auto"):
             return self.servo, {}
         both = [tr for tr in trials if tr.has("delta_cmd") and tr.has("delta")]
@@ -609,18 +596,15 @@ class ModelEstimator(FittedAttributes):
         if errors:
             warnings.warn(f"servo not identified ({'; '.join(errors)}); an ideal servo is used",
                           IdentificationWarning, stacklevel=3)
-        rate = zz_rate if zz_rate is not None else helm_rate(vessel)
-        source = "zig-zag replay fit" if zz_rate is not None else "vessel.extra.helm_rate_deg_s"
-        if rate is None:  # measured on the rudder ramps of the training trials
-            rates = [rudder_rate(tr.t, tr["delta"]) for tr in trials
-                     if tr.has("delta") and np.ptp(tr["delta"]) > 2 * MIN_DELTA_STD]
-            rates = [r for r in rates if math.isfinite(r)]
-            rate = float(np.median(rates)) if rates else None
-            source = "measured rudder ramps"
+        if zz_rate is not None:
+            rate, source = zz_rate, "zig-zag replay fit"
+        else:
+            rate, source = helm_rate(vessel, [(tr.t, tr["delta"]) for tr in trials
+                                              if tr.has("delta")])
         if rate is None:
             return IdealServo(), {}
         if self.kind_.state_estimation and zz_rate is None:
-            helm = helm_from_zigzags(_reversal_windows(trials, rate), rate)
+            helm = helm_from_zigzags(_reversal_windows(trials, rate, psi_switch), rate)
             if helm is not None:
                 s = helm.servo
                 return s, {"kind": "second_order", "max_rate_deg_s": math.degrees(rate),
@@ -744,18 +728,10 @@ def _servo_fit(u: np.ndarray, y: np.ndarray, dt: float) -> Any:
 
 
 def _replay_metrics(model: VesselModel, win: Windows) -> dict[str, Any]:
-    """RMSE, NRMSE, R^2, max error per output of ``model`` replaying ``win`` (from each
-    window's second sample on; samples past a record's end are left out). A replay that
-    diverged gives infinite errors."""
-    sim = replay_windows(model, win)
-    out = {}
-    for ch, s in sim.items():
-        y = win.outputs[ch][:, 1:].ravel()
-        yh = s[:, 1:].ravel()
-        keep = np.isfinite(y)
-        yh = np.where(np.isfinite(yh), yh, np.inf)
-        out[ch] = fit_metrics(y[keep], yh[keep]).to_dict()
-    return out
+    """RMSE, NRMSE, R^2, max error per output of ``model`` replaying ``win``
+    (:func:`usvid.identify.metrics.replay_metrics`: a replay that diverged gives infinite
+    errors)."""
+    return replay_metrics(replay_windows(model, win), win.outputs)
 
 
 def identify(trials: Any, kind: str, method: str = "ls", *, turning: Any = None,

@@ -38,7 +38,7 @@ import yaml
 from usvid.errors import UsvidError
 from usvid.files import to_json, write_atomic
 from usvid.identify.estimator import ModelEstimator
-from usvid.identify.validate import validation_table
+from usvid.identify.validation import validate_model
 from usvid.io import read_trial
 from usvid.models.registry import names as kind_names
 from usvid.prep import audit, prepare
@@ -159,8 +159,7 @@ def _read(path: str, spec: str, role: str, res: GroupResult) -> Any:
             if len(tr) < 3:
                 raise UsvidError(f"{path}: only {len(tr)} valid record(s)")
             findings = list(tr.findings) + audit(tr)
-            if not tr.is_uniform or tr.data.isna().any().any():
-                tr = prepare(tr, derivatives=False)
+            tr = prepare(tr, derivatives=False)  # once: the fit and the validation share it
     except Exception as exc:  # noqa: BLE001 - a failing log is reported, the rest go on
         row["error"] = _one_line(exc)
         res.errors.append({"group": res.group, "log": path, "kind": None, "error": row["error"]})
@@ -190,7 +189,8 @@ def run_group(group: Group) -> GroupResult:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 est = ModelEstimator(kind, group.method).fit(train)
-                table = validation_table(est, hold) if hold else []
+                table = [r.to_dict() for r in validate_model(
+                    est.model_, hold, window_s=est.window_s).rows] if hold else []
         except Exception as exc:  # noqa: BLE001 - reported, the other kinds go on
             res.errors.append({"group": group.name, "log": None, "kind": kind,
                                "error": _one_line(exc)})
@@ -201,7 +201,7 @@ def run_group(group: Group) -> GroupResult:
             res.parameters.append({"group": group.name, "kind": kind, "parameter": p,
                                    "value": float(v), "std_error": _num(se)})
         for row in table:
-            for ch, ms in row["metrics"].items():
+            for ch, ms in row.get("metrics", {}).items():
                 if not isinstance(ms, dict):
                     continue
                 for m, v in ms.items():

@@ -23,7 +23,7 @@ from usvid.models.kind import ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.models.servo import IdealServo
-from usvid.sim.simulate import Lanes, initial_state, servo_rows
+from usvid.sim.simulate import Lanes, approach_speed, initial_state, servo_rows
 
 #: Output channels a replay can compare, and the series holding their smoothed start values.
 OUTPUTS = ("psi", "r", "u", "v")
@@ -166,8 +166,9 @@ def replay_windows(model: VesselModel, win: Windows,
     chans = tuple(channels) if channels is not None else tuple(
         c for c in ("psi", "r", "u", "v") if c in win.outputs)
     speed = win.init.get("u") if kind.constant_speed else None
-    P = kind.pack(model.dynamics, speed if speed is not None else (
-        model.vessel.speed if model.vessel.speed is not None else 1.0))
+    # the measured speed of each window (constant-speed kinds), else the model's approach
+    # speed (never an assumed one: an error when the model has none)
+    P = kind.pack(model.dynamics, speed if speed is not None else approach_speed(model, None))
     out = window_lanes(kind, P, model.dynamics, win, channels=chans).run()
     return {c: out.channels[c] for c in chans}
 
