@@ -46,9 +46,22 @@ LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify fro
                                                show_default=False)]
 ModelOpt = Annotated[str, typer.Option(
     "--model", "-m", help="Model kind: " + " | ".join(kind_names()) + ".")]
-MethodOpt = Annotated[str, typer.Option(
-    "--method", help="ls (least squares) | rls (recursive, --lam) | oe (LS + output error) | "
-    "oe-zigzag (LS + closed-loop zig-zag replay output error).")]
+def _method_help() -> str:
+    from usvid.identify.defaults import DEFAULT_METHODS
+
+    defaults = "; ".join(f"{k} {', then '.join(m)}" for k, m in sorted(DEFAULT_METHODS.items()))
+    return ("ls (least squares) | rls (recursive, --lam) | oe (LS + output error) | oe-zigzag "
+            "(LS + closed-loop zig-zag replay output error). Default: the kind's method that "
+            f"predicts held-out zig-zags best, the next one when its model fails the checks "
+            f"(oe-zigzag only for logs with zig-zags): {defaults}; others ls.")
+
+
+MethodOpt = Annotated[str | None, typer.Option("--method", help=_method_help())]
+AcceptOpt = Annotated[bool, typer.Option(
+    "--accept-failed-checks", help="Write the model even when it fails its checks (a standard "
+    "manoeuvre inside the training envelope diverges or turns the wrong way, the training free "
+    "run diverges, it explains too little of the heading); the failures are kept in the model "
+    "file's identification.checks. Without it such a model is refused (exit 2).")]
 ValidateOpt = Annotated[list[Path] | None, typer.Option(
     "--validate", help="Held-out log(s) to validate on (repeat the option for several).")]
 OutOpt = Annotated[Path, typer.Option("--out", "-o", help="Model file to write (JSON).")]
@@ -104,14 +117,14 @@ def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float
     return out
 
 
-def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
+def identify_logs(logs: list[Path], fmt: str, kind: str, method: str | None = None, *,
                   validate: list[Path] | None = None, out: Path | None = None,
                   window_s: float = 20.0, overlap: float = 0.0, lam: float = 1.0,
                   norrbin: str = "joint", turning: list[Path] | None = None,
                   x_l: float | None = None, vessel: list[str] | None = None,
                   t_start: float | None = None, t_end: float | None = None,
-                  psi_deg: float | None = None, report: Path | None = None
-                  ) -> dict[str, Any]:
+                  psi_deg: float | None = None, report: Path | None = None,
+                  accept_failed_checks: bool = False) -> dict[str, Any]:
     """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``).
     Logs are ``LOG`` or ``LOG:T0:T1`` (:func:`usvid.prep.logs.parse_log_arg`), each read and
     prepared once: the estimator, the validation and the report use the same prepared trials."""
@@ -125,7 +138,8 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
     inputs = [*logs, *(validate or []), *(turning or []), *_spec_files(fmt)]
     check_outputs([out], inputs)  # before any work: never overwrite an input
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
-                         norrbin=norrbin, particulars=_particulars(x_l, vessel))
+                         norrbin=norrbin, particulars=_particulars(x_l, vessel),
+                         checks="record" if accept_failed_checks else "error")
     psi_switch = psi_switch_option(psi_deg)  # the zig-zag switching angle of every log, as given
     trials = _load(logs, fmt, t_start, t_end)
     est.fit(trials, turning=_load(turning, fmt, t_start, t_end) if turning else None,
@@ -184,18 +198,20 @@ def register(app: typer.Typer) -> None:
 
     @app.command("identify")
     def identify_cmd(logs: LogsArg, model: ModelOpt, out: OutOpt, fmt: FormatOpt = "auto",
-                     method: MethodOpt = "ls", validate: ValidateOpt = None,
+                     method: MethodOpt = None, validate: ValidateOpt = None,
                      json_out: JsonOpt = False, window_s: WindowOpt = 20.0,
                      overlap: OverlapOpt = 0.0, lam: LamOpt = 1.0,
                      norrbin: NorrbinOpt = "joint", turning: TurningOpt = None,
                      x_l: XlOpt = None, vessel: VesselOpt = None,
                      t_start: TStartOpt = None, t_end: TEndOpt = None,
-                     psi_deg: PsiOpt = None, report: ReportOpt = None) -> None:
+                     psi_deg: PsiOpt = None, report: ReportOpt = None,
+                     accept_failed_checks: AcceptOpt = False) -> None:
         """Identify a manoeuvring model from trial logs and write the model file."""
         s = identify_logs(logs, fmt, model, method, validate=validate, out=out,
                           window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin,
                           turning=turning, x_l=x_l, vessel=vessel, t_start=t_start,
-                          t_end=t_end, psi_deg=psi_deg, report=report)
+                          t_end=t_end, psi_deg=psi_deg, report=report,
+                          accept_failed_checks=accept_failed_checks)
         if json_out:
             emit_json(s)
         else:

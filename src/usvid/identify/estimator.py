@@ -50,6 +50,8 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
+from usvid.identify.checks import ChecksFailed, check_data, check_model, failed, refusal
+from usvid.identify.defaults import DEFAULT_METHODS
 from usvid.identify.equation_error import fit_equation_error, two_step_norrbin
 from usvid.identify.ls import FittedAttributes, interval95, quantile975, standard_errors
 from usvid.identify.metrics import replay_metrics
@@ -71,6 +73,16 @@ from usvid.sim.replay import Windows, make_windows, replay_windows
 from usvid.trial import Trial, Vessel
 
 METHODS = ("ls", "rls", "oe", "oe-zigzag")
+def default_methods(kind: str) -> tuple[str, ...]:
+    """The methods of ``kind`` in the order they predict held-out data
+    (:data:`usvid.identify.defaults.DEFAULT_METHODS`; "ls" for a kind not measured)."""
+    return tuple(DEFAULT_METHODS.get(kind, ("ls",)))
+
+
+def default_method(kind: str) -> str:
+    """The default identification method of ``kind``: the one that predicts best."""
+    return default_methods(kind)[0]
+
 MIN_DELTA_STD = math.radians(0.2)  # [rad] rudder scatter below which there is no excitation
 REL_WEAK = 0.5  # 95 % half-width / |parameter| above which fit() warns "poorly determined"
 #: Default step [s] of output error, ARX regressions and replays (or the log step if coarser).
@@ -237,6 +249,7 @@ class IdentifiedModel:
     data: list[dict[str, Any]] = field(default_factory=list)
     options: dict[str, Any] = field(default_factory=dict)
     diagnostics: dict[str, Any] = field(default_factory=dict)
+    checks: list[dict[str, Any]] = field(default_factory=list)
 
     def identification(self) -> dict[str, Any]:
         """The ``identification`` entry of the model file."""
@@ -251,6 +264,7 @@ class IdentifiedModel:
             "fit": self.fit,
             "options": self.options,
             "diagnostics": self.diagnostics,
+            "checks": list(self.checks),
         }
 
     def _covariance(self) -> dict[str, Any]:
@@ -300,7 +314,9 @@ class ModelEstimator(FittedAttributes):
     ----------
     kind : str
         A registered kind (:func:`usvid.models.registry.names`).
-    method : {"ls", "rls", "oe", "oe-zigzag"}
+    method : {"ls", "rls", "oe", "oe-zigzag"}, optional
+        Default: the kind's method that predicts best
+        (:data:`usvid.identify.defaults.DEFAULT_METHODS`).
     form : str
         Regression form of the equation-error step (the kind's forms, e.g. ``"continuous"``
         or ``"arx"`` for nomoto1; nomoto2 is always ARX + d2c).
@@ -339,21 +355,34 @@ class ModelEstimator(FittedAttributes):
         ``{"x_l": 3.5}`` for threedof; see the kind's module).
     x_l, thrust : optional
         Shortcuts for ``particulars["x_l"]`` [m] and a thrust law object.
+    checks : {"error", "record"}
+        What to do with a model that fails its checks (:mod:`usvid.identify.checks`: a standard
+        manoeuvre inside the training envelope diverges or turns the wrong way, the training
+        free run diverges, the model explains too little of the heading): "error" (default)
+        raises :class:`IdentificationError` with the reason and what to do; "record" returns
+        it with a warning, the failures in ``identification["checks"]`` (``checks_``).
     """
 
     _fit_call = "fit(trials)"
 
-    def __init__(self, kind: str, method: str = "ls", *, form: str = "continuous",
+    def __init__(self, kind: str, method: str | None = None, *, form: str = "continuous",
                  norrbin: str = "joint", smooth_s: float = 1.0, window_s: float = 20.0,
                  overlap: float = 0.0, step: float | None = None, lam: float = 1.0,
                  cond_max: float = 1e8, servo: Any = "auto",
                  oe_channels: tuple[str, ...] | None = None,
                  particulars: dict[str, Any] | None = None, x_l: float | None = None,
                  thrust: Any = None, arx_step: float | None = None,
-                 oe_step: float | None = None, states: str = "auto") -> None:
+                 oe_step: float | None = None, states: str = "auto",
+                 checks: str = "error") -> None:
         if kind not in kind_names():
             raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
         k = get_kind(kind)
+        self._auto = method is None
+        if method is None:
+            method = default_method(kind)
+        if checks not in ("error", "record"):
+            raise UsvidError(f"`checks` must be 'error' or 'record' (got {checks!r})")
+        self.checks = checks
         if method not in METHODS:
             raise UsvidError(f"`method` must be one of {', '.join(METHODS)} (got {method!r})")
         if k.regression is None:
@@ -451,8 +480,14 @@ class ModelEstimator(FittedAttributes):
         """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list, each
         prepared once: :func:`usvid.prep.as_prepared`); returns self. ``turning``: extra
         turning trials for the two-step Norrbin fit; ``psi_switch`` [rad]: the zig-zag
-        switching angle of the trials when known (default: detected)."""
-        kind = self.kind_
+        switching angle of the trials when known (default: detected).
+
+        Without a ``method`` the kind's methods are tried in the order they predict held-out
+        data (:data:`usvid.identify.defaults.DEFAULT_METHODS`, least squares last):
+        ``oe-zigzag`` only when the trials hold zig-zags, the next one when a method cannot
+        fit the data or its model fails its checks (with a warning saying so); the data are
+        refused before any fit when they cannot be identified from
+        (:func:`usvid.identify.checks.check_data`)."""
         given = [as_prepared(tr, derivatives=False) for tr in _as_list(trials)]
         turning = [as_prepared(tr, derivatives=False) for tr in _as_list(turning)]
         for tr in (*given, *turning):
@@ -461,6 +496,52 @@ class ModelEstimator(FittedAttributes):
         if not trials:
             raise IdentificationError("no trials given")
         turning = one_grid(split_discontinuities(turning)) if turning else []
+        check_data([*trials, *turning], self.kind)  # under way, a heading that responds
+        if not self._auto:
+            return self._fit(trials, turning, psi_switch)
+        zigzags = any(g.kind == "zigzag" for tr in trials
+                      for g in (find_manoeuvres(tr, psi_switch=psi_switch)
+                                if tr.has("psi") else []))
+        candidates = [m for m in default_methods(self.kind) if m != "oe-zigzag" or zigzags]
+        if "ls" not in candidates:
+            candidates.append("ls")  # the last resort: the equation-error fit itself
+        wanted, failures = self.checks, []
+        for m in candidates:
+            self.method, self.checks = m, "error"
+            try:
+                self._fit(trials, turning, psi_switch)
+            except IdentificationError as exc:  # this method cannot: the next one
+                failures.append((m, exc))
+                continue
+            finally:
+                self.checks = wanted
+            if failures:
+                why = "; ".join(f"{f}: {getattr(e, 'reason', e)}" for f, e in failures)
+                warnings.warn(f"{self.kind}: {why}; identified with {m}, the next method by "
+                              "held-out prediction", IdentificationWarning, stacklevel=2)
+            return self
+        checked = [m for m, e in failures if isinstance(e, ChecksFailed)]
+        if wanted == "record" and checked:  # no model passes: the best one, failures kept
+            self.method = checked[0]
+            return self._fit(trials, turning, psi_switch)
+        # the models that failed their checks say most: first
+        failures.sort(key=lambda f: not isinstance(f[1], ChecksFailed))
+        why = "; ".join(f"{m}: {getattr(e, 'reason', e)}" for m, e in failures)
+        if checked:
+            text = (f"no method identifies a {self.kind} model from these data that passes its "
+                    f"checks ({why}). Nothing is written: try another --model, more or richer "
+                    "training data (turns to both sides, the angles you will simulate), or "
+                    "--accept-failed-checks to write the best one anyway")
+        else:
+            text = f"no method identifies a {self.kind} model from these data ({why})"
+        if isinstance(failures[0][1], ChecksFailed):
+            raise ChecksFailed(text, failures[0][1].reason)
+        raise IdentificationError(text)
+
+    def _fit(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
+             psi_switch: float | None) -> ModelEstimator:
+        """One fit by ``self.method`` of prepared, checked trials (see :meth:`fit`)."""
+        kind = self.kind_
         fixed = self._fixed(trials)
         series = self._series(trials, fixed)
         tseries = self._series(turning, fixed) if turning else []
@@ -524,7 +605,9 @@ class ModelEstimator(FittedAttributes):
         self.ci95_ = dict(zip(names, interval95([self.params_[n] for n in names], se,
                                                 q).tolist(), strict=True))
         diag["ci95_quantile"] = q
-        self._warn_weak(names, se, q)
+        weak = self._warn_weak(names, se, q)
+        if weak:
+            diag["warnings"] = [weak]
         try:
             dyn = kind.dynamics(**{**fixed, **self.params_})
         except UsvidError as exc:
@@ -560,10 +643,20 @@ class ModelEstimator(FittedAttributes):
             kind=self.kind, method=self.method, params=self.params_,
             std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_, model=None,
             data=self.data_, options=opts, diagnostics=diag)
+        # the model identification returns: checked (usvid.identify.checks)
+        self.checks_ = check_model(model, trials, self.fit_)
+        result.checks = [c.to_dict() for c in self.checks_]
         model.identification = result.identification()
         self.model_ = model
         result.model = model
         self.result_ = result
+        if failed(self.checks_):
+            if self.checks == "error":
+                raise ChecksFailed(refusal(self.kind, self.method, self.checks_),
+                                   "; ".join(c.message for c in failed(self.checks_)))
+            warnings.warn(refusal(self.kind, self.method, self.checks_).split(". It is not")[0]
+                          + "; written anyway (identification.checks)", IdentificationWarning,
+                          stacklevel=2)
         return self
 
     def _servo(self, trials: Sequence[Trial], zz_rate: float | None, vessel: Vessel,
@@ -635,10 +728,11 @@ class ModelEstimator(FittedAttributes):
         return ("; " + "; ".join(bad) + "; it is not returned: give more excitation (turns to "
                 "both sides, speed changes) or fix the particulars")
 
-    def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> None:
+    def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> str | None:
         """Warn when a parameter's 95 % half-width ``q se`` exceeds half its magnitude
         (REL_WEAK): nearly collinear regressors or too little excitation leave it
-        undetermined. The offset ``delta0`` and the sign ``n1`` are not checked."""
+        undetermined. The offset ``delta0`` and the sign ``n1`` are not checked. Returns the
+        warning's text (kept in the diagnostics for the report), None when there is none."""
         weak = []
         for n, e in zip(names, se, strict=True):
             v = self.params_[n]
@@ -647,11 +741,13 @@ class ModelEstimator(FittedAttributes):
             if q * e > REL_WEAK * abs(v):
                 weak.append(f"{n} = {v:.4g} +- {q * e:.3g}")
         if weak:
-            warnings.warn(
-                f"{self.kind}: poorly determined parameter(s) {'; '.join(weak)} (95 %): the "
-                "data do not separate their effects (nearly collinear regressors or too little "
-                "excitation); use sharper rudder changes (zig-zags) or a simpler model",
-                IdentificationWarning, stacklevel=3)
+            text = (f"{self.kind}: poorly determined parameter(s) {'; '.join(weak)} (95 %): the "
+                    "data do not separate their effects (nearly collinear regressors or too "
+                    "little excitation); use sharper rudder changes (zig-zags) or a simpler "
+                    "model")
+            warnings.warn(text, IdentificationWarning, stacklevel=3)
+            return text
+        return None
 
     # -- use -------------------------------------------------------------------------------------
     def _metrics(self, model: VesselModel, series: Sequence[Series]) -> dict[str, Any]:
@@ -734,7 +830,7 @@ def _replay_metrics(model: VesselModel, win: Windows) -> dict[str, Any]:
     return replay_metrics(replay_windows(model, win), win.outputs)
 
 
-def identify(trials: Any, kind: str, method: str = "ls", *, turning: Any = None,
+def identify(trials: Any, kind: str, method: str | None = None, *, turning: Any = None,
              **options: Any) -> IdentifiedModel:
     """Functional form: ``ModelEstimator(kind, method, **options).fit(trials).result_``."""
     return ModelEstimator(kind, method, **options).fit(trials, turning=turning).result_

@@ -166,8 +166,8 @@ class Uncertainty:
                                  f"(got {type(se).__name__})")
             sds = []
             for n, v in se.items():
-                if v is None or (isinstance(v, float) and math.isnan(v)):
-                    continue  # not determined: not drawn
+                if v is None or (isinstance(v, float) and not math.isfinite(v)):
+                    continue  # not determined (null, NaN, inf in memory): not drawn
                 where = f"{source}: identification.std_errors.{n}"
                 if n not in numeric:
                     raise UsvidError(f"{where}: not a parameter of kind '{model.kind}' "
@@ -335,7 +335,8 @@ def _read_covariance(block: Any, known: set[str], where: str) -> tuple[list[str]
         raise UsvidError(f"{where}.matrix must be a list of {k} rows, one per name (got {got})")
     for i, row in enumerate(matrix):
         if not isinstance(row, list) or len(row) != k:
-            got = f"{len(row)} values" if isinstance(row, list) else type(row).__name__
+            got = (f"{len(row)} number{'' if len(row) == 1 else 's'}" if isinstance(row, list)
+                   else type(row).__name__)
             raise UsvidError(f"{where}.matrix[{i}] must be a row of {k} numbers (got {got})")
         for j, v in enumerate(row):
             if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):

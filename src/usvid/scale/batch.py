@@ -9,7 +9,8 @@ A campaign file (YAML)::
         spec: specs/boat1.yaml      # format spec: a file (relative) or a shipped spec name
         kinds: [nomoto1, norrbin]   # model kinds to identify
         holdout: ["day1/run7.csv"]  # globs of the held-out logs (validation only)
-        method: ls                  # optional: ls (default), rls or oe
+        method: oe                  # optional: ls, rls, oe, oe-zigzag (default: each kind's
+                                    # best, as usvid identify)
 
 A log that cannot be read (or has fewer than three valid records) is reported with its error and
 the group goes on without it; a kind that cannot be identified is reported likewise. Results in
@@ -59,7 +60,7 @@ class Group:
     holdout: list[str]
     spec: str
     kinds: list[str]
-    method: str = "ls"
+    method: str | None = None
     fingerprint: str = ""
 
 
@@ -127,8 +128,8 @@ def load_campaign(path: str | Path) -> list[Group]:
             if k not in kind_names():
                 raise UsvidError(f"{where}.kinds: unknown kind {k!r} (known: "
                                  f"{', '.join(kind_names())})")
-        method = g.get("method", "ls")
-        if method not in METHODS:
+        method = g.get("method")
+        if method is not None and method not in METHODS:
             raise UsvidError(f"{where}.method: expected one of {', '.join(METHODS)} "
                              f"(got {method!r})")
         logs = _expand(g["logs"], base, f"{where}.logs")
