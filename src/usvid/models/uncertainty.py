@@ -91,13 +91,15 @@ class Sample:
     def n_failed(self) -> int:
         return int(np.sum(self.failed))
 
-    def usable(self) -> dict[str, np.ndarray]:
-        """``values`` with a failed run's parameters replaced by the nominal ones (a valid
-        parameter set that the caller marks as failed), for a batch that must be built whole."""
+    def usable(self, nominal: Mapping[str, float] | None = None) -> dict[str, np.ndarray]:
+        """``values`` with a failed run's parameters replaced by ``nominal`` ones (default the
+        means; give the model's own values, a valid parameter set, for a batch that must be
+        built whole: the caller marks those runs as failed)."""
+        ref = self.mean if nominal is None else nominal
         out = {}
         for n, v in self.values.items():
             v = v.copy()
-            v[self.failed] = self.mean.get(n, math.nan)
+            v[self.failed] = ref.get(n, math.nan)
             out[n] = v
         return out
 

@@ -146,13 +146,14 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     B = hi - lo
     vm = model_from_dict(mc.model)
     drawn = mc.sample(lo, hi)
-    params = drawn.usable()
+    nominal = {n: float(getattr(vm.dynamics, n)) for n in drawn.values}  # a valid set
+    params = drawn.usable(nominal)  # failed runs simulate the nominal model, marked failed
     valid = ~drawn.failed
     # a check across parameters that the bounds do not cover: those runs fail, not the chunk
     for i in lane_errors(vm.dynamics, params):
         valid[i] = False
         for n, v in params.items():
-            v[i] = drawn.mean.get(n, float(getattr(vm.dynamics, n)))
+            v[i] = nominal[n]
     model = dataclasses.replace(vm, dynamics=vm.dynamics.replace(**params))
     o = mc.options
     u0 = float(approach_speed(vm, o.get("speed")))
