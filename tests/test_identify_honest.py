@@ -247,3 +247,20 @@ def test_defaults_on_the_esso_osaka_runs(tmp_path, capsys):
             _standard_runs_inside_the_envelope(out, capsys)
         else:  # refused with the reason (the Norrbin fits have n3 < 0 and diverge)
             assert code == 2 and "diverges" in err and not out.exists()
+
+
+def test_a_diverged_replay_says_when_and_has_no_finite_rms():
+    # the issue: a report said 588 s were replayed while the curve ended at 350 s (the RMS of
+    # the samples before the divergence); now the replay's errors are infinite, and it says when
+    from usvid.identify.validation import validate_trial
+    from usvid.prep import prepare
+    from usvid.trial import Trial
+
+    tr = prepare(Trial(_zigzag_df(), vessel=Vessel(length=6.0, speed=2.0), name="zz"),
+                 derivatives=False)
+    bad = VesselModel(Norrbin(K=0.3, T=5.0, n1=1.0, n3=-500.0), IdealServo(
+        max_rate=math.radians(10)), Vessel(length=6.0, speed=2.0))
+    row = validate_trial(bad, tr)
+    assert math.isinf(row.replay["psi_rms_deg"]) and math.isinf(row.replay["r_rms_deg_s"])
+    assert 0 < row.replay["diverged_at_s"] < row.replay["duration_s"]
+    assert any("the free run diverged" in m for m in row.messages)

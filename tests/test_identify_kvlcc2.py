@@ -154,7 +154,7 @@ def test_recovers_nomoto1_with_measured_rate():
     trials = _virtual(dyn, (10.0, 20.0, 20.0), (10.0, 10.0, 20.0), seed=3, t_end=150.0)
     for tr in trials:
         tr.vessel.extra.pop("helm_rate_deg_s", None)  # (the trials share one Vessel)
-    assert helm_rate(trials[0].vessel) is None
+    assert helm_rate(trials[0].vessel) == (None, "")
     est = ModelEstimator("nomoto1", "oe-zigzag").fit(trials)
     # 5 %: linear model, three zig-zags; delta0 within 0.15 deg (rudder noise 0.2 deg per sample)
     assert est.params_["K"] == pytest.approx(0.25, rel=0.05)

@@ -1,14 +1,18 @@
-"""CLI: ``usvid identify LOG... --format SPEC --model KIND [--method ls|rls|oe]
-[--validate LOG...] --out MODEL.json [--json]``.
+"""CLI: ``usvid identify LOG... --format SPEC --model KIND [--method ls|rls|oe|oe-zigzag]
+[--validate LOG...] [--report DIR] [--accept-failed-checks] --out MODEL.json [--json]``.
 
-Reads the logs with the format spec, prepares them (:func:`usvid.prep.prepare`: uniform grid,
-unwrapped heading, missing channels derived), identifies the model (:mod:`usvid.identify`) and
-writes the model file atomically (ARCHITECTURE.md schema; ``identification`` holds the data files
-with their sha256, the method, standard errors, 95 % intervals and fit metrics). Prints a fit
-summary; with ``--json`` one JSON object: ``model_file``, ``kind``, ``method``, ``params``,
-``std_errors``, ``ci95``, ``fit`` (training metrics per output channel: rmse, nrmse, r2,
-max_error), ``validation`` (per validation log: metrics and, for zig-zags, simulated vs measured
-overshoots) and ``data``.
+Reads the logs with the format spec and prepares each once (:func:`usvid.prep.logs.
+prepare_logs`: uniform grid, repaired and unwrapped heading, missing channels derived); the
+estimator, the validation and the report use those prepared trials. Identifies the model
+(:mod:`usvid.identify`; without ``--method`` the kind's best method,
+:data:`usvid.identify.defaults.DEFAULT_METHODS`), checks it (:mod:`usvid.identify.checks`:
+refused with exit 2 when it fails, unless ``--accept-failed-checks``) and writes the model file
+atomically (ARCHITECTURE.md schema; ``identification`` holds the data files with their sha256,
+the method, standard errors, covariance, 95 % intervals, fit metrics and the checks). Prints a
+fit summary; with ``--json`` one JSON object: ``model_file``, ``kind``, ``method``, ``params``,
+``std_errors``, ``ci95``, ``held``, ``fit`` (training metrics per output channel: rmse, nrmse,
+r2, max_error), ``validation`` (the rows of ``usvid validate``, one per held-out log:
+:class:`usvid.identify.validation.TrialValidation`), ``report`` and ``data``.
 """
 
 from __future__ import annotations

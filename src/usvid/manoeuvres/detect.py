@@ -197,8 +197,9 @@ def turning_command(trial: Trial) -> tuple[str, np.ndarray, bool] | None:
             d = trial[ch]
             if np.nanmax(np.abs(d)) > 0:
                 return ch, d, True
+    derived = getattr(trial, "derived", ())  # (n_port, n_stbd from PWM: read the PWM itself)
     for port, stbd in THRUSTER_PAIRS:
-        if trial.has(port) and trial.has(stbd):
+        if trial.has(port) and trial.has(stbd) and port not in derived:
             return f"{port}-{stbd}", trial[port] - trial[stbd], False
     return None
 
