@@ -76,6 +76,11 @@ def test_pure_noise_is_refused(tmp_path, capsys):
     assert code == 2 and line.startswith("usvid: error:") and "checks" in line
     assert "R^2" in line or "turns to the other side" in line or "diverges" in line, line
     assert not (tmp_path / "m.json").exists()
+    # the same without any speed (a bench or a basin record): the refusal says so
+    log, spec = _write(tmp_path, "noise_nospeed", df.drop(columns=["U"]))
+    spec.write_text(SPEC.replace("  U:     {col: U, unit: m/s}\n", ""))
+    code, err = _identify(capsys, log, spec, "norrbin", tmp_path)
+    assert code == 2 and "cannot tell that the vessel was under way" in err
 
 
 def test_constant_heading_is_refused_naming_the_channel(tmp_path, capsys):

@@ -50,7 +50,14 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
-from usvid.identify.checks import ChecksFailed, check_data, check_model, failed, refusal
+from usvid.identify.checks import (
+    ChecksFailed,
+    check_data,
+    check_model,
+    failed,
+    refusal,
+    trial_speed,
+)
 from usvid.identify.defaults import DEFAULT_METHODS
 from usvid.identify.equation_error import fit_equation_error, two_step_norrbin
 from usvid.identify.ls import FittedAttributes, interval95, quantile975, standard_errors
@@ -497,6 +504,8 @@ class ModelEstimator(FittedAttributes):
             raise IdentificationError("no trials given")
         turning = one_grid(split_discontinuities(turning)) if turning else []
         check_data([*trials, *turning], self.kind)  # under way, a heading that responds
+        # a refusal of the model says when the logs could not show the vessel under way
+        self._no_speed = [tr.name or "?" for tr in trials if trial_speed(tr)[0] is None]
         if not self._auto:
             return self._fit(trials, turning, psi_switch)
         zigzags = any(g.kind == "zigzag" for tr in trials
@@ -534,6 +543,7 @@ class ModelEstimator(FittedAttributes):
                     "--accept-failed-checks to write the best one anyway")
         else:
             text = f"no method identifies a {self.kind} model from these data ({why})"
+        text += self._speed_note()
         if isinstance(failures[0][1], ChecksFailed):
             raise ChecksFailed(text, failures[0][1].reason)
         raise IdentificationError(text)
@@ -652,12 +662,22 @@ class ModelEstimator(FittedAttributes):
         self.result_ = result
         if failed(self.checks_):
             if self.checks == "error":
-                raise ChecksFailed(refusal(self.kind, self.method, self.checks_),
+                raise ChecksFailed(refusal(self.kind, self.method, self.checks_)
+                                   + self._speed_note(),
                                    "; ".join(c.message for c in failed(self.checks_)))
             warnings.warn(refusal(self.kind, self.method, self.checks_).split(". It is not")[0]
                           + "; written anyway (identification.checks)", IdentificationWarning,
                           stacklevel=2)
         return self
+
+    def _speed_note(self) -> str:
+        """What a refusal adds when some training logs hold no speed at all."""
+        names = getattr(self, "_no_speed", [])
+        if not names:
+            return ""
+        return (f" (no speed (u, U, sog) and no positions in {', '.join(names[:3])}"
+                f"{', ...' if len(names) > 3 else ''}: usvid cannot tell that the vessel was "
+                "under way; at the dock or on the bench nothing can be identified)")
 
     def _servo(self, trials: Sequence[Trial], zz_rate: float | None, vessel: Vessel,
                psi_switch: float | None = None) -> tuple[Any, dict[str, Any]]:
