@@ -55,6 +55,8 @@ def test_montecarlo_on_dask_equals_in_process(client, tmp_path):
                    vary=["delta0=normal:0,0.001"], seed=5, options={"t_end": 60.0},
                    chunk=256, client=client, progress=False)
     assert s["workers"] == 2 and s["chunks"] == 3 and s["uncertainty"] == "covariance"
+    # the bounds policy's counts (T = 5 +- 0.3 s, K = 0.2 +- 0.01: never out of bounds)
+    assert s["redrawn"] == 0 and s["failed_draws"] == 0 and s["diverged"] == 0
     got = pd.read_parquet(out)
     mc = MonteCarlo(d, "zigzag", {"t_end": 60.0}, ("K", "T"), np.array([0.2, 5.0]),
                     np.array([[1e-4, 1e-3], [1e-3, 0.09]]), (Vary("delta0", "normal", 0, 0.001),),

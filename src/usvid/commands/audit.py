@@ -16,29 +16,19 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.errors import LogReadError
+from usvid.commands._common import FormatOpt, JsonOpt
 
 LogArg = Annotated[Path, typer.Argument(help="Log file to check.", show_default=False)]
-FormatOpt = Annotated[str, typer.Option(
-    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto "
-    "(detect the format by content and pick the shipped preset).")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
 
 
 def load_log(log: Path, fmt: str) -> Any:
-    """Read ``log`` with spec ``fmt``; a log without three valid records is a LogReadError."""
-    from usvid.io import read_trial
+    """Read ``log`` with spec ``fmt`` (:func:`usvid.prep.logs.read_log`), saying on stderr
+    what ``--format auto`` chose."""
+    from usvid.commands._common import say_format
+    from usvid.prep.logs import read_log
 
-    trial = read_trial(log, fmt)
-    if "format_detected" in trial.meta:  # --format auto: say what was chosen
-        import sys
-
-        print(f"usvid: {log}: {trial.meta['format_detected']}", file=sys.stderr)
-    if len(trial) < 3:
-        rej = ", ".join(f"{k}: {v}" for k, v in trial.rejected.items()) or "none"
-        raise LogReadError(
-            f"{log}: only {len(trial)} valid record(s), nothing to work on (rejected: {rej})"
-        )
+    trial = read_log(log, fmt)
+    say_format([trial], [log])
     return trial
 
 

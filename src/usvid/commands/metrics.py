@@ -22,8 +22,10 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.commands.audit import FormatOpt, JsonOpt, LogArg, load_log
+from usvid.commands._common import FormatOpt, JsonOpt, say_format
 from usvid.errors import UsvidError
+
+LogArg = Annotated[Path, typer.Argument(help="Log file to measure.", show_default=False)]
 
 PsiOpt = Annotated[float | None, typer.Option(
     "--psi-deg", help="Zig-zag switching angle [deg] when known (default: from the heading at "
@@ -37,12 +39,14 @@ def metrics_log(log: Path, fmt: str, psi_deg: float | None = None,
                 min_turn_deg: float = 180.0) -> dict[str, Any]:
     """The JSON object of ``usvid metrics`` for one log."""
     from usvid.manoeuvres import measured_metrics
+    from usvid.prep.logs import read_log
 
     if psi_deg is not None and not (math.isfinite(psi_deg) and psi_deg > 0):
         raise UsvidError(f"--psi-deg must be > 0 deg (got {psi_deg!r})")
     if not (math.isfinite(min_turn_deg) and min_turn_deg > 0):
         raise UsvidError(f"--min-turn-deg must be > 0 deg (got {min_turn_deg!r})")
-    trial = load_log(log, fmt)
+    trial = read_log(log, fmt)
+    say_format([trial], [log])
     ms = measured_metrics(
         trial,
         psi_switch=math.radians(psi_deg) if psi_deg is not None else None,

@@ -6,6 +6,8 @@ Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the ru
 a Dask cluster (a local one by default, or the scheduler at ``--scheduler``), writes one row per
 run (sampled parameters [SI], ``success``, metrics) to a Parquet file atomically and prints the
 quantiles of each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``,
+``redrawn`` (runs whose first draw was outside the parameter bounds, drawn again),
+``failed_draws`` (runs with no valid draw; their rows have ``success`` false), ``diverged``,
 ``parameters``, ``uncertainty`` (where the joint draws come from), ``seed``,
 ``disturbance_deg``, ``quantiles`` (per metric ``q05``, ``q50``, ``q95``, ``mean``, ``n``),
 ``chunks``, ``workers``, ``wall_s``.
@@ -29,26 +31,6 @@ ManoeuvreOpt = Annotated[str, typer.Option(
     "--manoeuvre", help="zigzag, turning or course-keeping.")]
 
 
-def _uncertainty(model: dict[str, Any], path: Path) -> tuple[list[str], np.ndarray, np.ndarray,
-                                                             str]:
-    """(names, mean [SI], covariance, source) from the model file's identification record."""
-    ident = model.get("identification") or {}
-    params = model.get("parameters", {})
-    cov = ident.get("covariance")
-    if cov and cov.get("names"):
-        names = list(cov["names"])
-        return (names, np.array([float(params[n]) for n in names]),
-                np.asarray(cov["matrix"], float), "covariance")
-    se = {k: v for k, v in (ident.get("std_errors") or {}).items()
-          if v is not None and k in params and np.isfinite(v)}
-    if not se:
-        raise UsvidError(f"{path}: --from-uncertainty needs identification.covariance or "
-                         "identification.std_errors in the model file (an identified model)")
-    names = list(se)
-    return (names, np.array([float(params[n]) for n in names]),
-            np.diag(np.square([float(se[n]) for n in names])), "std_errors")
-
-
 def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
                from_uncertainty: bool = False, vary: list[str] | None = None, seed: int = 0,
                options: dict[str, Any] | None = None, scheduler: str | None = None,
@@ -56,24 +38,26 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
                progress: bool = True) -> dict[str, Any]:
     """Everything ``usvid montecarlo`` does; returns its JSON object (and writes ``out``).
     ``client``: an existing Dask client (else one from ``scheduler``/``workers``)."""
-    import json
-
+    from usvid.io.modelfile import load_model, model_to_dict
+    from usvid.models.uncertainty import Uncertainty
     from usvid.scale.cluster import connect
     from usvid.scale.montecarlo import MonteCarlo, parse_vary, quantiles, run_montecarlo
 
-    try:
-        model = json.loads(Path(model_path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise UsvidError(f"{model_path}: cannot read the model file ({exc})") from None
+    vm = load_model(model_path)  # the schema checks the uncertainty blocks too
     names: list[str] = []
     mean, cov, source = np.zeros(0), np.zeros((0, 0)), "none"
     if from_uncertainty:
-        names, mean, cov, source = _uncertainty(model, model_path)
+        unc = Uncertainty.from_model(vm, source=Path(model_path).name)
+        if not unc.names:
+            raise UsvidError(f"{model_path}: --from-uncertainty needs identification.covariance "
+                             "or identification.std_errors in the model file (an identified "
+                             "model)")
+        names, mean, cov, source = list(unc.names), unc.mean, unc.cov, unc.source
     varies = tuple(parse_vary(v) for v in vary or [])
     if not names and not varies:
         raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
-    mc = MonteCarlo(model, manoeuvre, dict(options or {}), tuple(names), mean, cov, varies,
-                    int(seed))
+    mc = MonteCarlo(model_to_dict(vm), manoeuvre, dict(options or {}), tuple(names), mean, cov,
+                    varies, int(seed))
     t0 = time.perf_counter()
     if client is not None:
         df = run_montecarlo(mc, runs, chunk=chunk, client=client, progress=progress)
@@ -85,7 +69,11 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     buf = io.BytesIO()
     df.to_parquet(buf, index=False)
     write_atomic(out, buf.getvalue())
+    valid = df["valid_draw"].to_numpy(bool)
     return {"out": str(out), "runs": int(runs), "failed": int((~df["success"]).sum()),
+            "redrawn": int(((df["redraws"].to_numpy() > 0) & valid).sum()),
+            "failed_draws": int((~valid).sum()),
+            "diverged": int((valid & ~df["success"].to_numpy(bool)).sum()),
             "manoeuvre": manoeuvre, "parameters": list(mc.parameters), "uncertainty": source,
             "seed": int(seed), "disturbance_deg": float(mc.options.get("disturbance_deg", 0.0)),
             "quantiles": quantiles(df, mc.metrics),
@@ -97,8 +85,9 @@ def _print(s: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"montecarlo {s['manoeuvre']}: {s['runs']} runs ({s['failed']} "
-                        f"diverged) -> {s['out']}")
+    table = Table(title=f"montecarlo {s['manoeuvre']}: {s['runs']} runs ({s['diverged']} "
+                        f"diverged, {s['redrawn']} draws redrawn within the parameter bounds, "
+                        f"{s['failed_draws']} failed) -> {s['out']}")
     for col in ("metric", "q05", "q50", "q95", "mean", "n"):
         table.add_column(col, justify="left" if col == "metric" else "right")
     for m, q in s["quantiles"].items():

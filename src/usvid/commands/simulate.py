@@ -51,9 +51,14 @@ def _load(path: Path) -> Any:
 
 
 def _speed(model: Any, speed: float | None, path: Path) -> float:
-    u0 = speed if speed is not None else getattr(model.vessel, "speed", None)
-    if u0 is None:
-        raise UsvidError(f"{path.name}: vessel.speed is not given; pass --speed [m/s]")
+    """The approach speed [m/s] (:func:`usvid.sim.simulate.approach_speed`: ``--speed``, else
+    the model's vessel.speed, else its kind's straight-line speed), checked."""
+    from usvid.sim.simulate import approach_speed
+
+    try:
+        u0 = approach_speed(model, speed)
+    except SimulationError:
+        raise UsvidError(f"{path.name}: vessel.speed is not given; pass --speed [m/s]") from None
     if not (math.isfinite(u0) and u0 > 0):
         raise UsvidError(f"--speed must be > 0 m/s (got {u0!r})")
     return float(u0)

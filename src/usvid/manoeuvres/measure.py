@@ -12,17 +12,16 @@ from usvid.manoeuvres.detect import Segment, find_manoeuvres
 from usvid.manoeuvres.drift import current_corrected_turning
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.prep.filters import savgol_smooth, unwrap_angle
-from usvid.prep.glitches import repair_trial_heading
-from usvid.prep.prepare import prepare
+from usvid.prep.prepare import as_prepared
 from usvid.trial import Trial
 
 
 def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) -> dict[str, Any]:
     """Measured metrics of one segment, with the same keys as ``usvid simulate``.
 
-    Heading glitches are repaired first, at the sensor's own samples
-    (:func:`usvid.prep.glitches.repair_trial_heading`; their count is ``heading_glitches``),
-    then the heading is smoothed (zero-phase cubic
+    The trial is prepared (:func:`usvid.prep.prepare`, once: a prepared trial is used as it is),
+    which repairs its heading glitches at the sensor's own samples (their count is
+    ``heading_glitches``); then the heading is smoothed (zero-phase cubic
     Savitzky-Golay over ``smooth_s`` [s]; 0 turns it off): the maximum of noisy samples
     around a flat heading peak is biased upwards by about two noise standard deviations, which
     a cubic fit over 2 s removes without flattening the peak (a zig-zag heading peak is tens
@@ -35,9 +34,8 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
     the metrics corrected for it (key ``corrected``, the same keys as the raw ones); both None
     for a shorter turn. Returns the segment's description merged with its metrics.
     """
-    trial, n_glitch = repair_trial_heading(trial)
-    if not trial.is_uniform or (trial.has("lat") and not trial.has("x")):
-        trial = prepare(trial, derivatives=False)
+    trial = as_prepared(trial, derivatives=False)
+    n_glitch = trial.heading_glitches
     # 5 s of approach before the execute: the heading there is smoothed in the interior of the
     # filter window, so psi0 (the reference of every overshoot) carries the least noise
     part = trial.slice_time(segment.t_start - 5.0, segment.t_end)
@@ -61,7 +59,7 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
     elif segment.kind == "turning":
         if not (part.has("x") and part.has("y")):
             raise UsvidError(f"trial {trial.name or '?'}: a turning circle needs positions x, y")
-        meas_r = "r" in part.channels and "r" not in trial.meta.get("derived", [])
+        meas_r = "r" in part.channels and "r" not in trial.derived
         r = part["r"] if meas_r else None
         m = turning_metrics(
             t, part["x"], part["y"], part["psi"],
@@ -84,6 +82,5 @@ def manoeuvre_metrics(trial: Trial, segment: Segment, *, smooth_s: float = 2.0) 
 
 def measured_metrics(trial: Trial, **find_kw: Any) -> list[dict[str, Any]]:
     """Find every manoeuvre in ``trial`` and measure it: one dict per manoeuvre (time order)."""
-    trial, _ = repair_trial_heading(trial)  # at the sensor's own samples, before resampling
-    prepared = prepare(trial, derivatives=False)
+    prepared = as_prepared(trial, derivatives=False)
     return [manoeuvre_metrics(prepared, s) for s in find_manoeuvres(prepared, **find_kw)]

@@ -9,7 +9,8 @@ A campaign file (YAML)::
         spec: specs/boat1.yaml      # format spec: a file (relative) or a shipped spec name
         kinds: [nomoto1, norrbin]   # model kinds to identify
         holdout: ["day1/run7.csv"]  # globs of the held-out logs (validation only)
-        method: ls                  # optional: ls (default), rls or oe
+        method: oe                  # optional: ls, rls, oe, oe-zigzag (default: each kind's
+                                    # best, as usvid identify)
 
 A log that cannot be read (or has fewer than three valid records) is reported with its error and
 the group goes on without it; a kind that cannot be identified is reported likewise. Results in
@@ -38,7 +39,7 @@ import yaml
 from usvid.errors import UsvidError
 from usvid.files import to_json, write_atomic
 from usvid.identify.estimator import ModelEstimator
-from usvid.identify.validate import validation_table
+from usvid.identify.validation import validate_model
 from usvid.io import read_trial
 from usvid.models.registry import names as kind_names
 from usvid.prep import audit, prepare
@@ -59,7 +60,7 @@ class Group:
     holdout: list[str]
     spec: str
     kinds: list[str]
-    method: str = "ls"
+    method: str | None = None
     fingerprint: str = ""
 
 
@@ -127,8 +128,8 @@ def load_campaign(path: str | Path) -> list[Group]:
             if k not in kind_names():
                 raise UsvidError(f"{where}.kinds: unknown kind {k!r} (known: "
                                  f"{', '.join(kind_names())})")
-        method = g.get("method", "ls")
-        if method not in METHODS:
+        method = g.get("method")
+        if method is not None and method not in METHODS:
             raise UsvidError(f"{where}.method: expected one of {', '.join(METHODS)} "
                              f"(got {method!r})")
         logs = _expand(g["logs"], base, f"{where}.logs")
@@ -159,8 +160,7 @@ def _read(path: str, spec: str, role: str, res: GroupResult) -> Any:
             if len(tr) < 3:
                 raise UsvidError(f"{path}: only {len(tr)} valid record(s)")
             findings = list(tr.findings) + audit(tr)
-            if not tr.is_uniform or tr.data.isna().any().any():
-                tr = prepare(tr, derivatives=False)
+            tr = prepare(tr, derivatives=False)  # once: the fit and the validation share it
     except Exception as exc:  # noqa: BLE001 - a failing log is reported, the rest go on
         row["error"] = _one_line(exc)
         res.errors.append({"group": res.group, "log": path, "kind": None, "error": row["error"]})
@@ -190,7 +190,8 @@ def run_group(group: Group) -> GroupResult:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 est = ModelEstimator(kind, group.method).fit(train)
-                table = validation_table(est, hold) if hold else []
+                table = [r.to_dict() for r in validate_model(
+                    est.model_, hold, window_s=est.window_s).rows] if hold else []
         except Exception as exc:  # noqa: BLE001 - reported, the other kinds go on
             res.errors.append({"group": group.name, "log": None, "kind": kind,
                                "error": _one_line(exc)})
@@ -201,7 +202,7 @@ def run_group(group: Group) -> GroupResult:
             res.parameters.append({"group": group.name, "kind": kind, "parameter": p,
                                    "value": float(v), "std_error": _num(se)})
         for row in table:
-            for ch, ms in row["metrics"].items():
+            for ch, ms in row.get("metrics", {}).items():
                 if not isinstance(ms, dict):
                     continue
                 for m, v in ms.items():

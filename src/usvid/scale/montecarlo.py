@@ -2,11 +2,15 @@
 
 The parameters of run i are drawn from the model file's uncertainty (the covariance of the
 fitted parameters when the file holds one, else independent normals from its standard errors)
-and/or from given distributions (``NAME=normal:MEAN,SD``, ``NAME=uniform:LO,HI``, SI units).
-Runs are drawn in fixed blocks of :data:`BLOCK` runs, block k from the generator seeded with
-``(seed, k)``: run i's parameters, hence its results, are the same whatever the number of
-workers or the chunk size. Chunks of runs are simulated as batches of lanes of the integration
-core (:func:`usvid.sim.simulate`) and measured with the kernel's online trackers:
+and/or from given distributions (``NAME=normal:MEAN,SD``, ``NAME=uniform:LO,HI``, SI units), by
+the one sampler of :mod:`usvid.models.uncertainty`: runs are drawn in fixed blocks of
+:data:`BLOCK` runs, block k from the generator seeded with ``(seed, k)``, so run i's parameters,
+hence its results, are the same whatever the number of workers or the chunk size; a draw
+outside the model's parameter bounds is drawn again (column ``redraws``), a run with no draw
+within them, or whose parameters are no valid model, is kept as a failed row (``valid_draw``
+false), never an error that stops its chunk. Chunks of runs are simulated as batches of lanes
+of the integration core (:func:`usvid.sim.simulate`) and measured with the kernel's online
+trackers:
 
 * ``zigzag``: ``overshoot_1_deg``, ``overshoot_2_deg``, ``overshoot_3_deg`` [deg],
   ``initial_turning_time_s`` (execute to first reversal) and ``reversal_2_s`` [s];
@@ -19,7 +23,8 @@ disturbance of Mu et al. (2018) (:class:`usvid.manoeuvres.logic.Disturbance`, as
 autopilot`` and ``usvid sim`` use it) to every manoeuvre; run i draws its noise from the stream
 ``(seed, i)``, so its realisation, like its parameters, does not depend on the chunking.
 
-A run that diverges keeps its row with ``success`` false and NaN metrics.
+A run that diverges, or whose draw failed, keeps its row with ``success`` false and NaN
+metrics.
 """
 
 from __future__ import annotations
@@ -39,15 +44,14 @@ from usvid.errors import UsvidError
 from usvid.io.modelfile import model_from_dict
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
 from usvid.manoeuvres.metrics import turning_metrics
+from usvid.models.uncertainty import BLOCK, Distribution, Sample, Uncertainty, lane_errors
 from usvid.scale.cluster import map_ordered
 from usvid.sim.runs import default_t_end
-from usvid.sim.simulate import simulate
+from usvid.sim.simulate import approach_speed, simulate
 
 __all__ = ["BLOCK", "MANOEUVRES", "MonteCarlo", "Vary", "parse_vary", "quantiles",
            "run_chunk", "run_montecarlo"]
 
-#: Runs per sampling block (the unit of the seeded random streams).
-BLOCK = 1024
 MANOEUVRES = ("zigzag", "turning", "course-keeping")
 METRICS = {
     "zigzag": ("overshoot_1_deg", "overshoot_2_deg", "overshoot_3_deg",
@@ -58,15 +62,9 @@ METRICS = {
 _VARY = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*(normal|uniform)\s*:\s*([^,]+),([^,]+)$")
 
 
-@dataclass(frozen=True)
-class Vary:
-    """A parameter drawn from ``normal`` (a = mean, b = standard deviation) or ``uniform``
-    (a = low, b = high), SI units."""
-
-    name: str
-    dist: str
-    a: float
-    b: float
+#: A parameter drawn from ``normal`` (a = mean, b = standard deviation) or ``uniform``
+#: (a = low, b = high), SI units (:class:`usvid.models.uncertainty.Distribution`).
+Vary = Distribution
 
 
 def parse_vary(text: str) -> Vary:
@@ -82,7 +80,7 @@ def parse_vary(text: str) -> Vary:
     if not (math.isfinite(a) and math.isfinite(b)) or (m.group(2) == "normal" and b < 0) \
             or (m.group(2) == "uniform" and b < a):
         raise UsvidError(f"--vary {text!r}: need finite numbers, SD >= 0, LO <= HI")
-    return Vary(m.group(1), m.group(2), a, b)
+    return Distribution(m.group(1), m.group(2), a, b)
 
 
 @dataclass
@@ -120,44 +118,24 @@ class MonteCarlo:
             if name not in known:
                 raise UsvidError(f"--vary {name}: not a parameter of model kind "
                                  f"'{vm.kind}' (parameters: {', '.join(sorted(known))})")
+        self._uncertainty = Uncertainty(
+            tuple(self.names), np.asarray(self.mean, float), np.asarray(self.cov, float),
+            "given" if self.names else "none", tuple(self.vary), (),
+            {p.name: p for p in type(vm.dynamics).param_specs()})
 
     @property
     def parameters(self) -> tuple[str, ...]:
         """The sampled parameter names, in column order."""
-        extra = tuple(v.name for v in self.vary if v.name not in self.names)
-        return (*self.names, *extra)
+        return self._uncertainty.parameters
 
     @property
     def metrics(self) -> tuple[str, ...]:
         return METRICS[self.manoeuvre]
 
-    def sample(self, lo: int, hi: int) -> dict[str, np.ndarray]:
-        """The parameters [SI] of runs lo..hi-1 (independent of how runs are chunked)."""
-        out: dict[str, list[np.ndarray]] = {n: [] for n in self.parameters}
-        chol = None
-        if self.names:
-            chol = np.linalg.cholesky(self.cov + 1e-300 * np.eye(len(self.names))) \
-                if np.all(np.linalg.eigvalsh(self.cov) > 0) else None
-        for blk in range(lo // BLOCK, (hi - 1) // BLOCK + 1):
-            rng = np.random.default_rng([int(self.seed), blk])
-            a, b = max(lo, blk * BLOCK) - blk * BLOCK, min(hi, (blk + 1) * BLOCK) - blk * BLOCK
-            draws: dict[str, np.ndarray] = {}
-            if self.names:
-                z = rng.standard_normal((BLOCK, len(self.names)))
-                if chol is not None:
-                    x = self.mean + z @ chol.T
-                else:  # semi-definite: through the eigen-decomposition
-                    w, v = np.linalg.eigh(self.cov)
-                    x = self.mean + (z * np.sqrt(np.clip(w, 0.0, None))) @ v.T
-                draws.update({n: x[:, i] for i, n in enumerate(self.names)})
-            for v in self.vary:
-                if v.dist == "normal":
-                    draws[v.name] = v.a + v.b * rng.standard_normal(BLOCK)
-                else:
-                    draws[v.name] = rng.uniform(v.a, v.b, BLOCK)
-            for n in self.parameters:
-                out[n].append(draws[n][a:b])
-        return {n: np.concatenate(v) for n, v in out.items()}
+    def sample(self, lo: int, hi: int) -> Sample:
+        """The parameters [SI] of runs lo..hi-1 (independent of how runs are chunked; the
+        bounds policy of :mod:`usvid.models.uncertainty`)."""
+        return self._uncertainty.sample(lo, hi, int(self.seed))
 
 
 def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> pd.DataFrame:
@@ -167,16 +145,24 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     B = hi - lo
     vm = model_from_dict(mc.model)
-    params = mc.sample(lo, hi)
-    model = dataclasses.replace(vm, dynamics=dataclasses.replace(vm.dynamics, **params))
+    drawn = mc.sample(lo, hi)
+    nominal = {n: float(getattr(vm.dynamics, n)) for n in drawn.values}  # a valid set
+    params = drawn.usable(nominal)  # failed runs simulate the nominal model, marked failed
+    valid = ~drawn.failed
+    # a check across parameters that the bounds do not cover: those runs fail, not the chunk
+    for i in lane_errors(vm.dynamics, params):
+        valid[i] = False
+        for n, v in params.items():
+            v[i] = nominal[n]
+    model = dataclasses.replace(vm, dynamics=vm.dynamics.replace(**params))
     o = mc.options
-    u0 = o.get("speed") or getattr(vm.vessel, "speed", None)
-    if u0 is None:
-        raise UsvidError("the model file has no vessel.speed: give --speed [m/s]")
+    u0 = float(approach_speed(vm, o.get("speed")))
     dt = float(o.get("dt", 0.02))
     t_end = o.get("t_end") or default_t_end(vm, u0)
     rows: dict[str, Any] = {"run": np.arange(lo, hi)}
-    rows.update(params)
+    rows.update(drawn.values)
+    rows["redraws"] = drawn.redraws
+    rows["valid_draw"] = valid
     sd = math.radians(float(o.get("disturbance_deg", 0.0)))
     dist = (Disturbance(intensity=sd, seed=int(mc.seed), stream=np.arange(lo, hi, dtype=float))
             if sd > 0 else None)  # run i: noise stream (seed, i), whatever the chunk
@@ -218,6 +204,7 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
             metrics = {"itae": res.course["itae"], "iae": res.course["iae"],
                        "max_rudder_deg": np.degrees(res.course["max_rudder"])}
     ok = np.ones(B, bool) if res.status is None else np.asarray(res.status) == 0
+    ok &= valid
     rows["success"] = ok
     for k, v in metrics.items():
         rows[k] = np.where(ok, np.asarray(v, float), np.nan)
