@@ -153,6 +153,26 @@ def ignored_finding(path: Path, code: str, what: str, ignored: dict, *,
                    count=n, data=dict(data or {}))
 
 
+#: Direction channels and the interval every reader delivers them in (the Trial contract):
+#: the apparent wind angle in (-pi, pi], the true wind direction in [0, 2 pi) [rad].
+DIRECTION_CHANNELS = {"wind_angle": "pm_pi", "wind_dir_true": "two_pi"}
+
+
+def wrap_directions(chans: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``chans`` with the direction channels of :data:`DIRECTION_CHANNELS` wrapped into their
+    interval (a wind angle logged in [0, 2 pi), as many anemometers write it, becomes
+    (-pi, pi]); other channels as they are."""
+    out = dict(chans)
+    for k, kind in DIRECTION_CHANNELS.items():
+        if k in out:
+            a = np.asarray(out[k], dtype=float)
+            if kind == "two_pi":
+                out[k] = np.remainder(a, 2.0 * np.pi)
+            else:  # (-pi, pi]: the mirror of [-pi, pi)
+                out[k] = -(np.remainder(np.pi - a, 2.0 * np.pi) - np.pi)
+    return out
+
+
 def _add(rejected: dict[str, int], reason: str, n: int) -> None:
     if n:
         rejected[reason] = rejected.get(reason, 0) + int(n)
@@ -178,7 +198,7 @@ def assemble(
     rejected = dict(rejected or {})
     findings = list(findings or [])
     t = np.asarray(t, dtype=float)
-    chans = {k: np.asarray(v, dtype=float) for k, v in channels.items()}
+    chans = wrap_directions({k: np.asarray(v, dtype=float) for k, v in channels.items()})
     nm = non_monotonic or (spec.non_monotonic if spec is not None else "sort")
 
     with np.errstate(invalid="ignore"):  # beyond MAX_ABS_TIME_S differences overflow: no time
