@@ -88,10 +88,11 @@ READERS = ("table", "excel", "parquet", "nmea0183", "nmea2000", "rosbag", "ulog"
 MESSAGE_READERS = ("rosbag", "ulog", "dataflash", "tlog")
 #: NMEA 2000 wire formats the ``nmea2000`` reader reads: every input format the ``nmea2000``
 #: package decodes, named as ``nmea2000.input_formats.N2KFormat`` (see :mod:`usvid.io.n2k`);
-#: ``python_can`` is a log file python-can reads (.asc, .blf, .trc, ...); ``auto`` detects it.
+#: ``python_can`` is a log file python-can reads (.asc, .blf, .trc, ...); ``ngt1`` the
+#: Actisense NGT-1 binary stream (BST 93 in DLE framing, framed by usvid); ``auto`` detects it.
 N2K_FORMATS = ("auto", "candump3", "candump1", "candump2", "n2k_ascii", "n2k_ascii_raw",
                "basic_string", "can_frame_ascii", "can_frame_ascii_raw", "pcdin", "mxpgn", "pdgy",
-               "ebyte", "waveshare", "bst_d0", "bst_95", "python_can")
+               "ebyte", "waveshare", "bst_d0", "bst_95", "python_can", "ngt1")
 CONVERTS = ("yaw", "pwm", "speed", "course")
 FRAMES = ("enu", "ned")
 DELIMITERS = {"whitespace": None, ",": ",", ";": ";", "\t": "\t", "tab": "\t"}
@@ -111,9 +112,11 @@ SPEC_KEYS = (
     "columns",
     "vessel",
 )
-COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional")
+COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional", "source")
 MESSAGE_COLUMN_KEYS = ("topic", "message", "field", "unit", "sign", "offset", "scale", "optional",
-                       "convert", "frame", "instance", "pwm")
+                       "convert", "frame", "instance", "pwm", "source")
+#: Readers whose records name their sender (``source:`` of a column; :mod:`usvid.io.sources`).
+SOURCE_READERS = ("nmea0183", "nmea2000", "tlog")
 #: Optional particulars the ``vessel`` block also accepts directly (SI; kept in
 #: ``Vessel.extra``): centre of gravity forward of midship [m], yaw moment of inertia about it
 #: [kg m^2], propeller diameter [m], rudder area [m^2] (the MMG model's particulars).
@@ -135,6 +138,10 @@ class ColumnSpec:
     (``None``: the field's value), ``frame`` the earth frame of a quaternion or velocity vector,
     ``instance`` the instance of a multi-instance message, ``pwm`` the (min, trim, max) pulse
     widths [us] of ``convert: pwm``.
+
+    ``source`` (readers ``nmea2000``, ``nmea0183``, ``tlog``): the sender to take the channel
+    from when several give it (:mod:`usvid.io.sources`): an NMEA 2000 source address 0-253,
+    an NMEA 0183 talker (``"HE"``), a MAVLink ``"system/component"`` (``"1/1"``) or system id.
     """
 
     name: str
@@ -149,6 +156,7 @@ class ColumnSpec:
     frame: str = "ned"
     instance: int | None = None
     pwm: tuple[float, float, float] = (1100.0, 1500.0, 1900.0)
+    source: int | str | None = None
 
     @property
     def factor(self) -> float:
@@ -285,7 +293,33 @@ def _message_column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
         raise _err(source, f"{where}.pwm", f"expected min < trim < max, got {list(pwm)!r}")
     return ColumnSpec(name=name, col=fld, unit=unit, **_linear(v, source, where),
                       topic=topic.strip(), conversion=conv, frame=frame, instance=inst,
-                      pwm=(lo, trim, hi))
+                      pwm=(lo, trim, hi), source=_source(v, reader, source, where))
+
+
+def _source(v: dict, reader: str, source: str, where: str) -> int | str | None:
+    """The ``source`` of a column, checked for its reader: an NMEA 2000 address 0-253, an
+    NMEA 0183 talker of two characters, a MAVLink ``"system/component"`` or system id."""
+    if "source" not in v:
+        return None
+    x = v["source"]
+    w = f"{where}.source"
+    if reader not in SOURCE_READERS:
+        raise _err(source, w, f"only used by reader {' / '.join(SOURCE_READERS)}, not {reader}")
+    if reader == "nmea2000":
+        if isinstance(x, bool) or not isinstance(x, int) or not 0 <= x <= 253:
+            raise _err(source, w, f"expected an NMEA 2000 source address 0..253, got {x!r}")
+        return x
+    if reader == "nmea0183":
+        if not isinstance(x, str) or not re.fullmatch(r"[A-Z0-9]{2}", x.strip().upper()):
+            raise _err(source, w, f"expected an NMEA 0183 talker such as \"HE\", got {x!r}")
+        return x.strip().upper()
+    if isinstance(x, int) and not isinstance(x, bool) and 0 <= x <= 255:
+        return f"{x}"
+    if not isinstance(x, str) or not re.fullmatch(r"\d{1,3}(/\d{1,3})?", x.strip()) or any(
+            int(p) > 255 for p in x.strip().split("/")):
+        raise _err(source, w, f"expected a MAVLink system/component such as \"1/1\" (or a "
+                              f"system id), got {x!r}")
+    return x.strip()
 
 
 def _linear(v: dict, source: str, where: str) -> dict[str, Any]:
@@ -322,7 +356,8 @@ def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
     lin = _linear(v, source, where)
     if lin["optional"] and name == "t":
         raise _err(source, f"{where}.optional", "the time column cannot be optional")
-    return ColumnSpec(name=name, col=col, unit=unit, **lin)
+    return ColumnSpec(name=name, col=col, unit=unit, **lin,
+                      source=_source(v, reader, source, where))
 
 
 def _vessel(v: Any, source: str) -> Vessel:

@@ -654,14 +654,17 @@ def find_manoeuvres(
             min_level = (math.radians(1.0) if rudder
                          else 0.2 * float(np.nanpercentile(np.abs(cs), 95)))
         cc = c if rudder else cs  # the command the execute and the level are read from
-        pulses = _pulses(cc, cs, dt, min_level, min_pulse_s, merge_gap_s=1.0)
+        # a command that never leaves zero (e.g. equal thrusters throughout: a differential of
+        # zero, whose 95th percentile is 0) has no pulses, whatever the threshold
+        pulses = (_pulses(cc, cs, dt, min_level, min_pulse_s, merge_gap_s=1.0)
+                  if min_level > 0 else [])
         # chains of alternating pulses of similar level
         chains: list[list[_Pulse]] = []
         for p in pulses:
             if chains:
                 q = chains[-1][-1]
                 if (q.sign != p.sign and (p.i0 - q.i1) * dt <= max_transition_s
-                        and 0.7 <= p.level / q.level <= 1 / 0.7):
+                        and 0.7 * q.level <= p.level <= q.level / 0.7):
                     chains[-1].append(p)
                     continue
             chains.append([p])
