@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import LogReadError
-from usvid.io.spec import FormatSpec
+from usvid.io.spec import FormatSpec, column_mapping
 from usvid.trial import Finding, Trial, Vessel
 
 #: Largest time stamp accepted [s]: epoch seconds up to the year 5138 (a larger prefix or stamp
@@ -442,6 +442,8 @@ def assemble(
         findings=findings,
         name=path.stem,
         meta={"reader": spec.reader if spec else None, "spec": spec.source if spec else None,
+              **({"spec_columns": {c.name: column_mapping(c, spec.reader)
+                                   for c in spec.columns.values()}} if spec else {}),
               **(meta or {})},
     )
 

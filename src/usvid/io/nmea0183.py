@@ -738,6 +738,7 @@ def read_nmea0183(
     meta: dict = {"time_source": mode, "engine": engine}
     if ignored:
         meta["ignored_sentences"] = dict(ignored)
+    timed_in_order = False
     if mode == "prefix":
         t_rel = pre  # epoch seconds (float64: 0.24 us resolution)
         base = 0.0
@@ -772,6 +773,8 @@ def read_nmea0183(
             have &= ~bad
         t_rel, n_epoch, n_interp = _sentence_times(line_no, tod_u, have, src,
                                                    np.asarray(recs.typ))
+        lo = np.argsort(line_no[have], kind="stable")
+        timed_in_order = bool(np.all(np.diff(tod_u[have][lo]) >= 0))
         if n_epoch:
             findings.append(Finding(
                 "info", "time_from_epoch",
@@ -815,6 +818,13 @@ def read_nmea0183(
     stream = (np.fromiter((tcode[ty] for ty in recs.typ), dtype=np.int64, count=n) * 4096
               + src)[ok]
     src = src[ok]
+    if timed_in_order:
+        # the log's own times run forward: an order the sentences without a time got from
+        # their fix or their neighbours (a VTG given its RMC's time after a heading given an
+        # interpolated later one) is the reader's doing, not time running backwards
+        o = np.argsort(t, kind="stable")
+        t, src, stream = t[o], src[o], stream[o]
+        chans = {k: v[o] for k, v in chans.items()}
     labels = {i: f"talker {tk.decode('ascii', 'replace')}" for i, tk in enumerate(talkers)}
     sources = Sources(src, labels, {i: tk.decode("ascii", "replace")
                                     for i, tk in enumerate(talkers)}, "talker", "talkers")

@@ -494,7 +494,8 @@ def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> T
                 continue
             topic = conn.topic
             if topic not in checked:
-                _check_fields(path, spec, msg, conn.msgtype, by_topic[topic])
+                by_topic[topic] = _check_fields(path, spec, msg, conn.msgtype, by_topic[topic])
+                extract[topic] = _extractor(by_topic[topic])
                 checked.add(topic)
             try:
                 row = extract[topic](msg)
@@ -533,7 +534,8 @@ def _extractor(getters: list) -> Any:
     leaves: list[str] = []
     for col, steps in getters:
         base = ".".join(str(s) for s in steps)
-        sub = {"yaw": "wxyz", "speed": "xy", "course": "xy"}.get(col.conversion or "", "")
+        sub = {"yaw": "wxyz", "roll": "wxyz", "pitch": "wxyz", "speed": "xy",
+               "course": "xy"}.get(col.conversion or "", "")
         leaves += [f"{base}.{a}" for a in sub] if sub else [base]
     if all(isinstance(s, str) for _, steps in getters for s in steps):
         get = operator.attrgetter(*leaves)
@@ -578,20 +580,29 @@ def _known_type(reader: Any, msgtype: str) -> bool:
     return msgtype in reader.typestore.fielddefs
 
 
-def _check_fields(path: Path, spec: FormatSpec, msg: Any, msgtype: str, getters: list) -> None:
+def _check_fields(path: Path, spec: FormatSpec, msg: Any, msgtype: str, getters: list
+                  ) -> list:
+    """The columns of a topic whose fields its first message has (an optional column without
+    its field is left out; a required one is a :class:`LogReadError`)."""
+    keep = []
     for col, steps in getters:
         try:
             v = get_path(msg, steps)
         except (AttributeError, IndexError, TypeError, KeyError):
+            if col.optional:
+                continue
             raise missing_field(path, spec, col, msgtype, _fields(msg)) from None
         try:
             raw_of(v, col.conversion)
         except (AttributeError, TypeError, ValueError):
-            want = {"yaw": "a quaternion (x, y, z, w)", "speed": "a vector (x, y)",
+            want = {"yaw": "a quaternion (x, y, z, w)", "roll": "a quaternion (x, y, z, w)",
+                    "pitch": "a quaternion (x, y, z, w)", "speed": "a vector (x, y)",
                     "course": "a vector (x, y)"}.get(col.conversion or "", "a number")
             raise LogReadError(
                 f"{path}: {spec.source}: columns.{col.name}.field: '{col.col}' of {msgtype} on "
                 f"'{col.topic}' is not {want} (got {type(v).__name__})") from None
+        keep.append((col, steps))
+    return keep
 
 
 # ----------------------------------------------------------------------------------------------

@@ -57,6 +57,10 @@ DataFlash instance column ``I``/``Instance``). ``convert``:
   z up, yaw counter-clockwise from east; the default for ``rosbag``) gives ``psi = pi/2 - yaw``;
   ``frame: ned`` (PX4, ArduPilot; the default elsewhere) gives ``psi = yaw``. Wrapped to
   [0, 2 pi).
+- ``roll`` / ``pitch``: the roll ``phi`` [rad, positive starboard down] and the pitch ``theta``
+  [rad, bow up] of a quaternion (ZYX Euler angles). A body frame FRD (``frame: ned``) gives
+  them as they are; a body frame FLU (``frame: enu``, ROS: y to port, z up) the same roll and
+  the pitch with the opposite sign (a positive rotation about y to port puts the bow down).
 - ``pwm``: a servo pulse width [us] becomes a normalised command in [-1, 1] through
   ``pwm: [min, trim, max]`` (default ``[1100, 1500, 1900]``); ``scale``/``unit`` then turn it
   into a rudder angle (``scale: 35, unit: deg``) or leave it a dimensionless thruster command.
@@ -93,7 +97,9 @@ MESSAGE_READERS = ("rosbag", "ulog", "dataflash", "tlog")
 N2K_FORMATS = ("auto", "candump3", "candump1", "candump2", "n2k_ascii", "n2k_ascii_raw",
                "basic_string", "can_frame_ascii", "can_frame_ascii_raw", "pcdin", "mxpgn", "pdgy",
                "ebyte", "waveshare", "bst_d0", "bst_95", "python_can", "ngt1")
-CONVERTS = ("yaw", "pwm", "speed", "course")
+CONVERTS = ("yaw", "roll", "pitch", "pwm", "speed", "course")
+#: Conversions of a quaternion field (4 raw values: w, x, y, z).
+QUATERNION_CONVERTS = ("yaw", "roll", "pitch")
 FRAMES = ("enu", "ned")
 DELIMITERS = {"whitespace": None, ",": ",", ";": ";", "\t": "\t", "tab": "\t"}
 SPEC_KEYS = (
@@ -273,10 +279,11 @@ def _message_column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
     frame = v.get("frame", "enu" if reader == "rosbag" else "ned")
     if frame not in FRAMES:
         raise _err(source, f"{where}.frame", f"expected enu or ned, got {frame!r}")
-    if "frame" in v and conv not in ("yaw", "speed", "course"):
-        raise _err(source, f"{where}.frame", "only used with convert: yaw, speed or course")
+    if "frame" in v and conv not in (*QUATERNION_CONVERTS, "speed", "course"):
+        raise _err(source, f"{where}.frame", "only used with convert: yaw, roll, pitch, speed "
+                                             "or course")
     unit = _unit(name, v.get("unit"), source, where)
-    if conv in ("yaw", "course") and unit not in (None, "rad"):
+    if conv in (*QUATERNION_CONVERTS, "course") and unit not in (None, "rad"):
         raise _err(source, f"{where}.unit", f"convert: {conv} gives radians; no unit needed")
     if conv == "speed" and unit not in (None, "m/s"):
         raise _err(source, f"{where}.unit", "convert: speed gives m/s; no unit needed")
@@ -358,6 +365,60 @@ def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
         raise _err(source, f"{where}.optional", "the time column cannot be optional")
     return ColumnSpec(name=name, col=col, unit=unit, **lin,
                       source=_source(v, reader, source, where))
+
+
+def column_mapping(c: ColumnSpec, reader: str) -> dict[str, Any]:
+    """The YAML mapping of a column as a spec file writes it (keys with their default values
+    left out): the inverse of the parsing, for messages that quote a user's own column with a
+    change (``{col: 8, unit: deg, sign: -1}``)."""
+    out: dict[str, Any] = {}
+    if reader in MESSAGE_READERS:
+        out["message" if reader in ("dataflash", "tlog", "ulog") else "topic"] = c.topic
+        out["field"] = c.col
+        if c.conversion:
+            out["convert"] = c.conversion
+        if c.conversion in (*QUATERNION_CONVERTS, "speed", "course") and c.frame != (
+                "enu" if reader == "rosbag" else "ned"):
+            out["frame"] = c.frame
+        if c.instance is not None:
+            out["instance"] = c.instance
+        if c.conversion == "pwm" and c.pwm != (1100.0, 1500.0, 1900.0):
+            out["pwm"] = [_plain(x) for x in c.pwm]
+    else:
+        out["col"] = c.col
+    if c.scale != 1.0:
+        out["scale"] = _plain(c.scale)
+    if c.offset != 0.0:
+        out["offset"] = _plain(c.offset)
+    if c.unit is not None:
+        out["unit"] = c.unit
+    if c.sign != 1.0:
+        out["sign"] = -1
+    if c.source is not None:
+        out["source"] = c.source
+    if c.optional:
+        out["optional"] = True
+    return out
+
+
+def _plain(x: float) -> float | int:
+    return int(x) if float(x).is_integer() else float(x)
+
+
+def flow_yaml(d: dict[str, Any]) -> str:
+    """A mapping as one line of YAML flow style (``{col: 8, unit: deg}``; strings quoted when
+    YAML would read them otherwise)."""
+    def val(v: Any) -> str:
+        if isinstance(v, dict):
+            return flow_yaml(v)
+        if isinstance(v, list):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str) and not re.fullmatch(r"[A-Za-z_/][A-Za-z0-9_./]*", v):
+            return '"' + v.replace('"', '\\"') + '"'
+        return str(v)
+    return "{" + ", ".join(f"{k}: {val(v)}" for k, v in d.items()) + "}"
 
 
 def _vessel(v: Any, source: str) -> Vessel:
