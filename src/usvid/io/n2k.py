@@ -1026,7 +1026,7 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     # records left without a value: another source's (reported above) or consumed by a
     # derived channel (a magnetic variation) - not bad records
     used = np.zeros(len(t_rel), dtype=bool)
-    for v in chans.values():
+    for v in (*chans.values(), *sourced.values()):
         used |= np.isfinite(v)
     if not used.all():
         chans = {k: v[used] for k, v in chans.items()}

@@ -840,7 +840,7 @@ def read_nmea0183(
     # records left without a value: timing sentences (ZDA), another talker's (reported above),
     # a variation consumed by the heading - not bad records
     used = np.zeros(len(t), dtype=bool)
-    for v in chans.values():
+    for v in (*chans.values(), *sourced.values()):
         used |= np.isfinite(v)
     if not used.any():
         raise LogReadError(f"{path}: no channel in the log's sentences ({n} sentences, "
