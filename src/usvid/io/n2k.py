@@ -54,7 +54,8 @@ PGNs and the Trial channels they give (canboat field ids, SI):
 
 - 127250 Vessel Heading: ``heading`` -> ``psi`` [rad] (reference True); a magnetic heading plus
   its ``deviation`` -> ``psi_mag``, which becomes ``psi`` (plus the magnetic variation of the
-  message, or of PGN 127258, their median) when the log has no true heading and no 127257;
+  message, or of PGN 127258, their median; a warning when none is logged) when the log has no
+  true heading;
 - 127251 Rate of Turn: ``rate`` -> ``r`` [rad/s];
 - 127245 Rudder: ``position`` -> ``delta`` [rad] (instance 0; instance 1 -> ``delta_port``),
   ``angleOrder`` -> ``delta_cmd`` [rad];
@@ -65,7 +66,7 @@ PGNs and the Trial channels they give (canboat field ids, SI):
   ``n_port`` (instance 0) and ``n_stbd`` (instance 1) when both instances are present;
 - 127257 Attitude: ``roll`` -> ``phi`` [rad, positive starboard down: list to starboard, as
   Signal K reads it], ``pitch`` -> ``theta`` [rad, bow up], ``yaw`` -> ``psi`` [rad, taken as
-  true] when the log has no true 127250 heading (a satellite compass);
+  true] when the log has no 127250 heading at all (a satellite compass);
 - 127258 Magnetic Variation: ``variation`` [rad, east positive] for a magnetic heading or wind;
 - 130306 Wind Data: ``windSpeed`` [m/s], ``windAngle`` [rad], by ``reference``: Apparent ->
   ``wind_speed``, ``wind_angle`` (from the bow, clockwise, coming from); True (ground
@@ -1081,15 +1082,17 @@ def _derive(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
     magnetic heading, the true wind from its magnetic or bow-referenced forms. In place."""
     if not ("psi" in chans and np.isfinite(chans["psi"]).any()):
         yaw = chans.get("_yaw")
-        if yaw is not None and np.isfinite(yaw).any():
+        mag = chans.get("psi_mag")
+        if mag is not None and np.isfinite(mag).any():  # 127250 says it is magnetic
+            heading_from_magnetic(path, chans, findings, "PGN 127250")
+        elif yaw is not None and np.isfinite(yaw).any():
             chans["psi"] = np.remainder(yaw, 2 * math.pi)
             findings.append(Finding(
                 "info", "heading_from_attitude",
-                f"{path.name}: no true heading (PGN 127250) in the log: psi is the yaw of the "
-                "attitude (PGN 127257), taken as a true heading (a satellite compass)",
+                f"{path.name}: no heading (PGN 127250) in the log: psi is the yaw of the "
+                "attitude (PGN 127257), taken as a true heading (a satellite compass; the "
+                "yaw of a magnetic compass is off by the variation)",
                 count=int(np.isfinite(yaw).sum()), channel="psi"))
-        else:
-            heading_from_magnetic(path, chans, findings, "PGN 127250")
     wind_from_magnetic(path, chans, findings, "PGN 130306")
     have = {k for k, v in chans.items() if np.isfinite(v).any()}
     for sp, an in (("_wind_speed_boat", "wind_angle_true"),
