@@ -228,3 +228,32 @@ def test_roll_pitch_from_quaternions_ned_and_enu(roll, pitch, yaw):
         "topic": "/imu/data", "field": "orientation", "convert": "roll", "frame": "enu"}}}
     ).columns["phi"]
     assert math.degrees(convert_raw(col, wxyz)[0]) == pytest.approx(roll)
+
+
+@pytest.mark.parametrize("fmt", ["rosbag", "ulog", "dataflash", "tlog"])
+def test_roll_pitch_roll_rate_round_trip_through_every_message_log(tmp_path, fmt):
+    """phi, theta, p written by usvid's writer of each robot-log format (ROS Imu orientation and
+    angular_velocity.x, PX4 vehicle_attitude.q and vehicle_angular_velocity.xyz[0], ArduPilot
+    ATT.Roll/Pitch and IMU.GyrX, MAVLink ATTITUDE.roll/pitch/rollspeed) and read back with the
+    shipped preset, within the formats' quantisation."""
+    from usvid import Trial
+    from usvid.io.ardupilot import write_dataflash, write_tlog
+    from usvid.io.rosbag import write_rosbag
+    from usvid.io.ulog import write_ulog
+
+    t = np.round(np.arange(0.0, 4.0, 0.1), 6)
+    tr = Trial(pd.DataFrame({
+        "t": t, "lat": 38.8 + 1e-5 * t, "lon": 121.5 + 1e-5 * t, "sog": 2.0 + 0 * t,
+        "cog": 0.3 + 0 * t, "psi": 0.3 + 0.1 * t, "r": 0.1 + 0 * t, "delta": 0.05 + 0 * t,
+        "phi": np.radians(8.0) * np.sin(t), "theta": np.radians(-3.0) * np.cos(t),
+        "p": np.radians(8.0) * np.cos(t)}), meta={"t0_utc": "2025-03-01T10:00:00+00:00"})
+    writer = {"rosbag": lambda p: write_rosbag(tr, p / "bag"),
+              "ulog": lambda p: write_ulog(tr, p / "log.ulg"),
+              "dataflash": lambda p: write_dataflash(tr, p / "log.bin"),
+              "tlog": lambda p: write_tlog(tr, p / "log.tlog")}[fmt]
+    back = read_trial(writer(tmp_path))
+    # tolerances: DataFlash ATT in centidegrees (0.005 deg), float32 elsewhere
+    tol = {"dataflash": math.radians(0.005) + 1e-9}.get(fmt, 1e-6)
+    for ch in ("phi", "theta", "p"):
+        ok = np.isfinite(back[ch])
+        np.testing.assert_allclose(back[ch][ok], tr[ch][:ok.sum()], atol=tol, err_msg=ch)

@@ -140,6 +140,17 @@ def roll_pitch(q: np.ndarray, frame: str) -> tuple[np.ndarray, np.ndarray]:
     return roll, pitch
 
 
+def quaternion_zyx(yaw: np.ndarray, pitch: np.ndarray, roll: np.ndarray) -> np.ndarray:
+    """Quaternions (N, 4) = (w, x, y, z) of ZYX Euler angles [rad] (yaw about z, then pitch
+    about y, then roll about x; body to earth), the inverse of :func:`yaw_ned` and
+    :func:`roll_pitch` in the same frame."""
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    return np.column_stack([cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+                            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy])
+
+
 def pwm_command(pwm: np.ndarray, lo: float, trim: float, hi: float) -> np.ndarray:
     """Normalised command in [-1, 1] from servo pulse widths [us]: ``(pwm - trim) / (hi - trim)``
     above trim, ``(pwm - trim) / (trim - lo)`` below; 0 (no output) is NaN."""

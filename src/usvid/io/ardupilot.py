@@ -526,16 +526,19 @@ def log_info(path: Path, reader: str) -> dict[str, Any]:
                 if m is _FAILED:
                     continue
                 typ = m.get_type()
-                if typ == "PARM":
-                    out["params"].setdefault(str(m.Name), float(m.Value))
-                elif typ == "PARAM_VALUE":
-                    out["params"].setdefault(str(m.param_id), float(m.param_value))
-                elif typ == "MSG" and out["firmware"] is None and _FIRMWARE.search(
-                        str(m.Message)):
-                    out["firmware"] = str(m.Message).strip()
-                elif (typ == "HEARTBEAT" and out["mav_type"] is None
-                      and getattr(m, "autopilot", 8) != 8):  # 8: no autopilot (GCS, companion)
-                    out["mav_type"] = int(m.type)
+                try:
+                    if typ == "PARM":
+                        out["params"].setdefault(str(m.Name), float(m.Value))
+                    elif typ == "PARAM_VALUE":
+                        out["params"].setdefault(str(m.param_id), float(m.param_value))
+                    elif typ == "MSG" and out["firmware"] is None and _FIRMWARE.search(
+                            str(m.Message)):
+                        out["firmware"] = str(m.Message).strip()
+                    elif (typ == "HEARTBEAT" and out["mav_type"] is None
+                          and getattr(m, "autopilot", 8) != 8):  # 8: a GCS, a companion
+                        out["mav_type"] = int(m.type)
+                except (AttributeError, TypeError, ValueError):  # a damaged message: skipped
+                    continue
         finally:
             with contextlib.suppress(Exception):
                 mlog.close()
@@ -558,11 +561,14 @@ def _df_info(dfr: Any) -> dict[str, Any]:
                     break
                 if m is None:
                     break
-                if typ == "PARM":
-                    out["params"].setdefault(str(m.Name), float(m.Value))
-                elif out["firmware"] is None and _FIRMWARE.search(str(m.Message)):
-                    out["firmware"] = str(m.Message).strip()
-                    break
+                try:
+                    if typ == "PARM":
+                        out["params"].setdefault(str(m.Name), float(m.Value))
+                    elif out["firmware"] is None and _FIRMWARE.search(str(m.Message)):
+                        out["firmware"] = str(m.Message).strip()
+                        break
+                except (AttributeError, TypeError, ValueError):  # a damaged message: skipped
+                    continue
     return out
 
 
@@ -669,11 +675,12 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                     continue
                 getters = by_type.get(typ)
                 if getters is None:
-                    if (typ == "HEARTBEAT" and info["mav_type"] is None
-                            and getattr(m, "autopilot", 8) != 8):  # 8: a GCS, a companion
-                        info["mav_type"] = int(m.type)
-                    elif typ == "PARAM_VALUE":
-                        info["params"].setdefault(str(m.param_id), float(m.param_value))
+                    with contextlib.suppress(AttributeError, TypeError, ValueError):
+                        if (typ == "HEARTBEAT" and info["mav_type"] is None
+                                and getattr(m, "autopilot", 8) != 8):  # 8: a GCS, a companion
+                            info["mav_type"] = int(m.type)
+                        elif typ == "PARAM_VALUE":
+                            info["params"].setdefault(str(m.param_id), float(m.param_value))
                     continue
                 if typ not in checked:
                     _check_mav(path, spec, m, getters)
@@ -938,7 +945,7 @@ def dataflash_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool
     t_us = np.round((trial.t + boot_offset_s) * 1e6).astype(np.int64)
     ch = {k: channel_or_none(trial, k) for k in
           ("lat", "lon", "sog", "cog", "psi", "r", "delta", "delta_cmd", "n", "n_port",
-           "n_stbd")}
+           "n_stbd", "phi", "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     nanv = np.full(n, np.nan)
@@ -963,8 +970,10 @@ def dataflash_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool
             "Lng": np.round(np.nan_to_num(col("lon")) * 1e7),
             "Spd": col("sog"), "GCrs": np.degrees(col("cog")) % 360.0}),
         "ATT": (fin("psi"), {"Yaw": np.round(np.degrees(np.nan_to_num(col("psi")) % (2 * np.pi))
-                                              * 100) % 36000}),
-        "IMU": (fin("r"), {"GyrZ": col("r"), "AccZ": -9.81}),
+                                              * 100) % 36000,
+                             "Roll": np.round(np.degrees(np.nan_to_num(col("phi"))) * 100),
+                             "Pitch": np.round(np.degrees(np.nan_to_num(col("theta"))) * 100)}),
+        "IMU": (fin("r"), {"GyrZ": col("r"), "GyrX": np.nan_to_num(col("p")), "AccZ": -9.81}),
     }
     steer_out = np.round(np.clip(np.nan_to_num(col("delta")) / full, -1, 1) * 4500)
     steer_in = np.round(np.clip(np.nan_to_num(col("delta_cmd")) / full, -1, 1) * 4500)
@@ -1036,7 +1045,8 @@ def tlog_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool = Fa
     e0 = log_start_epoch(trial, t0_utc)
     mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
     ch = {k: channel_or_none(trial, k) for k in
-          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n", "n_port", "n_stbd")}
+          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n", "n_port", "n_stbd", "phi",
+           "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     full = math.radians(SERVO_FULL_DEG)
@@ -1074,8 +1084,11 @@ def tlog_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool = Fa
         if fin("psi", i) or fin("r", i):
             psi = ch["psi"][i] if fin("psi", i) else math.nan
             put(us, mavlink.MAVLink_attitude_message(
-                bm, 0.0, 0.0, math.remainder(psi, 2 * math.pi) if fin("psi", i) else math.nan,
-                0.0, 0.0, float(ch["r"][i]) if fin("r", i) else math.nan))
+                bm, float(ch["phi"][i]) if fin("phi", i) else 0.0,
+                float(ch["theta"][i]) if fin("theta", i) else 0.0,
+                math.remainder(psi, 2 * math.pi) if fin("psi", i) else math.nan,
+                float(ch["p"][i]) if fin("p", i) else 0.0, 0.0,
+                float(ch["r"][i]) if fin("r", i) else math.nan))
         servo = [1500] * 16
         if skid_steer and (fin("n_port", i) or fin("n_stbd", i)):
             servo[0] = pwm(ch["n_port"][i]) if fin("n_port", i) else 1500

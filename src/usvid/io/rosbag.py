@@ -46,6 +46,7 @@ from usvid.io._messages import (
     missing_field,
     missing_topic,
     path_steps,
+    quaternion_zyx,
     raw_of,
     require,
     width,
@@ -631,8 +632,9 @@ def write_rosbag(trial: Trial, path: str | Path, *, storage: str = "mcap",
     ``storage``: ``"mcap"`` or ``"sqlite3"`` (a ROS 2 bag folder ``path``) or ``"ros1"`` (a ROS 1
     ``.bag`` file). Channels -> topics (REP 103 frames, SI): ``lat``/``lon`` [deg] ->
     ``/gps/fix`` (NavSatFix), ``sog``/``cog`` (or ``U``) -> ``/gps/fix_velocity`` (TwistStamped,
-    ENU velocity [m/s]), ``psi``/``r`` -> ``/imu/data`` (Imu: ENU orientation, angular velocity
-    about z-up = ``-r``; a part without a sample is NaN with covariance[0] = -1),
+    ENU velocity [m/s]), ``psi``/``r`` -> ``/imu/data`` (Imu: ENU orientation with ``phi``/
+    ``theta`` as its roll and pitch when given, angular velocity about z-up = ``-r`` and about
+    x = ``p``; a part without a sample is NaN with covariance[0] = -1),
     ``u``/``v`` -> ``/odometry/filtered`` (body twist, y to port = ``-v``), ``delta`` /
     ``delta_cmd`` [rad, positive to starboard] -> ``/rudder/angle`` / ``/rudder/cmd`` (Float64),
     ``n`` [rps] -> ``/engine/rpm`` (Float32 [rpm]), ``n_port``/``n_stbd`` ->
@@ -695,7 +697,7 @@ def _messages(trial: Trial, ts: Any, t_ns: np.ndarray, ros1: bool) -> dict[str, 
     Twist = T["geometry_msgs/msg/Twist"]
     ch = {k: channel_or_none(trial, k) for k in
           ("lat", "lon", "sog", "cog", "psi", "r", "u", "v", "delta", "delta_cmd", "n",
-           "n_port", "n_stbd")}
+           "n_port", "n_stbd", "phi", "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     nan = math.nan
@@ -733,12 +735,18 @@ def _messages(trial: Trial, ts: Any, t_ns: np.ndarray, ros1: bool) -> dict[str, 
         if fin("psi", i) or fin("r", i):
             if fin("psi", i):
                 yaw = 0.5 * math.pi - float(ch["psi"][i])  # REP 103: ENU, from east, CCW
-                q = Q(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+                # FLU body: the roll as it is, the pitch negated (bow up about y to port)
+                roll = float(ch["phi"][i]) if fin("phi", i) else 0.0
+                pitch = -float(ch["theta"][i]) if fin("theta", i) else 0.0
+                qw, qx, qy, qz = quaternion_zyx(np.array([yaw]), np.array([pitch]),
+                                                np.array([roll]))[0]
+                q = Q(x=float(qx), y=float(qy), z=float(qz), w=float(qw))
                 qc = cov0.copy()
             else:
                 q, qc = Q(x=nan, y=nan, z=nan, w=nan), cov_unknown.copy()
             if fin("r", i):
-                w, wc = V3(x=0.0, y=0.0, z=-float(ch["r"][i])), cov0.copy()
+                px = float(ch["p"][i]) if fin("p", i) else 0.0
+                w, wc = V3(x=px, y=0.0, z=-float(ch["r"][i])), cov0.copy()
             else:
                 w, wc = V3(x=nan, y=nan, z=nan), cov_unknown.copy()
             out["imu"].append((st, T["sensor_msgs/msg/Imu"](

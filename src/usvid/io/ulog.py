@@ -37,6 +37,7 @@ from usvid.io._messages import (
     build_trial,
     missing_field,
     missing_topic,
+    quaternion_zyx,
     require,
 )
 from usvid.io.spec import QUATERNION_CONVERTS, ColumnSpec, FormatSpec
@@ -258,7 +259,7 @@ def ulog_bytes(trial: Trial, *, t0_utc: str | None = None, boot_offset_s: float 
     e0 = log_start_epoch(trial, t0_utc)
     t_us = np.round((trial.t + boot_offset_s) * 1e6).astype(np.uint64)
     ch = {k: channel_or_none(trial, k) for k in
-          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n")}
+          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n", "phi", "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     n = len(t_us)
@@ -282,10 +283,11 @@ def ulog_bytes(trial: Trial, *, t0_utc: str | None = None, boot_offset_s: float 
         "latitude_deg": col("lat"), "longitude_deg": col("lon"), "vel_m_s": col("sog"),
         "cog_rad": np.where(col("cog") > math.pi, col("cog") - 2 * math.pi, col("cog"))})
     psi = col("psi")
-    q = np.column_stack([np.cos(psi / 2), 0 * psi, 0 * psi, np.sin(psi / 2)])  # NED, FRD
+    zero = 0 * psi
+    q = quaternion_zyx(psi, np.nan_to_num(col("theta")), np.nan_to_num(col("phi")))  # NED, FRD
     topics["vehicle_attitude"] = (fin("psi"), {"q": q})
     topics["vehicle_angular_velocity"] = (fin("r"), {"xyz": np.column_stack(
-        [0 * psi, 0 * psi, col("r")])})
+        [np.nan_to_num(col("p")), zero, col("r")])})
     ctrl = np.zeros((n, 8))
     ctrl[:, 0] = col("delta") / math.radians(SERVO_FULL_DEG)
     topics["actuator_servos"] = (fin("delta"), {"control": ctrl})
