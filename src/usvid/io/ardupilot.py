@@ -61,7 +61,9 @@ from usvid.io._messages import (
     path_steps,
     require,
 )
+from usvid.io.sources import Sources, select_sources
 from usvid.io.spec import QUATERNION_CONVERTS, ColumnSpec, FormatSpec
+from usvid.io.vehicles import mav_type_kind, vehicle_finding
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
@@ -359,8 +361,6 @@ def _df_epoch(gps: Mapping[str, np.ndarray] | None) -> int | None:
 
 def _name_vehicle(path: Path, state: ReadState, vehicle: dict | None) -> None:
     """The vehicle's kind in ``meta["vehicle"]`` and a finding (:mod:`usvid.io.vehicles`)."""
-    from usvid.io.vehicles import vehicle_finding
-
     if vehicle is None:
         return
     state.meta["vehicle"] = dict(vehicle)
@@ -593,8 +593,6 @@ def vehicle_of(info: Mapping[str, Any]) -> dict[str, Any] | None:
     """The kind of vehicle of an ArduPilot log (:func:`usvid.io.vehicles.vehicle_kind`) from
     its HEARTBEAT type, firmware text and FRAME_CLASS / SYSID_SW_TYPE parameters; None when
     the log does not say."""
-    from usvid.io.vehicles import mav_type_kind
-
     params = info.get("params", {})
     if info.get("mav_type") is not None:
         return mav_type_kind(int(info["mav_type"]), "MAVLink HEARTBEAT type")
@@ -722,8 +720,6 @@ def _one_sender(path: Path, spec: FormatSpec, typ: str, getters: list, senders: 
     of the spec names (``source: "1/1"`` or a system id), else the one that sent the most;
     the others are reported (``several_sources``), never interleaved
     (:mod:`usvid.io.sources`)."""
-    from usvid.io.sources import Sources, select_sources
-
     codes = np.unique(senders)
     if len(codes) <= 1:
         return np.ones(len(senders), dtype=bool)

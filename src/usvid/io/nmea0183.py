@@ -1,31 +1,47 @@
-"""NMEA 0183 logs: reader (GGA RMC VTG HDT HDG THS ROT RSA, any talker) and writer.
+"""NMEA 0183 logs: reader (GGA RMC GLL ZDA VTG HDT HDG HDM THS ROT RSA VHW MWV MWD VWR VWT XDR,
+any talker) and writer.
 
 Line format: an optional *log-line time prefix* (ISO 8601 date-time such as
 ``2025-11-24T12:00:00.125Z``, or epoch seconds such as ``1764000000.125``, optionally in ``()`` or
 ``[]``), then the sentence ``$ttSSS,...*hh``. Time of a record (``time_source``):
 
 - ``prefix``: the prefix of its line (lines without one are rejected as ``no_time``);
-- ``sentence``: the UTC time of GGA/RMC (+ the RMC date when present; midnight roll-over unwrapped);
-  sentences without their own time (HDT, ROT, RSA, VTG, ...) get a time interpolated linearly in
-  line position between the neighbouring time-stamped sentences (a ``time_interpolated`` finding
-  says how many), clamped at the ends;
+- ``sentence``: the UTC time of GGA/RMC/GLL/ZDA (+ the RMC or ZDA date when present; midnight
+  roll-over unwrapped). A sentence without its own time that a talker sends once per fix (VTG,
+  GSA after RMC: at most once between two timed sentences of the same talker) gets the time of
+  the fix it follows (a ``time_from_epoch`` finding counts them); the others (another
+  talker's, or several per fix such as a 10 Hz heading) a time interpolated linearly in line
+  position between the neighbouring timed sentences (``time_interpolated``), clamped at the
+  ends;
 - ``auto`` (default): ``prefix`` when most sentence lines carry a parseable prefix, else
   ``sentence``.
 
 Times are seconds since the first record (``t`` [s]); ``meta["t0_utc"]`` is the ISO time of t = 0
-when the log gives a date (epoch prefix, ISO prefix or RMC date).
+when the log gives a date (epoch prefix, ISO prefix, RMC or ZDA date).
 
-Channels (Trial units): ``lat``, ``lon`` [deg] (GGA, RMC), ``sog`` [m/s] and ``cog`` [rad] (RMC,
-VTG), ``psi`` [rad] (HDT, THS; HDG's magnetic heading + deviation + variation when no true heading
-is in the log, else kept as ``psi_hdg``), ``r`` [rad/s] (ROT, deg/min, negative = bow to port),
-``delta`` [rad] (RSA starboard/single rudder, negative = bow to port, i.e. the Trial convention),
-``delta_port`` [rad] (RSA port rudder when valid).
+Channels (Trial units): ``lat``, ``lon`` [deg] (GGA, RMC, GLL), ``sog`` [m/s] and ``cog`` [rad]
+(RMC, VTG), ``stw`` [m/s] (VHW), ``psi`` [rad] (HDT, THS); ``psi_mag`` [rad] the magnetic heading
+plus its deviation (HDG, HDM), which becomes ``psi`` with the logged magnetic variation (HDG,
+RMC) when no true heading is in the log (:mod:`usvid.io._derived`); ``r`` [rad/s] (ROT,
+deg/min, negative = bow to port), ``delta`` [rad] (RSA starboard/single rudder, negative = bow to
+port, i.e. the Trial convention), ``delta_port`` [rad] (RSA port rudder when valid); wind:
+``wind_speed``, ``wind_angle`` (MWV "R", VWR: apparent, from the bow, clockwise, coming from),
+``wind_speed_true``, ``wind_angle_true`` (MWV "T", VWT: the true wind from the bow; with a
+heading ``wind_dir_true = wind_angle_true + psi``), ``wind_speed_true``, ``wind_dir_true`` (MWD:
+from north; a magnetic-only MWD with the variation); XDR angle groups (type A, unit D) named
+ROLL/HEEL -> ``phi`` (positive starboard down), PITCH/TRIM -> ``theta`` (bow up), RUDDER ->
+``delta``.
+
+Sources: the talker of each sentence is its sender; a channel that several talkers give is
+taken from one (``source:`` in the spec, else the one with the most samples) and the others are
+reported (:mod:`usvid.io.sources`), never interleaved.
 
 Rejected records, counted per reason in ``Trial.rejected``: ``garbage`` (no ``$``/``!``, or bytes
 that are not printable ASCII), ``truncated`` (no ``*hh`` checksum field at the end),
 ``checksum`` (mismatch), ``bad_fields`` (a known sentence whose fields do not parse),
 ``invalid_flag`` (a status/mode field saying the data are invalid: RMC ``V``, GGA quality 0,
-THS ``V``, ROT/RSA ``V``), ``no_time`` (no usable time), plus those of
+GLL ``V`` or mode ``N``, THS ``V``, ROT/RSA/MWV ``V``), ``no_time`` (no usable time), plus those
+of
 :func:`usvid.io._assemble.assemble`. Other well-formed sentences are ignored and counted in
 ``meta["ignored_sentences"]`` and an info finding.
 
@@ -35,8 +51,11 @@ buffer, then ``bytes.split`` per line; about 10x the rate of per-line pynmeagps)
 both give identical trials on clean logs and on logs with damaged framing (checksum, truncation,
 garbage). One known difference: pynmeagps validates every field of a sentence, the fast path only
 the fields usvid decodes, so a sentence with a malformed field usvid does not use (e.g. RMC's
-magnetic variation) is ``bad_fields`` for the pynmeagps engine and read by the fast one. Times
-and dates of GGA/RMC are parsed by usvid's strict rules in both engines.
+magnetic variation) is ``bad_fields`` for the pynmeagps engine and read by the fast one (so is
+an XDR with one malformed group: the fast engine skips that group). Times and dates of GGA/RMC
+are parsed by usvid's strict rules in both engines; GLL, ZDA, HDM, VHW and the wind and XDR
+sentences are decoded by usvid's field rules in both (after pynmeagps has checked the
+sentence).
 """
 
 from __future__ import annotations

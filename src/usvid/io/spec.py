@@ -33,7 +33,11 @@ For the ``nmea0183`` and ``nmea2000`` readers ``columns`` is optional: the reade
 standard channels themselves (``lat lon psi r delta U sog cog n ...``); an entry there renames or
 re-signs a decoded channel (``delta: {col: delta, sign: -1}``) and must not name a unit other than
 the channel's Trial unit. ``n2k_format`` (nmea2000 only) names the wire format of the log (one of
-:data:`N2K_FORMATS`, default ``auto``).
+:data:`N2K_FORMATS`, default ``auto``). ``source:`` (readers ``nmea0183``, ``nmea2000``,
+``tlog``) takes a channel from one sender when several give it (:mod:`usvid.io.sources`): a
+talker (``psi: {col: psi, source: HE}``), a source address (``source: 23``), a MAVLink
+``"system/component"``; a second column may keep another sender's samples under its own name
+(``psi_b: {col: psi, source: 128}``).
 
 Message-based logs (readers ``rosbag``, ``ulog``, ``dataflash``, ``tlog``) map each channel onto one
 field of one message type; the time of a row is the time of its message, and messages of different

@@ -41,6 +41,7 @@ from usvid.io._messages import (
     require,
 )
 from usvid.io.spec import QUATERNION_CONVERTS, ColumnSpec, FormatSpec
+from usvid.io.vehicles import mav_type_kind, vehicle_finding
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
@@ -107,8 +108,6 @@ def _alias(col: ColumnSpec, data: dict) -> tuple[ColumnSpec, dict, str] | None:
 
 def _name_vehicle(path: Path, state: ReadState, mav_type: float | None) -> None:
     """The kind of vehicle from the PX4 parameter MAV_TYPE (:mod:`usvid.io.vehicles`)."""
-    from usvid.io.vehicles import mav_type_kind, vehicle_finding
-
     if mav_type is None or not math.isfinite(float(mav_type)):
         return
     vehicle = mav_type_kind(int(mav_type), "PX4 parameter MAV_TYPE")

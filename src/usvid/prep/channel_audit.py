@@ -44,6 +44,7 @@ import pandas as pd
 from scipy.signal import savgol_coeffs
 
 from usvid.errors import UsvidError
+from usvid.io.spec import flow_yaml, shipped_specs
 from usvid.prep.filters import (
     nan_runs,
     savgol_derivative,
@@ -344,8 +345,6 @@ def spec_hint(trial: Trial, channel: str, *, sign: bool = False, take: str | Non
     column (``meta["spec_columns"]``) changed; for a shipped preset read without ``--format``,
     a copy of the preset; for the NMEA readers without a column, a spec naming the decoded
     channel."""
-    from usvid.io.spec import flow_yaml
-
     meta = trial.meta
     cols = meta.get("spec_columns") or {}
     reader = meta.get("reader")
@@ -396,8 +395,6 @@ def _stem(name: str) -> str:
 
 
 def _is_shipped(name: str) -> bool:
-    from usvid.io import shipped_specs
-
     return bool(name) and _stem(name) in shipped_specs()
 
 
