@@ -333,3 +333,15 @@ def test_messages_of_two_mavlink_systems_are_kept_apart(tmp_path):
     np.testing.assert_allclose(np.mod(psi, 2 * np.pi), np.mod(d.psi, 2 * np.pi), atol=1e-6)
     f = next(x for x in tr.findings if x.code == "several_sources")
     assert f.data["chosen"] == "1/1" and "message ATTITUDE" in f.message
+
+
+def test_constant_thruster_differential_finds_no_manoeuvre_and_does_not_crash():
+    # two thrusters always equal (a differential of zero: its 95th percentile is 0, the level
+    # threshold 0): no pulse, and the heading alone may still show a turn (ZeroDivisionError
+    # before, in the ratio of two pulse levels)
+    from usvid.manoeuvres.detect import find_manoeuvres
+
+    d = steered().drop(columns=["delta", "delta_cmd"])
+    d["n_port"] = d["n_stbd"] = 0.6
+    segs = find_manoeuvres(Trial(d))
+    assert all(s.command == "heading" for s in segs)
