@@ -199,6 +199,7 @@ def test_hints_for_the_nmea_readers_and_presets():
     assert "`reader: nmea2000` and `columns: {delta: {col: delta, sign: -1}}`" in h
     tr = Trial(pd.DataFrame({"t": [0.0], "delta": [0.0]}), meta={
         "reader": "dataflash", "spec": "ardupilot_rover.yaml", "format_detected": "...",
+        "spec_shipped": "ardupilot_rover",
         "spec_columns": {"delta": {"message": "STER", "field": "SteerOut", "scale": 0.0078,
                                    "unit": "deg", "optional": True}}})
     h = spec_hint(tr, "delta", sign=True)

@@ -13,11 +13,11 @@ import pytest
 from usvid import Trial
 from usvid.errors import LogReadError
 from usvid.io import read_trial
-from usvid.io._assemble import merge_shared_stamp_rows, merge_shared_stamps
 from usvid.io.n2k import _Encoder
 from usvid.io.nmea0183 import sentence
 from usvid.prep import audit, prepare
 from usvid.prep.channel_audit import grid_rate, stream_rate
+from usvid.trial import merge_shared_stamp_rows, merge_shared_stamps
 
 T0 = 1_700_000_000.0
 

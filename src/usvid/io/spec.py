@@ -409,22 +409,6 @@ def _plain(x: float) -> float | int:
     return int(x) if float(x).is_integer() else float(x)
 
 
-def flow_yaml(d: dict[str, Any]) -> str:
-    """A mapping as one line of YAML flow style (``{col: 8, unit: deg}``; strings quoted when
-    YAML would read them otherwise)."""
-    def val(v: Any) -> str:
-        if isinstance(v, dict):
-            return flow_yaml(v)
-        if isinstance(v, list):
-            return "[" + ", ".join(val(x) for x in v) + "]"
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str) and not re.fullmatch(r"[A-Za-z_/][A-Za-z0-9_./]*", v):
-            return '"' + v.replace('"', '\\"') + '"'
-        return str(v)
-    return "{" + ", ".join(f"{k}: {val(v)}" for k, v in d.items()) + "}"
-
-
 def _vessel(v: Any, source: str) -> Vessel:
     if not isinstance(v, dict):
         raise _err(source, "vessel", f"expected a mapping, got {v!r}")
@@ -620,6 +604,14 @@ def load_spec(path: str | Path) -> FormatSpec:
 def shipped_specs() -> list[str]:
     """Names of the specs shipped with usvid (``src/usvid/specs/*.yaml``, without suffix)."""
     return sorted(p.stem for p in _SPECS_DIR.glob("*.yaml"))
+
+
+def shipped_name(source: str) -> str | None:
+    """The name of the shipped spec a spec was loaded from (its ``source``: ``"px4_boat.yaml"``,
+    ``"ardupilot_rover.yaml (variants.tlog)"``), None for any other spec."""
+    stem = source.split(" (")[0]
+    stem = stem[:-5] if stem.endswith(".yaml") else stem
+    return stem if stem in shipped_specs() else None
 
 
 def shipped_spec_path(name: str) -> Path:

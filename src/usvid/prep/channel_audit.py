@@ -36,15 +36,16 @@ one definition the manoeuvre metrics use too).
 from __future__ import annotations
 
 import math
+import re
 import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from scipy.signal import savgol_coeffs
 
 from usvid.errors import UsvidError
-from usvid.io.spec import flow_yaml, shipped_specs
 from usvid.prep.filters import (
     nan_runs,
     savgol_derivative,
@@ -349,6 +350,7 @@ def spec_hint(trial: Trial, channel: str, *, sign: bool = False, take: str | Non
     cols = meta.get("spec_columns") or {}
     reader = meta.get("reader")
     src_name = meta.get("spec") or ""
+    shipped = meta.get("spec_shipped")
     base = dict(cols.get(take or channel) or {})
     if not base and reader in ("nmea0183", "nmea2000"):
         base = {"col": take or channel}
@@ -370,11 +372,10 @@ def spec_hint(trial: Trial, channel: str, *, sign: bool = False, take: str | Non
                     f"(--format): '{channel}' is then kept as '{rename}', not used as "
                     f"'{channel}'")
         return f"rename its `{channel}:` line in the format spec to `{entry}`" + (
-            f" (a copy of the shipped spec '{_stem(src_name)}', given with --format)"
-            if "format_detected" in meta or _is_shipped(src_name) else "")
+            f" (a copy of the shipped spec '{shipped}', given with --format)" if shipped else "")
     line = f"columns: {{{channel}: {flow_yaml(base)}}}"
-    if "format_detected" in meta or (src_name and _is_shipped(src_name)):
-        name = _stem(src_name)
+    if shipped:
+        name = shipped
         part = (f" (its {src_name.split('(')[1].rstrip(')')} columns)" if "(" in src_name
                 else "")
         return (f"copy the shipped spec '{name}' (usvid.io.shipped_spec_path('{name}')), change "
@@ -387,15 +388,21 @@ def spec_hint(trial: Trial, channel: str, *, sign: bool = False, take: str | Non
     return f"in the format spec{where} write `{line}`"
 
 
-def _stem(name: str) -> str:
-    """The shipped spec's name from a spec source such as ``"px4_boat.yaml"`` or
-    ``"ardupilot_rover.yaml (variants.tlog)"``."""
-    name = name.split(" (")[0]
-    return name[:-5] if name.endswith(".yaml") else name
+def flow_yaml(d: dict[str, Any]) -> str:
+    """A mapping as one line of YAML flow style (``{col: 8, unit: deg}``; strings quoted when
+    YAML would read them otherwise)."""
+    def val(v: Any) -> str:
+        if isinstance(v, dict):
+            return flow_yaml(v)
+        if isinstance(v, list):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str) and not re.fullmatch(r"[A-Za-z_/][A-Za-z0-9_./]*", v):
+            return '"' + v.replace('"', '\\"') + '"'
+        return str(v)
+    return "{" + ", ".join(f"{k}: {val(v)}" for k, v in d.items()) + "}"
 
-
-def _is_shipped(name: str) -> bool:
-    return bool(name) and _stem(name) in shipped_specs()
 
 
 # --- degenerate data: errors ----------------------------------------------------------------------

@@ -6,18 +6,17 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import UsvidError
-from usvid.io._assemble import merge_shared_stamp_rows
 from usvid.prep.filters import savgol_derivative, unwrap_angle
 from usvid.prep.geodesy import to_ned
 from usvid.prep.kinematics import body_velocity_from_cog, body_velocity_from_positions
 from usvid.prep.resample import resample
 from usvid.prep.stale import drop_stale
-from usvid.trial import Finding, Trial
+from usvid.trial import Finding, Trial, merge_shared_stamp_rows
 
 
 def sort_time(trial: Trial) -> tuple[Trial, int, int]:
     """Sort rows by time and merge rows sharing a time stamp (per channel the last finite
-    value in row order: :func:`usvid.io._assemble.merge_shared_stamps`, the readers' rule).
+    value in row order: :func:`usvid.trial.merge_shared_stamps`, the readers' rule).
 
     Returns ``(trial, n_reversals, n_duplicates)``; a reversal is a row whose stamp is earlier
     than its predecessor's (among the rows with a finite time). Rows with a NaN time are dropped
