@@ -1,7 +1,8 @@
 """CLI: ``usvid audit LOG --format SPEC [--json]`` - check a log's channels against the physics.
 
 Reads the log with its trial format spec (a YAML path or a shipped spec name), runs
-:func:`usvid.prep.audit` and prints the findings (reader findings first). With ``--json`` one
+:func:`usvid.prep.audit` and prints the findings (the reader's and the audit's, errors first,
+then warnings, then infos). With ``--json`` one
 object: ``file``, ``format``, ``samples``, ``duration_s``, ``channels``, ``rejected`` (record counts
 per reason from the reader), ``findings`` (list of {severity, code, message, count, t_start, t_end,
 channel, data}) and ``counts`` per severity. Exit code 3 when error-severity findings exist
@@ -35,9 +36,10 @@ def load_log(log: Path, fmt: str) -> Any:
 def audit_log(log: Path, fmt: str) -> dict[str, Any]:
     """The JSON object of ``usvid audit`` for one log."""
     from usvid.prep import audit
+    from usvid.prep.channel_audit import sort_findings
 
     trial = load_log(log, fmt)
-    findings = list(trial.findings) + audit(trial)
+    findings = sort_findings(list(trial.findings) + audit(trial))  # errors first
     counts = {s: sum(1 for f in findings if f.severity == s) for s in ("error", "warning", "info")}
     return {
         "file": str(log),

@@ -24,7 +24,7 @@ from usvid.prep.glitches import repair_trial_heading
 from usvid.prep.kinematics import body_velocity_from_cog, body_velocity_from_positions
 from usvid.prep.resample import resample
 from usvid.prep.stale import drop_stale
-from usvid.trial import Finding, Trial
+from usvid.trial import Finding, Trial, merge_shared_stamp_rows
 
 __all__ = ["PreparedTrial", "as_prepared", "prepare", "sort_time"]
 
@@ -83,7 +83,8 @@ def pwm_commands(trial: Trial) -> tuple[Trial, bool]:
 
 
 def sort_time(trial: Trial) -> tuple[Trial, int, int]:
-    """Sort rows by time and drop repeated time stamps (first kept).
+    """Sort rows by time and merge rows sharing a time stamp (per channel the last finite
+    value in row order: :func:`usvid.trial.merge_shared_stamps`, the readers' rule).
 
     Returns ``(trial, n_reversals, n_duplicates)``; a reversal is a row whose stamp is earlier
     than its predecessor's (among the rows with a finite time). Rows with a NaN time are dropped
@@ -96,11 +97,7 @@ def sort_time(trial: Trial) -> tuple[Trial, int, int]:
     data = trial.data.loc[ok]
     if n_rev:
         data = data.sort_values("t", kind="stable")
-    tt = data["t"].to_numpy(dtype=float)
-    dup = np.concatenate(([False], np.diff(tt) == 0))
-    n_dup = int(dup.sum())
-    if n_dup:
-        data = data.loc[~dup]
+    data, n_dup = merge_shared_stamp_rows(data)  # the readers' rule for shared stamps
     if n_nan or n_rev or n_dup:
         changes = {}
         if n_nan:
@@ -158,7 +155,8 @@ def prepare(
                                 count=n_rev, channel="t"))
     if n_dup:
         findings.append(Finding("info", "time_duplicate",
-                                f"{n_dup} repeated time stamp(s); the first row of each kept",
+                                f"{n_dup} repeated time stamp(s); rows merged, the last "
+                                "value of each channel kept",
                                 count=n_dup, channel="t"))
     if drop_stale_fixes:
         trial, rep = drop_stale(trial)
