@@ -19,6 +19,9 @@ TStartOpt = Annotated[float | None, typer.Option(
 TEndOpt = Annotated[float | None, typer.Option(
     "--t-end", help="Use every log up to this time [s from its first record].")]
 
+#: Latest trim time [s from a log's first record]: a year of logging.
+MAX_TRIM_S = 3.2e7
+
 _TRIM = re.compile(r"^(?P<path>.+?):(?P<t0>[^:]*):(?P<t1>[^:]*)$")
 
 
@@ -56,6 +59,10 @@ def parse_log_arg(arg: str | Path, t_start: float | None = None,
         out = LogArg(Path(text))
     else:
         out = LogArg(Path(m["path"]), _number(m["t0"], text, "T0"), _number(m["t1"], text, "T1"))
+    for opt, v in (("--t-start", t_start), ("--t-end", t_end)):
+        if v is not None and not (math.isfinite(v) and 0 <= v <= MAX_TRIM_S):
+            raise UsvidError(f"{opt} must be in [0, {MAX_TRIM_S:g}] s from the log's first "
+                             f"record (got {v!r})")
     if out.t0 is None:
         out.t0 = t_start
     if out.t1 is None:
@@ -64,6 +71,14 @@ def parse_log_arg(arg: str | Path, t_start: float | None = None,
         raise UsvidError(f"log argument {text!r}: the end {out.t1:g} s must be after the start "
                          f"{out.t0:g} s (LOG:T0:T1, --t-start/--t-end)")
     return out
+
+
+def input_paths(args: list[str | Path], t_start: float | None = None,
+                t_end: float | None = None) -> list[Path]:
+    """The files of log arguments (``LOG`` or ``LOG:T0:T1``, :func:`parse_log_arg`): what the
+    command reads, for the check of its outputs against its inputs
+    (:func:`usvid.files.check_outputs`). Refuses a bad trim or ``--t-start``/``--t-end``."""
+    return [parse_log_arg(a, t_start, t_end).path for a in args]
 
 
 def load_trimmed(arg: str | Path, fmt: str, t_start: float | None = None,

@@ -49,22 +49,61 @@ def _uncertainty(model: dict[str, Any], path: Path) -> tuple[list[str], np.ndarr
             np.diag(np.square([float(se[n]) for n in names])), "std_errors")
 
 
+def check_options(manoeuvre: str, options: dict[str, Any]) -> None:
+    """The manoeuvre options of ``usvid montecarlo`` at the edge, each error naming its
+    option (the ranges of ``usvid simulate``)."""
+    from usvid.commands._common import (
+        check_disturbance_deg,
+        check_dt,
+        check_gain,
+        check_psi_deg,
+        check_rudder_deg,
+        check_speed,
+        check_t_end,
+        check_target_deg,
+    )
+
+    o = options
+    check_rudder_deg(o.get("delta_deg"), signed=manoeuvre == "turning")
+    check_psi_deg(o.get("psi_deg"))
+    check_target_deg(o.get("target_deg"))
+    for k in ("kp", "ki", "kd"):
+        check_gain(o.get(k), f"--{k}")
+    check_t_end(o.get("t_end"))
+    check_dt(o.get("dt", 0.02))
+    check_speed(o.get("speed"))
+    check_disturbance_deg(o.get("disturbance_deg"), "--disturbance-deg")
+
+
 def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
                from_uncertainty: bool = False, vary: list[str] | None = None, seed: int = 0,
                options: dict[str, Any] | None = None, scheduler: str | None = None,
                workers: int | None = None, chunk: int = 4096, client: Any = None,
                progress: bool = True) -> dict[str, Any]:
     """Everything ``usvid montecarlo`` does; returns its JSON object (and writes ``out``).
-    ``client``: an existing Dask client (else one from ``scheduler``/``workers``)."""
-    import json
+    ``client``: an existing Dask client; else the runs stay in this process on a small machine
+    (:func:`usvid.scale.montecarlo.use_dask`) or go to a cluster from ``scheduler``/``workers``.
+    """
+    from usvid.files import check_outputs
+    from usvid.io.modelfile import load_model, model_to_dict
+    from usvid.scale.cluster import check_scheduler_address, check_workers, connect, cores
+    from usvid.scale.montecarlo import (
+        MonteCarlo,
+        check_size,
+        parse_vary,
+        quantiles,
+        run_montecarlo,
+        use_dask,
+    )
 
-    from usvid.scale.cluster import connect
-    from usvid.scale.montecarlo import MonteCarlo, parse_vary, quantiles, run_montecarlo
-
-    try:
-        model = json.loads(Path(model_path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise UsvidError(f"{model_path}: cannot read the model file ({exc})") from None
+    check_outputs([out], [model_path])  # before any work: never over the model file
+    options = dict(options or {})
+    check_options(manoeuvre, options)
+    if scheduler:
+        check_scheduler_address(scheduler)
+    check_workers(workers)
+    vm = load_model(model_path)  # validated, errors naming the file
+    model = model_to_dict(vm)
     names: list[str] = []
     mean, cov, source = np.zeros(0), np.zeros((0, 0)), "none"
     if from_uncertainty:
@@ -72,25 +111,35 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     varies = tuple(parse_vary(v) for v in vary or [])
     if not names and not varies:
         raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
-    mc = MonteCarlo(model, manoeuvre, dict(options or {}), tuple(names), mean, cov, varies,
-                    int(seed))
+    mc = MonteCarlo(model, manoeuvre, options, tuple(names), mean, cov, varies, int(seed))
+    chunk = check_size(mc, runs, chunk)
     t0 = time.perf_counter()
+    backend = "dask"
     if client is not None:
         df = run_montecarlo(mc, runs, chunk=chunk, client=client, progress=progress)
         nworkers = len(client.scheduler_info().get("workers", {}))
+    elif not use_dask(scheduler, workers, cores()):
+        nworkers = workers or cores()
+        backend = "in-process"
+        df = run_montecarlo(mc, runs, chunk=chunk, threads=nworkers)
     else:
         with connect(scheduler, workers) as cl:
             df = run_montecarlo(mc, runs, chunk=chunk, client=cl, progress=progress)
             nworkers = len(cl.scheduler_info().get("workers", {}))
+    q = quantiles(df, mc.metrics)
+    if not any(v["n"] for v in q.values()):
+        ok = int(df["success"].sum())
+        raise UsvidError(f"montecarlo: no run gave a {manoeuvre} metric ({ok} of {runs} ran to "
+                         "the end without diverging; the manoeuvre did not complete: give a "
+                         "longer --t-end, or check the model and --speed)")
     buf = io.BytesIO()
     df.to_parquet(buf, index=False)
-    write_atomic(out, buf.getvalue())
+    write_atomic(out, buf.getvalue(), inputs=[model_path])
     return {"out": str(out), "runs": int(runs), "failed": int((~df["success"]).sum()),
             "manoeuvre": manoeuvre, "parameters": list(mc.parameters), "uncertainty": source,
             "seed": int(seed), "disturbance_deg": float(mc.options.get("disturbance_deg", 0.0)),
-            "quantiles": quantiles(df, mc.metrics),
-            "chunks": -(-runs // chunk), "workers": nworkers,
-            "wall_s": round(time.perf_counter() - t0, 3)}
+            "quantiles": q, "chunks": -(-runs // chunk), "chunk": int(chunk), "workers": nworkers,
+            "backend": backend, "wall_s": round(time.perf_counter() - t0, 3)}
 
 
 def _print(s: dict[str, Any]) -> None:
@@ -146,8 +195,6 @@ def register(app: typer.Typer) -> None:
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
     ) -> None:
         """Monte-Carlo simulation of a manoeuvre over parameter uncertainty (Dask)."""
-        if not (0 < dt <= 1.0):
-            raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
         check_seed(seed)
         opts = {k: v for k, v in dict(delta_deg=delta_deg, psi_deg=psi_deg,
                                       target_deg=target_deg, kp=kp, ki=ki, kd=kd, t_end=t_end,

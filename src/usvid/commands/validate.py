@@ -36,13 +36,21 @@ ReportOpt = Annotated[Path | None, typer.Option(
 
 def psi_switch_option(psi_deg: float | None) -> float | None:
     """``--psi-deg`` [deg] -> radians, checked."""
-    from usvid.errors import UsvidError
+    from usvid.commands._common import check_psi_deg
 
     if psi_deg is None:
         return None
-    if not (math.isfinite(psi_deg) and 0 < psi_deg <= 180):
-        raise UsvidError(f"--psi-deg must be in (0, 180] deg (got {psi_deg!r})")
+    check_psi_deg(psi_deg)
     return math.radians(psi_deg)
+
+
+def report_files(report: Path | None) -> list[Path]:
+    """The files ``--report DIR`` writes (``DIR/run.json``, ``DIR/report.html``): checked
+    against the command's inputs before any work (a run.json given as a log, a log named
+    report.html in DIR)."""
+    from usvid.report.run import REPORT_FILE, RUN_FILE
+
+    return [] if report is None else [Path(report) / RUN_FILE, Path(report) / REPORT_FILE]
 
 
 def validate_logs(model_path: Path, logs: list[str], fmt: str = "auto", *,
@@ -57,6 +65,7 @@ def validate_logs(model_path: Path, logs: list[str], fmt: str = "auto", *,
 
     if not logs:
         raise UsvidError("validate: give at least one LOG")
+    psi_switch_option(psi_deg)
     model = load_model(model_path)
     trials = [load_trimmed(p, fmt, t_start, t_end) for p in logs]
     res = validate_model(model, trials, psi_switch=psi_switch_option(psi_deg))
@@ -93,7 +102,14 @@ def register(app: typer.Typer) -> None:
                      report: ReportOpt = None) -> None:
         """Validate a model file on logs: predicted vs measured manoeuvres, free-run replay."""
         from usvid.commands._common import emit_json
+        from usvid.commands._logs import input_paths
+        from usvid.files import check_outputs
 
+        # before any work: the report's files never overwrite an input (a run.json given as
+        # the model file or a log, LOG:T0:T1 trims resolved to their files)
+        spec = [Path(fmt)] if Path(fmt).is_file() else []
+        check_outputs(report_files(report),
+                      [model_path, *input_paths(logs, t_start, t_end), *spec])
         out, res = validate_logs(model_path, logs, fmt, psi_deg=psi_deg, t_start=t_start,
                                  t_end=t_end)
         if report is not None:
