@@ -152,25 +152,28 @@ def main(argv: list[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         handlers[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return _main(argv)
+        code = _main(argv)
     finally:
         warnings.formatwarning = previous
         if argv is not None:
             for s, h in handlers.items():
                 signal.signal(s, h)
+    if argv is not None:
+        return code
+    sys.exit(code)  # (signals are ignored from here: _main's done())
 
 
 def _main(argv: list[str] | None) -> int:
+    """Run the command; its exit code, the one line of an error or interrupt printed."""
 
     def done(code: int, message: str | None = None) -> int:
         if code == 130 and _TERMINATED.is_set():  # (typer's 130 for any interrupt)
             code, message = 143, _INTERRUPTED[143]
         if message is not None:
             print(message, file=sys.stderr)
-        if argv is not None:
-            return code
-        _ignore_signals()
-        sys.exit(code)
+        if argv is None:  # a process of its own: the code is final
+            _ignore_signals()
+        return code
 
     try:
         # not standalone: click's usage errors come here (one line below), not as a usage box
@@ -179,16 +182,12 @@ def _main(argv: list[str] | None) -> int:
         if code in _INTERRUPTED:  # typer turns Ctrl-C into exit code 130, silently
             return done(code, _INTERRUPTED[code])
         return done(code)
-    except SystemExit as exc:
+    except SystemExit as exc:  # sys.exit in a command or library
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
         if code == 130 and _TERMINATED.is_set():
             code = 143
-        if code in _INTERRUPTED:
-            print(_INTERRUPTED[code], file=sys.stderr)
-        if argv is not None:
-            return code
-        _ignore_signals()
-        raise
+        text = exc.code if isinstance(exc.code, str) else None
+        return done(code, _INTERRUPTED.get(code) or (text and "usvid: error: " + text))
     except _CLICK_ERROR as exc:  # wrong option type, missing argument, unknown option
         if type(exc).__name__ == "NoArgsIsHelpError":  # plain `usvid`: the help, as before
             return done(exc.exit_code, exc.format_message())

@@ -39,8 +39,8 @@ class PhysicsError(UsvidError):
     """A model is outside the physics of a surface vessel (the message says how)."""
 
 
-def _hint(model: Any) -> str:
-    neg = []
+def _hint(model: Any, setting: str = "") -> str:
+    neg = [setting] if setting else []
     for name in _SIGNED:
         v = getattr(model.dynamics, name, None)
         if isinstance(v, (int, float)) and not isinstance(v, bool) and v < 0:
@@ -49,20 +49,22 @@ def _hint(model: Any) -> str:
 
 
 def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
-                  strict: bool = False) -> None:
+                  strict: bool = False, setting: str = "") -> None:
     """Refuse ``model`` (loaded from ``path``) with a :class:`PhysicsError` when the probe (the
     module docstring) shows it outside the physics of a surface vessel at ``u0`` [m/s], step
-    ``dt`` [s]; ``strict`` also refuses a probe that diverges."""
+    ``dt`` [s]; ``strict`` also refuses a probe that diverges. ``setting``: an option that
+    changed the model (``"--rps 1e-06"``), named in the message."""
     from usvid.manoeuvres.logic import Turning
     from usvid.sim.simulate import simulate
 
     name = Path(path).name
+    hint = _hint(model, setting)
     kind = getattr(model, "kind", "?")
     where = f"{name}: outside the physics of a {kind} model"
     n = getattr(model.dynamics, "n", None)
     if isinstance(n, (int, float)) and not isinstance(n, bool) and n <= 0:
         raise PhysicsError(f"{where}: the shaft speed n = {n:g} rps is not positive (the "
-                           "propeller runs astern; give n > 0 or --rps)")
+                           f"propeller runs astern; give n > 0 or --rps){hint}")
     angle = min(math.radians(35.0), float(model.servo.max_angle))
     with np.errstate(all="ignore"):
         res = simulate(model, Turning(delta=angle), t_end=PROBE_S, dt=dt, u0=u0)
@@ -76,16 +78,16 @@ def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
         i = int(np.flatnonzero(ok)[turned[0]])
         raise PhysicsError(f"{where}: {probe} it turns to port (heading "
                            f"{math.degrees(psi[i] - psi[0]):+.1f} deg at t = {t[i]:.1f} s; a "
-                           f"positive rudder angle must make the yaw rate positive){_hint(model)}")
+                           f"positive rudder angle must make the yaw rate positive){hint}")
     u = res.channels.get("u")
     if u is not None:
         ue = np.asarray(u[0], float)
         ue = ue[np.isfinite(ue)]
         if ue.size and ue[-1] < 0:
             raise PhysicsError(f"{where}: {probe} it goes astern (surge speed {ue[-1]:.3g} m/s "
-                               f"after {PROBE_S:g} s: negative thrust?){_hint(model)}")
+                               f"after {PROBE_S:g} s: negative thrust?){hint}")
     if strict and not res.success:
         bad = np.flatnonzero(~ok)
         when = f" at t = {t[bad[0]]:.2f} s" if bad.size else ""
         raise PhysicsError(f"{where}: {probe} it diverges{when} (yaw rate beyond 100 rad/s, "
-                           f"which no vessel reaches){_hint(model)}")
+                           f"which no vessel reaches){hint}")

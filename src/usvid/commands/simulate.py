@@ -102,7 +102,7 @@ def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | N
     check_speed(speed)
     model = _with_rps(_load(model_path), rps, model_path)
     u0 = _speed(model, speed, model_path)
-    check_physics(model, model_path, u0, dt)
+    check_physics(model, model_path, u0, dt, setting=f"--rps {rps:g}" if rps is not None else "")
     return model, u0
 
 

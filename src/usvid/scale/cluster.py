@@ -4,8 +4,9 @@ ordered map of tasks with a progress bar on stderr.
 A local cluster has one single-threaded worker process per core (the simulation kernel runs
 nogil numba code: processes avoid sharing one interpreter; each task sets numba to one thread).
 It listens only on 127.0.0.1, on ports the system picks, for its own workers: no dashboard and
-no HTTP server (Dask's scheduler would otherwise serve one on port 8787), and its workers ignore
-Ctrl-C (the command stops them itself; they print nothing). Dask's own log lines are silenced
+no HTTP server (Dask's scheduler would otherwise serve one on port 8787), and its workers print
+nothing (their standard error is /dev/null: a Ctrl-C reaches them too, and the command, which
+stops them, reports it once). Dask's own log lines are silenced
 while a client is open: a task that fails is one error of the command (:func:`map_ordered`).
 
 - :func:`check_scheduler_address` ``(address)``: ``tcp://HOST:PORT`` or ``HOST:PORT``, checked
@@ -16,6 +17,7 @@ while a client is open: a task that fails is one error of the command (:func:`ma
 
 from __future__ import annotations
 
+import gc
 import ipaddress
 import logging
 import os
@@ -127,7 +129,7 @@ def _quiet_dask() -> Callable[[], None]:
     """Silence the ``distributed`` loggers of this process (their errors become the command's
     one error line); returns the function restoring them."""
     saved = {}
-    for name in ("distributed", "tornado", "bokeh"):
+    for name in ("distributed", "tornado", "bokeh", "asyncio"):
         lg = logging.getLogger(name)
         saved[name] = lg.level
         lg.setLevel(logging.CRITICAL + 1)
@@ -139,10 +141,28 @@ def _quiet_dask() -> Callable[[], None]:
 
 
 @contextmanager
+def _workers_quiet() -> Iterator[None]:
+    """Processes started inside (the local workers) get /dev/null as their standard error: a
+    Ctrl-C from the terminal reaches the whole process group, and a worker would print its
+    KeyboardInterrupt traceback there (the command, which gets the same Ctrl-C, stops them and
+    reports once; a task's error comes back to it through Dask, never through the worker's
+    stderr). This process's own standard error is back when the workers are up."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+@contextmanager
 def _sigint_ignored() -> Iterator[None]:
-    """SIGINT ignored while worker processes are started: they inherit the disposition, so a
-    Ctrl-C (sent by the terminal to the whole process group) reaches only this process, which
-    stops them (no worker prints a traceback). Outside the main thread: nothing to do."""
+    """SIGINT ignored while the cluster shuts down after a first Ctrl-C (a second one would
+    leave it half closed). Outside the main thread: nothing to do."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -166,9 +186,18 @@ def _local_cluster(n: int) -> Any:
     scheduler = {"cls": _quiet.QuietScheduler, "options": {
         "host": "127.0.0.1", "port": 0, "protocol": "tcp://", "dashboard": False,
         "dashboard_address": None}}
-    with _sigint_ignored():
-        return SpecCluster(scheduler=scheduler, workers={i: worker for i in range(n)},
-                           silence_logs=silent)
+    before = set(SpecCluster._instances)
+    try:
+        with _workers_quiet():
+            return SpecCluster(scheduler=scheduler, workers={i: worker for i in range(n)},
+                               silence_logs=silent)
+    except BaseException:  # (Ctrl-C during the start): close what was started, quietly
+        for c in set(SpecCluster._instances) - before:
+            SpecCluster._instances.discard(c)  # (else Dask's atexit hook closes it, loudly)
+            _close(None, c)
+        with _workers_quiet():  # the start's failed tasks, collected now: asyncio logs them
+            gc.collect()
+        raise
 
 
 @contextmanager
@@ -185,7 +214,8 @@ def connect(scheduler: str | None = None, workers: int | None = None) -> Iterato
     address = check_scheduler_address(scheduler) if scheduler else None
     check_workers(workers)
     restore = _quiet_dask()
-    cluster = None
+    cluster = client = None
+    clean = False
     try:
         if address is not None:
             try:
@@ -197,24 +227,25 @@ def connect(scheduler: str | None = None, workers: int | None = None) -> Iterato
         else:
             cluster = _local_cluster(workers or cores())
             client = Client(cluster)
-        try:
-            yield client
-        finally:
-            _close(client, cluster)
+        yield client
+        clean = True
     finally:
-        restore()
+        _close(client, cluster)
+        if clean:  # (after an error or Ctrl-C the process is on its way out: Dask's late
+            restore()  # log lines of its shut-down stay silent)
 
 
 def _close(client: Any, cluster: Any) -> None:
-    """Close the client and the local cluster; a second Ctrl-C during the shut-down is not
-    reported again (the first one is being handled)."""
-    with _sigint_ignored():
-        try:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-        except Exception:  # noqa: BLE001 - shutting down after an error: the error is reported
-            pass
+    """Close the client and the local cluster (either may be None), quietly; a second Ctrl-C
+    during the shut-down is ignored (the first one is being handled)."""
+    with _sigint_ignored(), _workers_quiet():
+        for obj in (client, cluster):
+            if obj is None:
+                continue
+            try:
+                obj.close()
+            except Exception:  # noqa: BLE001 - shutting down after an error: that is reported
+                pass
 
 
 class TaskFailed(UsvidError):
