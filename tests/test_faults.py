@@ -1148,3 +1148,20 @@ def test_damaged_dataflash_log_prints_no_library_noise(tmp_path, capfd) -> None:
     code = main(["audit", str(p), "--format", "ardupilot_rover"])
     err = capfd.readouterr().err
     assert code in (0, 3) and "bad header" not in err, err[:500]
+
+
+def test_table_line_bound_is_exact() -> None:
+    """check_line_length: lines of exactly the bound pass, one byte more is refused with its
+    line number, wherever it lies relative to the search windows."""
+    from usvid.errors import LogReadError
+    from usvid.io.table import check_line_length
+
+    n = 10
+    ok = b"h\n" + (b"x" * n + b"\n") * 7 + b"x" * n  # the last line without a line feed
+    check_line_length(Path("t.csv"), ok, n)
+    for k in range(1, 6):  # the long line after k short ones of varied length
+        head = b"".join(b"y" * (i % n) + b"\n" for i in range(k))
+        for tail in (b"\n", b"\nz\n", b""):
+            bad = head + b"x" * (n + 1) + tail
+            with pytest.raises(LogReadError, match=f"t.csv line {k + 1}: longer than {n} "):
+                check_line_length(Path("t.csv"), bad, n)
