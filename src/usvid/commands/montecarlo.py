@@ -2,13 +2,16 @@
 --runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] [--disturbance-deg SD]
 --out RESULTS.parquet [--scheduler ADDRESS] [--workers N] [--json]``.
 
-Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks on
-a Dask cluster (a local one by default, or the scheduler at ``--scheduler``), writes one row per
-run (sampled parameters [SI], ``success``, metrics) to a Parquet file atomically and prints the
-quantiles of each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``,
-``parameters``, ``uncertainty`` (where the joint draws come from), ``seed``,
-``disturbance_deg``, ``quantiles`` (per metric ``q05``, ``q50``, ``q95``, ``mean``, ``n``),
-``chunks``, ``workers``, ``wall_s``.
+Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks in
+this process on a small machine, else on a Dask cluster (a local one, or the scheduler at
+``--scheduler``; :func:`usvid.scale.montecarlo.use_dask`), writes one row per run (sampled
+parameters [SI], ``success``, metrics) to a Parquet file atomically and prints the quantiles of
+each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``, ``parameters``,
+``uncertainty`` (where the joint draws come from), ``seed``, ``disturbance_deg``, ``quantiles``
+(per metric ``q05``, ``q50``, ``q95``, ``mean``, ``n``), ``chunks``, ``chunk`` (runs per task),
+``workers`` (processes, or the kernel's threads in process), ``backend`` (``in-process`` |
+``dask``), ``wall_s``. Every option is checked before any work; the output may not be the model
+file (nor a device node).
 """
 
 from __future__ import annotations
