@@ -267,7 +267,8 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     delta = math.radians(o.get("delta_deg", 10.0 if mc.manoeuvre == "zigzag" else 35.0))
     with np.errstate(all="ignore"):
         if mc.manoeuvre == "zigzag":
-            psi_sw = math.radians(o.get("psi_deg") or math.degrees(delta))
+            psi = o.get("psi_deg")
+            psi_sw = delta if psi is None else math.radians(psi)
             logic = ZigZag(np.full(B, delta), psi_sw)
             nsteps = max(1, round(t_end / dt))
             res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=nsteps,
