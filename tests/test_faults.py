@@ -1,12 +1,19 @@
 """Hostile and careless input: the fault matrix over every command, and time integrity.
 
-For every case of the matrix (bad output paths, outputs equal to inputs, hostile specs, model
-files and run files, resource bombs, bad seeds and steps, broken logs) the CLI, called in
-process, must
+For every case of the matrix (bad output paths, outputs equal to inputs through trims, ``./``,
+symlinks and hard links, device nodes and FIFOs as outputs, hostile specs, model files, run
+files and campaigns, resource bombs, bad seeds, steps and numeric options, broken logs, Dask
+addresses and sizes, models outside their kind's physics, metrics that cannot be computed) the
+CLI, called in process, must
 - exit 0 or 2, never 1 (no internal error);
 - when it exits 2, print exactly one line on stderr, ``usvid: error: ...``, naming the culprit;
-- leave every input file byte-identical (sha256);
+- leave every input file byte-identical (sha256) and every file its type (a device node or FIFO
+  is never replaced by a regular file);
+- answer within LIMIT_S seconds and add less than MAX_CASE_BYTES to the process's memory;
 - leave no temporary file and no partial file under an output's final name.
+The cases that would hang or exhaust memory without their guards (FIFOs and /dev/zero read as
+every kind of input, a one-line 200 MB table, the scale-out commands' resource bombs) run in one
+child process (fault_runner.py) under the same limits, its peak resident memory below MAX_RSS.
 """
 
 from __future__ import annotations
@@ -730,6 +737,19 @@ def _timeout(signum, frame):
 
 #: Time limit of one case [s] (the slowest, a quick demo refused at its folder, takes ~1 s).
 LIMIT_S = 30
+#: Memory one case may add to the process [bytes].
+MAX_CASE_BYTES = 2**30
+
+
+def _rss() -> int:
+    """Resident memory of this process now [bytes]."""
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _peak() -> int:
+    """Peak resident memory of this process so far [bytes]."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 @pytest.mark.parametrize("cid,build", CASES, ids=[c[0] for c in CASES])
@@ -738,6 +758,7 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
     before = _tree(ws.root)
     types = _types(ws.root)
     outs_before = _tree(ws.out)
+    rss0, peak0 = _rss(), _peak()
     previous = signal.signal(signal.SIGALRM, _timeout)
     signal.alarm(LIMIT_S)  # a hang (a FIFO opened for reading blocks) fails the case
     try:
@@ -747,6 +768,10 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
+    peak = _peak()
+    # the process's peak rose during the case: it is the case's own, measured from where it began
+    assert peak == peak0 or peak - rss0 < MAX_CASE_BYTES, \
+        f"{cid}: {(peak - rss0) / 2**20:.0f} MiB of memory"
     assert {k: v for k, v in _types(ws.root).items() if k in types} == types, \
         f"{cid}: a file changed type (a device node or FIFO replaced?)"
     lines = [ln for ln in err.splitlines() if ln.strip()]
