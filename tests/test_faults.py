@@ -747,6 +747,12 @@ def _rss() -> int:
         return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
+def _children_cpu() -> float:
+    """CPU time [s] of this process's ended children (a started cluster adds to it)."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def _peak() -> int:
     """Peak resident memory of this process so far [bytes]."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
@@ -758,7 +764,7 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
     before = _tree(ws.root)
     types = _types(ws.root)
     outs_before = _tree(ws.out)
-    rss0, peak0 = _rss(), _peak()
+    rss0, peak0, kids0 = _rss(), _peak(), _children_cpu()
     previous = signal.signal(signal.SIGALRM, _timeout)
     signal.alarm(LIMIT_S)  # a hang (a FIFO opened for reading blocks) fails the case
     try:
@@ -779,6 +785,8 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
     if code == 2:
         assert len(lines) == 1 and lines[0].startswith("usvid: error: "), err[-3000:]
         assert len(lines[0]) < 2000
+        # refused before any work: no process was started for it (a Dask cluster, ...)
+        assert _children_cpu() == kids0, f"{cid}: child processes ran before the refusal"
         assert culprit.lower() in lines[0].lower(), f"{cid}: {culprit!r} not in {lines[0]!r}"
         # a refused command writes nothing
         assert _tree(ws.out) == outs_before, f"{cid}: output written despite exit 2"

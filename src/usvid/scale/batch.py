@@ -304,8 +304,11 @@ def _plan(groups: list[Group], state: Path) -> tuple[dict[str, GroupResult], lis
 
 def stale_groups(campaign: str | Path, out: str | Path) -> list[str]:
     """Names of the campaign's groups that :func:`run_batch` into ``out`` would run (new or
-    changed inputs); empty when a re-run has nothing to do (no cluster is then needed)."""
-    return [g.name for g in _plan(load_campaign(campaign), Path(out) / "groups")[1]]
+    changed inputs); empty when a re-run has nothing to do (no cluster is then needed). Refuses
+    an ``out`` that would overwrite an input, before any work (:func:`check_batch_outputs`)."""
+    groups = load_campaign(campaign)
+    check_batch_outputs(campaign, groups, out)
+    return [g.name for g in _plan(groups, Path(out) / "groups")[1]]
 
 
 def run_batch(campaign: str | Path, out: str | Path, *, client: Any = None,
