@@ -716,6 +716,53 @@ def _second_round() -> None:
 
 _second_round()
 
+
+def _numeric_option_cases() -> None:
+    """Every numeric option of every command (read from the CLI's own command tree, so an
+    option added later is covered too) given NaN, infinity and -1e300 (floats) or -1 (integers):
+    exit 2, one line naming the option, before any work."""
+    from usvid.cli import _command
+
+    def base(ws: WS, path: tuple[str, ...]) -> list[str]:
+        log, spec, model = str(ws.p("log.csv")), str(ws.p("spec.yaml")), str(ws.p("lanxin.json"))
+        return {
+            ("simulate", "zigzag"): ["simulate", "zigzag", model],
+            ("simulate", "turning"): ["simulate", "turning", str(ws.p("lanxin_threedof.json"))],
+            ("simulate", "course-keeping"): ["simulate", "course-keeping", model, "--controller",
+                                             "pid"],
+            ("autopilot",): ["autopilot", model, "--samples", "0"],
+            ("audit",): ["audit", log, "--format", spec],
+            ("metrics",): ["metrics", log, "--format", spec],
+            ("identify",): _ident(ws, log),
+            ("validate",): ["validate", model, log, "--format", spec],
+            ("fit-turning-diameter",): ["fit-turning-diameter"],
+            ("montecarlo",): _mc(ws),
+            ("batch",): _batch(ws, _campaign(ws, "c.yaml")),
+            ("demo",): ["demo", "--quick", "--out", str(ws.out / "demo-options")],
+        }[path]
+
+    root = _command()
+    commands: list[tuple[tuple[str, ...], object]] = []
+    for name, cmd in sorted(root.commands.items()):
+        subs = getattr(cmd, "commands", None)
+        commands += ([((name, sub), c) for sub, c in sorted(subs.items())] if subs else
+                     [((name,), cmd)])
+    for path, cmd in commands:
+        for prm in cmd.params:
+            ann = getattr(getattr(prm, "type_descriptor", None), "annotation", None)
+            if "Option" not in type(prm).__name__ or ann is None:
+                continue
+            kind = "float" if "float" in str(ann) else "int" if "int" in str(ann) else None
+            if kind is None:
+                continue
+            opt = max(prm.opts, key=len)
+            for val in (("nan", "inf", "-1e300") if kind == "float" else ("-1",)):
+                CASES.append((f"{'-'.join(path[-1:])}-numeric{opt}={val}",
+                              lambda ws, p=path, o=opt, v=val: ([*base(ws, p), o, v], o)))
+
+
+_numeric_option_cases()
+
 def _leftovers(root: Path) -> list[str]:
     return [str(p) for p in root.rglob("*") if p.name.endswith(".tmp")
             or p.name.startswith(".usvid-probe")]

@@ -66,8 +66,9 @@ SPEED_RANGE = (0.01, 100.0)
 #: Largest disturbance or noise standard deviation [deg] (a rudder-equivalent disturbance
 #: beyond the largest rudder angle is not a disturbance).
 MAX_DISTURBANCE_DEG = 90.0
-#: Largest shaft speed [rps] (small high-speed propellers turn at up to ~100 rps).
-MAX_RPS = 1000.0
+#: Shaft speeds [rps]: below 0.01 rps (0.6 rpm) a propeller gives no thrust (its advance
+#: ratio overflows); small high-speed propellers turn at up to ~100 rps.
+RPS_RANGE = (0.01, 1000.0)
 #: Course changes [deg] of the course-keeping manoeuvre and autopilot design.
 MAX_TARGET_DEG = 360.0
 #: Largest absolute autopilot gain (kp [rad/rad], ki [1/s], kd [s]).
@@ -111,8 +112,24 @@ def check_t_end(value: float | None, option: str = "--t-end") -> float | None:
 
 
 def check_rps(value: float | None, option: str = "--rps") -> float | None:
-    """A shaft speed [rps]: in (0, MAX_RPS]."""
-    return check_number(value, option, lo=0.0, hi=MAX_RPS, lo_open=True, unit="rps")
+    """A shaft speed [rps]: in :data:`RPS_RANGE`."""
+    return check_number(value, option, lo=RPS_RANGE[0], hi=RPS_RANGE[1], unit="rps")
+
+
+def check_steps(t_end: float, dt: float, t_option: str = "--t-end") -> None:
+    """The run ``t_end`` [s] in steps ``dt`` [s] (both checked already): at least one step and
+    at most the kernel's ``MAX_STEPS`` (its grid and input series alone would need gigabytes);
+    the message names both options."""
+    from usvid.sim.simulate import MAX_STEPS  # (the kernel: loaded by the commands that run it)
+
+    steps = t_end / dt
+    if steps < 1:
+        raise UsvidError(f"{t_option} {t_end:g} s is shorter than one step --dt {dt:g} s")
+    if steps > MAX_STEPS:
+        raise UsvidError(f"{t_option} {t_end:g} s / --dt {dt:g} s = {steps:.4g} steps (at most "
+                         f"{MAX_STEPS:.0f}; the step grid alone would need "
+                         f"{steps * 64 / 1e9:.3g} GB): give a larger --dt or a shorter "
+                         f"{t_option}")
 
 
 def check_disturbance_deg(value: float | None, option: str) -> float | None:

@@ -49,11 +49,12 @@ def _hint(model: Any, setting: str = "") -> str:
 
 
 def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
-                  strict: bool = False, setting: str = "") -> None:
+                  strict: bool = False, setting: str = "", duration: float = PROBE_S) -> None:
     """Refuse ``model`` (loaded from ``path``) with a :class:`PhysicsError` when the probe (the
     module docstring) shows it outside the physics of a surface vessel at ``u0`` [m/s], step
     ``dt`` [s]; ``strict`` also refuses a probe that diverges. ``setting``: an option that
-    changed the model (``"--rps 1e-06"``), named in the message."""
+    changed the model (``"--rps 1e-06"``), named in the message. ``duration`` [s]: the run the
+    model is wanted for; the probe is no longer (at most :data:`PROBE_S`)."""
     from usvid.manoeuvres.logic import Turning
     from usvid.sim.simulate import simulate
 
@@ -67,7 +68,8 @@ def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
                            f"propeller runs astern; give n > 0 or --rps){hint}")
     angle = min(math.radians(35.0), float(model.servo.max_angle))
     with np.errstate(all="ignore"):
-        res = simulate(model, Turning(delta=angle), t_end=PROBE_S, dt=dt, u0=u0)
+        res = simulate(model, Turning(delta=angle), t_end=min(PROBE_S, duration), dt=dt,
+                       u0=u0)
     t = np.asarray(res.t, float)
     psi = np.asarray(res["psi"][0], float)
     ok = np.isfinite(psi)
@@ -85,7 +87,7 @@ def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
         ue = ue[np.isfinite(ue)]
         if ue.size and ue[-1] < 0:
             raise PhysicsError(f"{where}: {probe} it goes astern (surge speed {ue[-1]:.3g} m/s "
-                               f"after {PROBE_S:g} s: negative thrust?){hint}")
+                               f"after {t[-1]:g} s: negative thrust?){hint}")
     if strict and not res.success:
         bad = np.flatnonzero(~ok)
         when = f" at t = {t[bad[0]]:.2f} s" if bad.size else ""

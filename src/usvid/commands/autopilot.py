@@ -24,6 +24,7 @@ from usvid.commands._common import (
     check_number,
     check_seed,
     check_speed,
+    check_steps,
     check_target_deg,
 )
 from usvid.errors import UsvidError
@@ -87,7 +88,9 @@ def autopilot_cmd(
     check_speed(model.vessel.speed, f"{model_path.name}: vessel.speed")
     # a model outside a vessel's physics (turning to port under starboard rudder, backing,
     # running away) gets no gains
-    check_physics(model, model_path, float(model.vessel.speed), dt, strict=True)
+    check_steps(horizon, dt, "--horizon")
+    check_physics(model, model_path, float(model.vessel.speed), dt, strict=True,
+                  duration=horizon)
     d = design_autopilot(model, method=method.value, controller=controller.value,
                          bandwidth=bandwidth, zeta=zeta, disturbance_deg=disturbance_deg,
                          horizon=horizon, seed=seed, target_deg=target_deg, dt=dt,

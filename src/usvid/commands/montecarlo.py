@@ -87,6 +87,7 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     ``client``: an existing Dask client; else the runs stay in this process on a small machine
     (:func:`usvid.scale.montecarlo.use_dask`) or go to a cluster from ``scheduler``/``workers``.
     """
+    from usvid.commands._common import check_steps
     from usvid.files import check_outputs
     from usvid.io.modelfile import load_model, model_to_dict
     from usvid.scale.cluster import check_scheduler_address, check_workers, connect, cores
@@ -96,6 +97,7 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
         parse_vary,
         quantiles,
         run_montecarlo,
+        run_timing,
         use_dask,
     )
 
@@ -115,6 +117,9 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     if not names and not varies:
         raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
     mc = MonteCarlo(model, manoeuvre, options, tuple(names), mean, cov, varies, int(seed))
+    _, dt, run = run_timing(mc, vm)
+    check_steps(run, dt, "--t-end" if "t_end" in options else f"the run ({run:g} s, from the "
+                "model; --t-end)")
     chunk = check_size(mc, runs, chunk)
     t0 = time.perf_counter()
     backend = "dask"
@@ -132,9 +137,11 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     q = quantiles(df, mc.metrics)
     if not any(v["n"] for v in q.values()):
         ok = int(df["success"].sum())
+        rudder = "" if manoeuvre == "course-keeping" else " or a larger --delta-deg"
         raise UsvidError(f"montecarlo: no run gave a {manoeuvre} metric ({ok} of {runs} ran to "
-                         "the end without diverging; the manoeuvre did not complete: give a "
-                         "longer --t-end, or check the model and --speed)")
+                         f"the end of {run:g} s without diverging; the manoeuvre did not "
+                         f"complete): give a longer --t-end{rudder}, or check the model and "
+                         "--speed")
     buf = io.BytesIO()
     df.to_parquet(buf, index=False)
     write_atomic(out, buf.getvalue(), inputs=[model_path])

@@ -34,6 +34,7 @@ from usvid.commands._common import (
     check_rudder_deg,
     check_seed,
     check_speed,
+    check_steps,
     check_t_end,
     check_target_deg,
 )
@@ -73,10 +74,9 @@ def _speed(model: Any, speed: float | None, path: Path) -> float:
 
 
 def _with_rps(model: Any, rps: float | None, path: Path) -> Any:
-    """The model with its nominal shaft speed ``n`` set to ``--rps`` [rps]."""
+    """The model with its nominal shaft speed ``n`` set to ``--rps`` [rps] (checked already)."""
     if rps is None:
         return model
-    check_rps(rps)
     if "n" not in {p.name for p in model.dynamics.param_specs()}:
         raise UsvidError(f"--rps: {path.name} is a {model.kind} model, which has no shaft speed "
                          "input (kinds with one: mmg, threedof)")
@@ -96,13 +96,19 @@ def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | N
     speed to ``--rps`` and check its physics (:func:`usvid.commands._physics.check_physics`);
     returns (model, u0 [m/s])."""
     from usvid.commands._physics import check_physics
+    from usvid.sim.runs import default_t_end
 
     check_dt(dt)
     check_t_end(t_end)
     check_speed(speed)
+    check_rps(rps)
     model = _with_rps(_load(model_path), rps, model_path)
     u0 = _speed(model, speed, model_path)
-    check_physics(model, model_path, u0, dt, setting=f"--rps {rps:g}" if rps is not None else "")
+    run = t_end if t_end is not None else default_t_end(model, u0)
+    check_steps(run, dt, "--t-end" if t_end is not None else f"the run ({run:g} s, from the "
+                "model; --t-end)")
+    check_physics(model, model_path, u0, dt, duration=run,
+                  setting=f"--rps {rps:g}" if rps is not None else "")
     return model, u0
 
 

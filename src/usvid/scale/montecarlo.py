@@ -53,7 +53,7 @@ from usvid.sim.runs import default_t_end
 from usvid.sim.simulate import simulate
 
 __all__ = ["BLOCK", "MANOEUVRES", "MAX_RUNS", "MonteCarlo", "Vary", "check_size", "parse_vary",
-           "quantiles", "run_chunk", "run_montecarlo", "use_dask"]
+           "quantiles", "run_chunk", "run_montecarlo", "run_timing", "use_dask"]
 
 #: Runs per sampling block (the unit of the seeded random streams).
 BLOCK = 1024
@@ -181,7 +181,7 @@ class MonteCarlo:
         return {n: np.concatenate(v) for n, v in out.items()}
 
 
-def _timing(mc: MonteCarlo, vm: Any) -> tuple[float, float, float]:
+def run_timing(mc: MonteCarlo, vm: Any) -> tuple[float, float, float]:
     """(approach speed [m/s], step [s], run length [s]) of the runs: the options when given
     (0 is a value, not "the default"), else the model's ``vessel.speed`` and
     :func:`usvid.sim.runs.default_t_end`."""
@@ -207,7 +207,7 @@ def chunk_bytes(mc: MonteCarlo) -> int:
     steps; the other manoeuvres keep only their online metrics)."""
     if mc.manoeuvre != "turning":
         return 0
-    _, dt, t_end = _timing(mc, model_from_dict(mc.model))
+    _, dt, t_end = run_timing(mc, model_from_dict(mc.model))
     return 8 * 4 * (int(t_end / dt) // 5 + 2)
 
 
@@ -258,7 +258,7 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     params = mc.sample(lo, hi)
     model = dataclasses.replace(vm, dynamics=dataclasses.replace(vm.dynamics, **params))
     o = mc.options
-    u0, dt, t_end = _timing(mc, vm)
+    u0, dt, t_end = run_timing(mc, vm)
     rows: dict[str, Any] = {"run": np.arange(lo, hi)}
     rows.update(params)
     sd = math.radians(float(o.get("disturbance_deg", 0.0)))
