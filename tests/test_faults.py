@@ -556,6 +556,13 @@ def _edited(ws: WS, name: str, base: str, **params) -> str:
     return _model(ws, name, base, edit)
 
 
+def _mc_turning(model: str) -> list[str]:
+    """montecarlo turning circles of ``model``, varying a parameter of its kind."""
+    vary = "x_l=normal:3.5,0.1" if json.loads(Path(model).read_text())["kind"] == "threedof" \
+        else "K=normal:-0.7,0.01"
+    return ["montecarlo", model, "--manoeuvre", "turning", "--runs", "2", "--vary", vary]
+
+
 def _second_round() -> None:
     add = CASES.append
     # outputs over inputs through a trim, ./, a hard link; device nodes and FIFOs as outputs
@@ -698,6 +705,8 @@ def _second_round() -> None:
                 ["simulate", c, mk(ws)], cu)))
         add((f"autopilot-physics-{pid}", lambda ws, mk=mk, cu=culprit: (
             ["autopilot", mk(ws), "--samples", "0"], cu)))
+        add((f"montecarlo-physics-{pid}", lambda ws, mk=mk, cu=culprit: (
+            _mc_turning(mk(ws)) + ["--out", str(ws.out / "mc.parquet")], cu)))
     add(("autopilot-physics-K-1e12", lambda ws: (
         ["autopilot", _edited(ws, "kbig.json", "lanxin.json", K=1e12), "--samples", "0"],
         "diverges")))

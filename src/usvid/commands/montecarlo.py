@@ -88,6 +88,7 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     (:func:`usvid.scale.montecarlo.use_dask`) or go to a cluster from ``scheduler``/``workers``.
     """
     from usvid.commands._common import check_steps
+    from usvid.commands._physics import check_physics
     from usvid.files import check_outputs
     from usvid.io.modelfile import load_model, model_to_dict
     from usvid.scale.cluster import check_scheduler_address, check_workers, connect, cores
@@ -117,9 +118,12 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     if not names and not varies:
         raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
     mc = MonteCarlo(model, manoeuvre, options, tuple(names), mean, cov, varies, int(seed))
-    _, dt, run = run_timing(mc, vm)
+    u0, dt, run = run_timing(mc, vm)
     check_steps(run, dt, "--t-end" if "t_end" in options else f"the run ({run:g} s, from the "
                 "model; --t-end)")
+    # the model file itself within its kind's physics (its draws may stray: their metrics are
+    # then NaN, counted out of the quantiles' n)
+    check_physics(vm, model_path, u0, dt, duration=run)
     chunk = check_size(mc, runs, chunk)
     t0 = time.perf_counter()
     backend = "dask"
