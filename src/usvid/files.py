@@ -108,16 +108,6 @@ def _resolved(p: str | Path) -> Path | None:
         return None
 
 
-def _same(a: Path, b: Path) -> bool:
-    ra, rb = _resolved(a), _resolved(b)
-    if ra is not None and ra == rb:
-        return True
-    try:
-        return os.path.samefile(a, b)  # hard links
-    except (OSError, ValueError):
-        return False
-
-
 def _is_dir(p: Path) -> bool:
     try:
         return p.is_dir()
@@ -171,6 +161,16 @@ def _split_glob(text: str) -> list[str]:
     return [c for c in os.path.normpath(os.path.abspath(text)).split(os.sep) if c]
 
 
+_MAGIC = re.compile(r"[*?\[]")
+
+
+def _glob_prefix(comps: list[str]) -> str:
+    """The literal folder a glob's components start with, as a path prefix (a quick filter:
+    a path outside it cannot match)."""
+    lead = next((k for k, c in enumerate(comps) if _MAGIC.search(c)), len(comps))
+    return os.sep + os.sep.join(comps[:lead])
+
+
 def _glob_match(parts: list[str], pattern: list[str]) -> bool:
     """Path components ``parts`` matched by the glob components ``pattern`` as
     :func:`glob.glob` with ``recursive=True`` reads them (``**`` spans any number of folders,
@@ -179,6 +179,8 @@ def _glob_match(parts: list[str], pattern: list[str]) -> bool:
 
     if not pattern:
         return not parts
+    if not _MAGIC.search(pattern[0]):  # a plain name: compared, no pattern matching
+        return bool(parts) and parts[0] == pattern[0] and _glob_match(parts[1:], pattern[1:])
     if pattern[0] == "**":
         return any(_glob_match(parts[i:], pattern[1:]) for i in range(len(parts) + 1))
     return bool(parts) and fnmatch.fnmatchcase(parts[0], pattern[0]) \
@@ -201,9 +203,24 @@ def check_outputs(outputs: Iterable[str | Path | None],
     any work. Raises :class:`OutputError` naming the path:
     ``"in.dat: output would overwrite the input in.dat; choose another output path"``.
     """
-    ins = [Path(p) for p in inputs if p is not None and str(p) != ""]
-    pats = [str(g) for g in patterns]
-    globs = [_split_glob(g) for g in pats]
+    # the inputs indexed once (a campaign has thousands of logs): resolved paths, (device,
+    # inode) of those that exist, and the folders among them
+    by_path: dict[Path, Path] = {}
+    by_id: dict[tuple[int, int], Path] = {}
+    folders: dict[Path, Path] = {}
+    for i in (Path(x) for x in inputs if x is not None and str(x) != ""):
+        ri = _resolved(i)
+        if ri is not None:
+            by_path.setdefault(ri, i)
+        try:
+            st = os.stat(i)
+        except (OSError, ValueError):
+            continue
+        by_id.setdefault((st.st_dev, st.st_ino), i)
+        if stat.S_ISDIR(st.st_mode) and ri is not None:
+            folders.setdefault(ri, i)
+    globs = {g: (_glob_prefix(c), c) for g in dict.fromkeys(str(x) for x in patterns)
+             for c in [_split_glob(g)]}
     for out in outputs:
         if out is None:
             continue
@@ -216,15 +233,21 @@ def check_outputs(outputs: Iterable[str | Path | None],
             raise OutputError(f"{str(out) or repr('')}: output is a folder or empty; give a "
                               "file name")
         ro = _resolved(o)
-        for i in ins:
-            ri = _resolved(i)
-            inside = ri is not None and ro is not None and _is_dir(ri) and ri in ro.parents
-            if _same(o, i) or inside:
-                raise OutputError(f"{o}: output would overwrite the input {i}; choose another "
-                                  "output path")
-        names = [_split_glob(str(o))] + ([_split_glob(str(ro))] if ro is not None else [])
-        for g, text in zip(globs, pats, strict=True):
-            if any(_glob_match(n, g) for n in names):
+        hit = by_path.get(ro) if ro is not None else None
+        if hit is None:
+            try:
+                st = os.stat(o)
+                hit = by_id.get((st.st_dev, st.st_ino))  # a hard link of an input
+            except (OSError, ValueError):
+                pass
+        if hit is None and ro is not None:  # inside an input folder (a ROS 2 bag)
+            hit = next((folders[d] for d in ro.parents if d in folders), None)
+        if hit is not None:
+            raise OutputError(f"{o}: output would overwrite the input {hit}; choose another "
+                              "output path")
+        names = {os.path.normpath(os.path.abspath(o)), *([str(ro)] if ro is not None else [])}
+        for text, (prefix, g) in globs.items():
+            if any(n.startswith(prefix) and _glob_match(_split_glob(n), g) for n in names):
                 raise OutputError(f"{o}: output would be read back as an input (it matches "
                                   f"the glob {text!r}); choose another output folder")
         if probe:
