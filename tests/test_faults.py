@@ -556,6 +556,14 @@ def _edited(ws: WS, name: str, base: str, **params) -> str:
     return _model(ws, name, base, edit)
 
 
+def _fifo_report(ws: WS) -> str:
+    """A run folder whose report.html is a FIFO."""
+    d = Path(_run_dir(ws, "run_fifo"))
+    if not (d / "report.html").exists():
+        os.mkfifo(d / "report.html")
+    return str(d)
+
+
 def _mc_turning(model: str) -> list[str]:
     """montecarlo turning circles of ``model``, varying a parameter of its kind."""
     vary = "x_l=normal:3.5,0.1" if json.loads(Path(model).read_text())["kind"] == "threedof" \
@@ -578,6 +586,9 @@ def _second_round() -> None:
         ws.p(DEVICE))), DEVICE)))
     add(("identify-out-fifo", lambda ws: (_ident(ws, str(ws.p("log.csv")), out=str(
         ws.p("fifo"))), "FIFO")))
+    add(("identify-out-symlink-to-device", lambda ws: (_ident(ws, str(ws.p("log.csv")), out=_link(
+        ws, "devlink.json", DEVICE)), "devlink.json")))
+    add(("report-html-is-fifo", lambda ws: (["report", _fifo_report(ws)], "FIFO")))
     add(("identify-report-html-is-log", lambda ws: (
         _ident(ws, _copy(ws, "rep/report.html"), "--report", str(ws.root / "rep")),
         "report.html")))
