@@ -96,7 +96,8 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 _register_all()
 
 for _sig, _handler in _START_UP.items():  # the CLI is imported: back to the usual handlers
-    signal.signal(_sig, _handler)
+    if _handler is not None:  # (None: a handler not set from Python, left as it is now)
+        signal.signal(_sig, _handler)
 
 #: The line printed for each interrupt exit code.
 _INTERRUPTED = {130: "usvid: interrupted", 143: "usvid: terminated"}
@@ -157,7 +158,8 @@ def main(argv: list[str] | None = None) -> int:
         warnings.formatwarning = previous
         if argv is not None:
             for s, h in handlers.items():
-                signal.signal(s, h)
+                if h is not None:
+                    signal.signal(s, h)
     if argv is not None:
         return code
     sys.exit(code)  # (signals are ignored from here: _main's done())
