@@ -96,8 +96,9 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 _register_all()
 
 for _sig, _handler in _START_UP.items():  # the CLI is imported: back to the usual handlers
-    if _handler is not None:  # (None: a handler not set from Python, left as it is now)
-        signal.signal(_sig, _handler)
+    if _handler is None:  # (a handler not set from Python: Python's own defaults)
+        _handler = signal.default_int_handler if _sig == signal.SIGINT else signal.SIG_DFL
+    signal.signal(_sig, _handler)
 
 #: The line printed for each interrupt exit code.
 _INTERRUPTED = {130: "usvid: interrupted", 143: "usvid: terminated"}
