@@ -108,7 +108,7 @@ def test_identify_unknown_kind_is_exit_2(logs, tmp_path, capsys):
     code = main(["identify", str(a), "--format", str(spec), "--model", "abkowitz",
                  "--out", str(tmp_path / "x.json")])
     assert code == 2
-    assert "`kind` must be one of" in capsys.readouterr().err
+    assert "--model 'abkowitz': not a model kind" in capsys.readouterr().err
 
 
 def test_identify_kvlcc2_cli(hsva_dir, tmp_path, capsys):

@@ -47,9 +47,14 @@ def register(app: typer.Typer) -> None:
                             "interval.")] = 0.95,
     ) -> None:
         """Fit Ma et al.'s relative turning diameter D/L(Fr, delta) by CGA and least squares."""
+        from usvid.commands._common import check_number
+        from usvid.files import check_input
         from usvid.identify.turning_diameter import fit_turning_diameter, load_turning_table
 
         check_seed(seed)
+        check_number(length, "--length", lo=0.0, hi=500.0, lo_open=True, unit="m")
+        if table is not None:  # a regular file (a FIFO would block the reader)
+            check_input(table, "turning-diameter table")
         if (predict_fr is None) != (predict_delta_deg is None):
             raise UsvidError("--predict-fr and --predict-delta-deg go together (give both)")
         if not 0.0 < level < 1.0:

@@ -34,6 +34,7 @@ from usvid.commands._common import (
     emit_json,
     print_validation,
     psi_switch_option,
+    report_files,
     say_format,
 )
 from usvid.errors import UsvidError
@@ -102,6 +103,30 @@ def _spec_files(fmt: str) -> list[Path]:
     return [p] if p is not None and p.is_file() else []
 
 
+def check_options(kind: str, method: str | None, *, window_s: float, overlap: float, lam: float,
+                  norrbin: str) -> None:
+    """The options of ``usvid identify`` at the edge, each error naming its option."""
+    from usvid.commands._common import check_number
+    from usvid.identify.estimator import METHODS
+
+    kinds = kind_names()
+    if kind not in kinds:
+        raise UsvidError(f"--model {kind!r}: not a model kind (choose one of: "
+                         f"{', '.join(kinds)})")
+    if method is not None and method not in METHODS:
+        raise UsvidError(f"--method {method!r}: not a method (choose one of: "
+                         f"{', '.join(METHODS)})")
+    if norrbin not in ("joint", "two_step"):
+        raise UsvidError(f"--norrbin {norrbin!r}: choose joint or two_step")
+    check_number(window_s, "--window-s", lo=0.0, hi=MAX_WINDOW_S, lo_open=True, unit="s")
+    check_number(overlap, "--overlap", lo=0.0, hi=1.0, hi_open=True)
+    check_number(lam, "--lam", lo=0.0, hi=1.0, lo_open=True)
+
+
+#: Longest output-error / metric window [s] (a log of an hour; longer is one whole log).
+MAX_WINDOW_S = 3600.0
+
+
 def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in vessel or []:
@@ -115,8 +140,9 @@ def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float
         if not math.isfinite(out[key.strip()]):
             raise UsvidError(f"--vessel {item!r}: the value must be finite")
     if x_l is not None:
-        if not math.isfinite(x_l):
-            raise UsvidError(f"--x-l must be a finite number of metres (got {x_l!r})")
+        from usvid.commands._common import check_number
+
+        check_number(x_l, "--x-l", lo=-1000.0, hi=1000.0, unit="m")
         out["x_l"] = x_l
     return out
 
@@ -136,11 +162,17 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str | None = No
     from usvid.identify.estimator import ModelEstimator
     from usvid.identify.validation import validate_model
     from usvid.io.modelfile import save_model
+    from usvid.prep.logs import input_paths
 
     if not logs:
         raise UsvidError("identify: give at least one LOG")
-    inputs = [*logs, *(validate or []), *(turning or []), *_spec_files(fmt)]
-    check_outputs([out], inputs)  # before any work: never overwrite an input
+    check_options(kind, method, window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin)
+    psi_switch_option(psi_deg)
+    # the files read (LOG:T0:T1 trims resolved to their files), checked against every output
+    # before any work: never overwrite an input
+    inputs = [*input_paths([*logs, *(validate or []), *(turning or [])], t_start, t_end),
+              *_spec_files(fmt)]
+    check_outputs([out, *report_files(report)], inputs)
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
                          norrbin=norrbin, particulars=_particulars(x_l, vessel),
                          checks="record" if accept_failed_checks else "error")

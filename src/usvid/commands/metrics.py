@@ -23,7 +23,6 @@ from typing import Annotated, Any
 import typer
 
 from usvid.commands._common import FormatOpt, JsonOpt, say_format
-from usvid.errors import UsvidError
 
 LogArg = Annotated[Path, typer.Argument(help="Log file to measure.", show_default=False)]
 
@@ -38,13 +37,12 @@ TurnOpt = Annotated[float, typer.Option(
 def metrics_log(log: Path, fmt: str, psi_deg: float | None = None,
                 min_turn_deg: float = 180.0) -> dict[str, Any]:
     """The JSON object of ``usvid metrics`` for one log."""
+    from usvid.commands._common import check_number, check_psi_deg
     from usvid.manoeuvres import measured_metrics
     from usvid.prep.logs import read_log
 
-    if psi_deg is not None and not (math.isfinite(psi_deg) and psi_deg > 0):
-        raise UsvidError(f"--psi-deg must be > 0 deg (got {psi_deg!r})")
-    if not (math.isfinite(min_turn_deg) and min_turn_deg > 0):
-        raise UsvidError(f"--min-turn-deg must be > 0 deg (got {min_turn_deg!r})")
+    check_psi_deg(psi_deg)
+    check_number(min_turn_deg, "--min-turn-deg", lo=0.0, hi=3600.0, lo_open=True, unit="deg")
     trial = read_log(log, fmt)
     say_format([trial], [log])
     ms = measured_metrics(

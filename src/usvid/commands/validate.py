@@ -26,6 +26,7 @@ from usvid.commands._common import (
     TStartOpt,
     print_validation,
     psi_switch_option,
+    report_files,
 )
 
 ModelArg = Annotated[Path, typer.Argument(help="Model file (JSON) to validate.",
@@ -49,6 +50,7 @@ def validate_logs(model_path: Path, logs: list[str], fmt: str = "auto", *,
 
     if not logs:
         raise UsvidError("validate: give at least one LOG")
+    psi_switch_option(psi_deg)
     model = load_model(model_path)
     trials = prepare_logs(logs, fmt, t_start, t_end)
     say_format(trials, logs)
@@ -66,7 +68,14 @@ def register(app: typer.Typer) -> None:
                      report: ReportOpt = None) -> None:
         """Validate a model file on logs: predicted vs measured manoeuvres, free-run replay."""
         from usvid.commands._common import emit_json
+        from usvid.files import check_outputs
+        from usvid.prep.logs import input_paths
 
+        # before any work: the report's files never overwrite an input (a run.json given as
+        # the model file or a log, LOG:T0:T1 trims resolved to their files)
+        spec = [Path(fmt)] if Path(fmt).is_file() else []
+        check_outputs(report_files(report),
+                      [model_path, *input_paths(logs, t_start, t_end), *spec])
         out, res = validate_logs(model_path, logs, fmt, psi_deg=psi_deg, t_start=t_start,
                                  t_end=t_end)
         if report is not None:

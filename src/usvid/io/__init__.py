@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from usvid.errors import FormatSpecError, LogReadError
+from usvid.files import check_input
 from usvid.io._assemble import read_log_bytes
 from usvid.io.ardupilot import (
     is_dataflash_bin,
@@ -218,8 +219,8 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
     """
     fs = None if isinstance(spec, str) and spec == "auto" else coerce_spec(spec)
     p = Path(path)
-    if not p.exists():
-        raise LogReadError(f"{p}: no such file")
+    # a regular file or a folder (a ROS 2 bag): a FIFO or a device is refused before it is opened
+    check_input(p, "log", folder=True, error=LogReadError)
     kind = detect_message_log(p)
     if p.is_dir() and kind is None:
         raise LogReadError(f"{p}: is a folder, not a log file (nor a ROS 2 bag with "

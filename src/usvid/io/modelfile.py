@@ -48,7 +48,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
 from usvid.errors import ModelFileError, UsvidError
-from usvid.files import jsonable, load_json_text, write_atomic
+from usvid.files import jsonable, load_json_text, read_input_text, write_atomic
 from usvid.models import registry
 from usvid.models.model import VesselModel
 from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo
@@ -511,15 +511,8 @@ def load_model(path: str | Path) -> Any:
     """
     path = Path(path)
     source = path.name
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ModelFileError(f"{path}: model file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ModelFileError(f"{path}: cannot read model file ({exc})") from None
-    if len(text) > MAX_MODEL_CHARS:
-        raise ModelFileError(f"{source}: {len(text)} characters; a model file has at most "
-                             f"{MAX_MODEL_CHARS}")
+    # a regular file of at most MAX_MODEL_CHARS bytes, UTF-8 (a FIFO or /dev/zero is refused)
+    text = read_input_text(path, "model file", MAX_MODEL_CHARS, error=ModelFileError)
     try:
         # bounded nesting and integer size (usvid.files); NaN / Infinity literals are not JSON:
         # report them as a bad value of their field below

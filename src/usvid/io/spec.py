@@ -84,7 +84,7 @@ from pathlib import Path
 from typing import Any
 
 from usvid.errors import FormatSpecError, UsvidError
-from usvid.files import load_yaml_text
+from usvid.files import load_yaml_text, read_input_text, special_file
 from usvid.io import units as _units
 from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Vessel
 
@@ -584,15 +584,8 @@ def load_spec(path: str | Path) -> FormatSpec:
     Raises :class:`FormatSpecError` for an unreadable file, bad YAML or any schema violation.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise FormatSpecError(f"{p}: cannot read format spec ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise FormatSpecError(f"{p}: format spec is not UTF-8 text") from None
-    if len(text) > MAX_SPEC_BYTES:
-        raise FormatSpecError(f"{p}: {len(text)} characters; a format spec has at most "
-                              f"{MAX_SPEC_BYTES}")
+    # a regular file of at most MAX_SPEC_BYTES bytes, UTF-8 (a FIFO or /dev/zero is refused)
+    text = read_input_text(p, "format spec", MAX_SPEC_BYTES, error=FormatSpecError)
     try:
         # yaml.SafeLoader with bounds on nesting and alias expansion (usvid.files)
         d = load_yaml_text(text, str(p))
@@ -645,7 +638,7 @@ def coerce_spec(spec: str | Path | FormatSpec | dict | None) -> FormatSpec | Non
     if isinstance(spec, dict):
         return parse_spec(spec)
     p = Path(spec)
-    if p.is_file():
+    if p.is_file() or special_file(p) is not None:  # (a FIFO or device: load_spec says so)
         return load_spec(p)
     if isinstance(spec, str) and "/" not in spec and "\\" not in spec:
         stem = spec[:-5] if spec.endswith(".yaml") else spec

@@ -20,7 +20,10 @@ from usvid.io import read_trial
 from usvid.prep.prepare import PreparedTrial, prepare
 from usvid.trial import Trial
 
-__all__ = ["LogArg", "parse_log_arg", "prepare_logs", "read_log", "read_trimmed"]
+__all__ = ["LogArg", "input_paths", "parse_log_arg", "prepare_logs", "read_log", "read_trimmed"]
+
+#: Latest trim time [s from a log's first record]: a year of logging.
+MAX_TRIM_S = 3.2e7
 
 _TRIM = re.compile(r"^(?P<path>.+?):(?P<t0>[^:]*):(?P<t1>[^:]*)$")
 
@@ -59,6 +62,10 @@ def parse_log_arg(arg: str | Path, t_start: float | None = None,
         out = LogArg(Path(text))
     else:
         out = LogArg(Path(m["path"]), _number(m["t0"], text, "T0"), _number(m["t1"], text, "T1"))
+    for opt, v in (("--t-start", t_start), ("--t-end", t_end)):
+        if v is not None and not (math.isfinite(v) and 0 <= v <= MAX_TRIM_S):
+            raise UsvidError(f"{opt} must be in [0, {MAX_TRIM_S:g}] s from the log's first "
+                             f"record (got {v!r})")
     if out.t0 is None:
         out.t0 = t_start
     if out.t1 is None:
@@ -79,6 +86,14 @@ def read_log(path: str | Path, fmt: str) -> Trial:
         raise LogReadError(
             f"{path}: only {len(trial)} valid record(s), nothing to work on (rejected: {rej})")
     return trial
+
+
+def input_paths(args: Sequence[str | Path], t_start: float | None = None,
+                t_end: float | None = None) -> list[Path]:
+    """The files of log arguments (``LOG`` or ``LOG:T0:T1``, :func:`parse_log_arg`): what the
+    command reads, for the check of its outputs against its inputs
+    (:func:`usvid.files.check_outputs`). Refuses a bad trim or ``--t-start``/``--t-end``."""
+    return [parse_log_arg(a, t_start, t_end).path for a in args]
 
 
 def read_trimmed(arg: str | Path, fmt: str, t_start: float | None = None,

@@ -25,6 +25,15 @@ autopilot`` and ``usvid sim`` use it) to every manoeuvre; run i draws its noise 
 
 A run that diverges, or whose draw failed, keeps its row with ``success`` false and NaN
 metrics.
+
+Where the runs go (:func:`use_dask`): on a small machine (up to :data:`SMALL_MACHINE_CORES`
+cores) with no scheduler given and no more workers than cores, in this process, chunk after
+chunk, each chunk's lanes spread over the kernel's threads (no cluster to start, no process to
+import the kernel again, no port opened); otherwise as Dask tasks (a remote scheduler, or
+``--workers`` above the cores). The results are identical either way. Sizes are bounded
+(:func:`check_size`): at most :data:`MAX_RUNS` runs and :data:`MAX_TASKS` chunks, the results
+within the available memory, and a chunk within :data:`CHUNK_BYTES` of recorded trajectories
+(a turning chunk is made smaller when its trajectories would not fit).
 """
 
 from __future__ import annotations
@@ -40,17 +49,17 @@ import numpy as np
 import pandas as pd
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
-from usvid.errors import UsvidError
+from usvid.errors import SimulationError, UsvidError
 from usvid.io.modelfile import model_from_dict
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
 from usvid.manoeuvres.metrics import turning_metrics
 from usvid.models.uncertainty import BLOCK, Distribution, Sample, Uncertainty, lane_errors
-from usvid.scale.cluster import map_ordered
+from usvid.scale.cluster import available_memory, map_ordered
 from usvid.sim.runs import default_t_end
 from usvid.sim.simulate import approach_speed, simulate
 
-__all__ = ["BLOCK", "MANOEUVRES", "MonteCarlo", "Vary", "parse_vary", "quantiles",
-           "run_chunk", "run_montecarlo"]
+__all__ = ["BLOCK", "MANOEUVRES", "MAX_RUNS", "MonteCarlo", "Vary", "check_size", "parse_vary",
+           "quantiles", "run_chunk", "run_montecarlo", "run_timing", "use_dask"]
 
 MANOEUVRES = ("zigzag", "turning", "course-keeping")
 METRICS = {
@@ -59,6 +68,17 @@ METRICS = {
     "turning": ("advance_m", "transfer_m", "tactical_diameter_m"),
     "course-keeping": ("itae", "iae", "max_rudder_deg"),
 }
+#: Most runs of one Monte-Carlo command: their results take about 100 bytes a run in memory,
+#: three times over while the Parquet file is made (10 million: ~3 GB), and 10 million 3-DOF
+#: zig-zags of 60 s take about 15 minutes of CPU on this 2-core machine (100,000 in 8 s).
+MAX_RUNS = 10_000_000
+#: Most chunks (tasks) of one command: each is a Dask future and a result frame to concatenate.
+MAX_TASKS = 10_000
+#: Memory budget of the trajectories one chunk records [bytes] (turning: x, y, psi, delta
+#: every 5 steps of every lane).
+CHUNK_BYTES = 256 * 2**20
+#: Most cores of a "small" machine, on which the runs stay in this process (:func:`use_dask`).
+SMALL_MACHINE_CORES = 8
 _VARY = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*(normal|uniform)\s*:\s*([^,]+),([^,]+)$")
 
 
@@ -113,7 +133,8 @@ class MonteCarlo:
         if not 0 <= int(self.seed) < 2**53:  # (the kernel's noise streams: whole floats)
             raise UsvidError(f"--seed must be in 0..2^53-1 (got {self.seed})")
         vm = model_from_dict(self.model)
-        known = {f.name for f in dataclasses.fields(vm.dynamics)}
+        # the kind's numeric parameters (not its options such as sway_force, nor a thrust law)
+        known = {p.name for p in type(vm.dynamics).param_specs() if p.submodel is None}
         for name in (*self.names, *(v.name for v in self.vary)):
             if name not in known:
                 raise UsvidError(f"--vary {name}: not a parameter of model kind "
@@ -138,6 +159,73 @@ class MonteCarlo:
         return self._uncertainty.sample(lo, hi, int(self.seed))
 
 
+def run_timing(mc: MonteCarlo, vm: Any) -> tuple[float, float, float]:
+    """(approach speed [m/s], step [s], run length [s]) of the runs: the options when given
+    (0 is a value, not "the default"), else the model's approach speed
+    (:func:`usvid.sim.simulate.approach_speed`) and
+    :func:`usvid.sim.runs.default_t_end`."""
+    o = mc.options
+    try:
+        u0 = approach_speed(vm, o.get("speed"))
+    except SimulationError as e:
+        raise UsvidError(f"the model file has no vessel.speed: give --speed [m/s] ({e})") from None
+    if not (math.isfinite(u0) and u0 > 0):
+        raise UsvidError(f"--speed must be > 0 m/s (got {u0!r})")
+    dt = float(o.get("dt", 0.02))
+    t_end = o.get("t_end")
+    if t_end is None:
+        t_end = default_t_end(vm, u0)
+    if not (math.isfinite(dt) and dt > 0 and math.isfinite(t_end) and t_end > 0):
+        raise UsvidError(f"--dt and --t-end must be > 0 s (got {dt!r}, {t_end!r})")
+    return float(u0), dt, float(t_end)
+
+
+def chunk_bytes(mc: MonteCarlo) -> int:
+    """Trajectory memory one run of a chunk records [bytes] (turning: 4 channels every 5
+    steps; the other manoeuvres keep only their online metrics)."""
+    if mc.manoeuvre != "turning":
+        return 0
+    _, dt, t_end = run_timing(mc, model_from_dict(mc.model))
+    return 8 * 4 * (int(t_end / dt) // 5 + 2)
+
+
+def check_size(mc: MonteCarlo, runs: int, chunk: int) -> int:
+    """Check ``--runs`` and ``--chunk`` (one-line :class:`UsvidError` naming the option and the
+    bound) and return the chunk to use: ``chunk``, made smaller when one chunk's trajectories
+    would exceed :data:`CHUNK_BYTES` (the results do not depend on the chunking)."""
+    if not 1 <= runs <= MAX_RUNS:
+        raise UsvidError(f"--runs must be in 1..{MAX_RUNS} (got {runs}): the results take "
+                         "about 100 bytes a run in memory, three times over while written; "
+                         "split a larger study over several --seed values")
+    if chunk < 1:
+        raise UsvidError(f"--chunk must be >= 1 (got {chunk})")
+    tasks = -(-runs // chunk)
+    if tasks > MAX_TASKS:
+        raise UsvidError(f"--chunk {chunk} cuts --runs {runs} into {tasks} tasks; at most "
+                         f"{MAX_TASKS}: give --chunk {-(-runs // MAX_TASKS)} or more")
+    row = 8 * (2 + len(mc.parameters) + len(mc.metrics)) + 1
+    mem = available_memory()
+    if mem is not None and 3 * row * runs > mem:
+        raise UsvidError(f"--runs {runs}: the results need about {3 * row * runs / 2**30:.1f} "
+                         f"GB of memory and {mem / 2**30:.1f} GB are available")
+    per_run = chunk_bytes(mc)
+    if per_run and chunk * per_run > CHUNK_BYTES:
+        chunk = max(1, CHUNK_BYTES // per_run)
+    return min(chunk, runs)
+
+
+def use_dask(scheduler: str | None, workers: int | None, cores: int) -> bool:
+    """True when the runs go to Dask: a scheduler is given, ``workers`` exceeds ``cores``, or
+    the machine has more than :data:`SMALL_MACHINE_CORES` cores. Else they run in this
+    process: on a small machine a local cluster only adds worker processes that import and
+    load the kernel again (~1 s of CPU each) and results to serialise, for the same cores."""
+    if scheduler:
+        return True
+    if workers is not None and workers > cores:
+        return True
+    return cores > SMALL_MACHINE_CORES
+
+
 def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> pd.DataFrame:
     """Simulate runs lo..hi-1: one row per run (``run``, the sampled parameters [SI],
     ``success``, the metrics). ``threads``: numba threads for this call (1 on Dask workers)."""
@@ -156,9 +244,7 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
             v[i] = nominal[n]
     model = dataclasses.replace(vm, dynamics=vm.dynamics.replace(**params))
     o = mc.options
-    u0 = float(approach_speed(vm, o.get("speed")))
-    dt = float(o.get("dt", 0.02))
-    t_end = o.get("t_end") or default_t_end(vm, u0)
+    u0, dt, t_end = run_timing(mc, vm)
     rows: dict[str, Any] = {"run": np.arange(lo, hi)}
     rows.update(drawn.values)
     rows["redraws"] = drawn.redraws
@@ -169,7 +255,8 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     delta = math.radians(o.get("delta_deg", 10.0 if mc.manoeuvre == "zigzag" else 35.0))
     with np.errstate(all="ignore"):
         if mc.manoeuvre == "zigzag":
-            psi_sw = math.radians(o.get("psi_deg") or math.degrees(delta))
+            psi = o.get("psi_deg")
+            psi_sw = delta if psi is None else math.radians(psi)
             logic = ZigZag(np.full(B, delta), psi_sw)
             nsteps = max(1, round(t_end / dt))
             res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=nsteps,
@@ -212,16 +299,14 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
 
 
 def run_montecarlo(mc: MonteCarlo, runs: int, *, chunk: int = 4096, client: Any = None,
-                   progress: bool = True) -> pd.DataFrame:
-    """All ``runs`` runs, in chunks of ``chunk`` runs: as Dask tasks on ``client``, else in
-    this process. One row per run, ordered by run (identical either way)."""
-    if runs < 1:
-        raise UsvidError(f"--runs must be >= 1 (got {runs})")
-    if chunk < 1:
-        raise UsvidError(f"--chunk must be >= 1 (got {chunk})")
+                   progress: bool = True, threads: int | None = None) -> pd.DataFrame:
+    """All ``runs`` runs, in chunks of ``chunk`` runs (:func:`check_size`): as Dask tasks on
+    ``client``, else in this process on ``threads`` kernel threads (default numba's). One row
+    per run, ordered by run (identical either way)."""
+    chunk = check_size(mc, runs, chunk)
     bounds = [(mc, lo, min(runs, lo + chunk)) for lo in range(0, runs, chunk)]
     if client is None:
-        parts = [run_chunk(*b) for b in bounds]
+        parts = [run_chunk(*b, threads) for b in bounds]
     else:
         parts = map_ordered(client, run_chunk, [(*b, 1) for b in bounds], progress=progress,
                             label="montecarlo")
