@@ -4,8 +4,10 @@ A model outside the physics of a surface vessel gives numbers that look like res
 circle" to port under starboard rudder, negative tactical diameters of a vessel backing, IMO
 "passed"; autopilot gains of 1e-13): ``usvid simulate`` and ``usvid autopilot`` refuse it with
 the reason instead. The check is a probe, the same for every kind: a step of the rudder to
-starboard at the largest angle (35 deg, or the steering gear's limit when smaller) from the
-approach speed, :data:`PROBE_S` long, and it refuses a model
+starboard at the manoeuvre's rudder angle (a turning test's or zig-zag's ``--delta-deg``; else
+the largest angle, 35 deg or the steering gear's limit when smaller: a model is judged where it
+is used, not where it is extrapolated) from the approach speed, :data:`PROBE_S` long, and it
+refuses a model
 
 * whose shaft speed ``n`` is not positive (the propeller runs astern: no turning test);
 * that turns to port: the heading, once it has changed by :data:`TURN_DEG`, has decreased
@@ -49,12 +51,14 @@ def _hint(model: Any, setting: str = "") -> str:
 
 
 def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
-                  strict: bool = False, setting: str = "", duration: float = PROBE_S) -> None:
+                  strict: bool = False, setting: str = "", duration: float = PROBE_S,
+                  angle: float | None = None) -> None:
     """Refuse ``model`` (loaded from ``path``) with a :class:`PhysicsError` when the probe (the
     module docstring) shows it outside the physics of a surface vessel at ``u0`` [m/s], step
     ``dt`` [s]; ``strict`` also refuses a probe that diverges. ``setting``: an option that
     changed the model (``"--rps 1e-06"``), named in the message. ``duration`` [s]: the run the
-    model is wanted for; the probe is no longer (at most :data:`PROBE_S`)."""
+    model is wanted for; the probe is no longer (at most :data:`PROBE_S`). ``angle`` [rad]: the
+    probe's rudder angle (default: 35 deg or the steering gear's limit)."""
     from usvid.manoeuvres.logic import Turning
     from usvid.sim.simulate import simulate
 
@@ -66,7 +70,8 @@ def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
     if isinstance(n, (int, float)) and not isinstance(n, bool) and n <= 0:
         raise PhysicsError(f"{where}: the shaft speed n = {n:g} rps is not positive (the "
                            f"propeller runs astern; give n > 0 or --rps){hint}")
-    angle = min(math.radians(35.0), float(model.servo.max_angle))
+    limit = min(math.radians(35.0), float(model.servo.max_angle))
+    angle = limit if angle is None else min(abs(angle), float(model.servo.max_angle))
     with np.errstate(all="ignore"):
         res = simulate(model, Turning(delta=angle), t_end=min(PROBE_S, duration), dt=dt,
                        u0=u0)

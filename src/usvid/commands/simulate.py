@@ -96,10 +96,11 @@ def _rps_of(model: Any) -> float | None:
 
 
 def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | None = None,
-           rps: float | None = None) -> tuple[Any, float]:
+           rps: float | None = None, delta_deg: float | None = None) -> tuple[Any, float]:
     """Check ``--dt``, ``--speed`` (and a given ``--t-end``), load the model file, set its shaft
-    speed to ``--rps`` and check its physics (:func:`usvid.commands._physics.check_physics`);
-    returns (model, u0 [m/s])."""
+    speed to ``--rps`` and check its physics (:func:`usvid.commands._physics.check_physics`,
+    probed at the manoeuvre's rudder angle ``delta_deg`` when it has one); returns
+    (model, u0 [m/s])."""
     from usvid.commands._physics import check_physics
     from usvid.sim.runs import default_t_end
 
@@ -113,7 +114,8 @@ def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | N
     check_steps(run, dt, "--t-end" if t_end is not None else f"the run ({run:g} s, from the "
                 "model; --t-end)")
     check_physics(model, model_path, u0, dt, duration=run,
-                  setting=f"--rps {rps:g}" if rps is not None else "")
+                  setting=f"--rps {rps:g}" if rps is not None else "",
+                  angle=None if delta_deg is None else math.radians(abs(delta_deg)))
     return model, u0
 
 
@@ -197,7 +199,7 @@ def zigzag_cmd(
     check_rudder_deg(delta_deg)
     check_psi_deg(psi_deg)
     psi_deg = delta_deg if psi_deg is None else psi_deg
-    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps, delta_deg=delta_deg)
     res, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
                         t_end=t_end, dt=dt, u0=u0)
     if not m.overshoot_deg:
@@ -238,7 +240,7 @@ def turning_cmd(
     from usvid.sim.runs import run_turning
 
     check_rudder_deg(delta_deg, signed=True)
-    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps, delta_deg=delta_deg)
     res, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
     missing = [k for k in ("advance_m", "transfer_m", "tactical_diameter_m")
                if not math.isfinite(getattr(m, k))]
