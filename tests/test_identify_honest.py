@@ -217,35 +217,12 @@ def test_defaults_on_the_twin_thruster_run(twin_dir, tmp_path, capsys):
     _standard_runs_inside_the_envelope(out, capsys)
 
 
-ESSO = SHARED_DATA / "esso_osaka"
-#: A test-local spec of the Esso Osaka runs (the motion channels; the shipped spec esso_osaka
-#: with the wind channels is another branch's).
-ESSO_SPEC = """reader: table
-delimiter: ","
-header: true
-columns:
-  t:     {col: "t [s]", unit: s}
-  x:     {col: "x_position_mid [m]", unit: m}
-  y:     {col: "y_position_mid [m]", unit: m}
-  u:     {col: "u_velo [m/s]", unit: m/s}
-  v:     {col: "vm_velo [m/s]", unit: m/s}
-  psi:   {col: "psi_hat [rad]", unit: rad}
-  r:     {col: "r_angvelo [rad/s]", unit: rad/s}
-  n:     {col: "n_prop [rps]", unit: rps}
-  delta: {col: "delta_rudder [rad]", unit: rad}
-vessel: {length: 3.0, beam: 0.489, draft: 0.201, mass: 244.6, block_coefficient: 0.830}
-"""
-
-
-def test_defaults_on_the_esso_osaka_runs(tmp_path, capsys):
-    if not ESSO.is_dir():
-        pytest.skip(f"real data not found at {ESSO}")
-    spec = tmp_path / "esso.yaml"
-    spec.write_text(ESSO_SPEC)
-    logs = [str(ESSO / f"zigzag_31-Jul-2020_13_{s}.csv") for s in ("22_52", "29_19")]
+def test_defaults_on_the_esso_osaka_runs(esso_dir, tmp_path, capsys):
+    """The shipped spec esso_osaka (motion, wind and the lab's vessel particulars)."""
+    logs = [str(esso_dir / f"zigzag_31-Jul-2020_13_{s}.csv") for s in ("22_52", "29_19")]
     for kind in ("nomoto1", "norrbin"):
         out = tmp_path / f"{kind}.json"
-        code = main(["identify", *logs, "--format", str(spec), "--model", kind, "--out",
+        code = main(["identify", *logs, "--format", "esso_osaka", "--model", kind, "--out",
                      str(out)])
         err = capsys.readouterr().err
         if code == 0:  # written: it passed its checks
