@@ -2,10 +2,10 @@
 (estimator, validation, report) uses that prepared trial.
 
 Counted here: the series builds (:func:`usvid.identify.series.build_series`), the heading-glitch
-repairs (:func:`usvid.prep.glitches.repair_heading`) and the manoeuvre segmentations
-(:func:`usvid.manoeuvres.detect.segment_trial`) of one command. Before the prepared trial, one
-``identify --validate --report`` of 3 training and 2 held-out HSVA logs built 15 series, repaired
-12 headings and segmented 7 times (5 logs); now 5 of each.
+repairs of a trial (:func:`usvid.prep.glitches.repair_trial_heading`) and the manoeuvre
+segmentations (:func:`usvid.manoeuvres.detect.segment_trial`) of one command. Before the
+prepared trial, one ``identify --validate --report`` of 3 training and 2 held-out HSVA logs built
+15 series, repaired 12 headings and segmented 7 times (5 logs); now 5 of each.
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def counts(monkeypatch):
     """Calls of the series builder, the heading repair and the segmentation, wherever a module
     imported them."""
     n: collections.Counter = collections.Counter()
-    for mod, name in ((series_mod, "build_series"), (glitches_mod, "repair_heading"),
+    for mod, name in ((series_mod, "build_series"), (glitches_mod, "repair_trial_heading"),
                       (detect_mod, "segment_trial")):
         f = getattr(mod, name)
 
@@ -88,7 +88,7 @@ def test_identify_validate_report_prepares_each_log_once(logs, counts, tmp_path,
     assert code == 0, capsys.readouterr().err
     # two logs (one training, one held out): one of each per log, for the fit, the validation
     # of both (identify --validate, the report's training section) and the prediction bands
-    assert counts == {"build_series": 2, "repair_heading": 2, "segment_trial": 2}
+    assert counts == {"build_series": 2, "repair_trial_heading": 2, "segment_trial": 2}
 
 
 def test_validate_report_prepares_each_log_once(logs, counts, tmp_path, capsys):
@@ -96,7 +96,7 @@ def test_validate_report_prepares_each_log_once(logs, counts, tmp_path, capsys):
                                   "--format", logs["spec"], "--report", tmp_path / "rep",
                                   "--json")])
     assert code == 0, capsys.readouterr().err
-    assert counts == {"build_series": 2, "repair_heading": 2, "segment_trial": 2}
+    assert counts == {"build_series": 2, "repair_trial_heading": 2, "segment_trial": 2}
 
 
 def test_prepared_trial_passes_through_and_remembers():
