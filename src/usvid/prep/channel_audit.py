@@ -62,6 +62,7 @@ from usvid.prep.glitches import (
 )
 from usvid.prep.kinematics import earth_to_body
 from usvid.prep.prepare import prepare
+from usvid.prep.resample import stream_rate
 from usvid.prep.stale import POSITION_GROUPS, detect_stale
 from usvid.trial import Finding, Trial
 
@@ -308,25 +309,6 @@ def _check_saturation(trial: Trial, chans: list[str], hard_over_deg: float = 34.
 
 
 # --- the time base of multi-rate logs ----------------------------------------------------------
-def stream_rate(t: np.ndarray, y: np.ndarray) -> float | None:
-    """Samples per second [Hz] of channel ``y`` (times ``t`` [s], NaN where it has no sample)
-    over the stretches where its stream flows: its samples over their time span, less the gaps
-    longer than max(1 s, 5 x its mean spacing). Unlike the median spacing (a millisecond for a
-    gateway that stamps ten records in a burst every 0.3 s) it is the rate of the messages.
-    None with fewer than three samples."""
-    ts = np.unique(t[np.isfinite(y) & np.isfinite(t)])
-    if len(ts) < 3:
-        return None
-    d = np.diff(ts)
-    span = float(ts[-1] - ts[0])
-    if span <= 0:
-        return None
-    gap = d > max(1.0, 5.0 * span / len(d))
-    flowing = span - float(d[gap].sum())
-    n = len(d) - int(gap.sum())
-    return n / flowing if flowing > 0 and n > 0 else None
-
-
 def grid_rate(trial: Trial, channels: list[str]) -> float | None:
     """The grid rate [Hz] of the physics checks: the fastest :func:`stream_rate` of
     ``channels``, at most :data:`MAX_GRID_HZ`; None when no channel has a rate."""
