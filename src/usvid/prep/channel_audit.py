@@ -27,7 +27,8 @@ Verdicts only where the data support them: the channels are compared on a grid a
 the fastest *message stream* (:func:`stream_rate`: samples per second where the stream flows,
 not the spacing of the merged records, which a gateway stamping in bursts makes a millisecond);
 the physics checks need :data:`MIN_PHYSICS_S` of log, the yaw-rate check a nearly level
-vehicle and some turning, the rudder-sign check a vessel under way (:data:`MIN_SPEED`). Every
+vehicle and some turning, the rudder-sign check a vessel under way (:mod:`usvid.prep.under_way`,
+the one definition: speed at least :data:`MIN_SPEED` on :data:`MIN_MOVING_S` of the log). Every
 error says what to do, with the format-spec line that does it for the log's reader
 (:func:`spec_hint`). Heading glitches and steps are those of :mod:`usvid.prep.glitches` (the
 one definition the manoeuvre metrics use too).
@@ -64,6 +65,8 @@ from usvid.prep.kinematics import earth_to_body
 from usvid.prep.prepare import prepare
 from usvid.prep.resample import stream_rate
 from usvid.prep.stale import POSITION_GROUPS, detect_stale
+from usvid.prep.under_way import MIN_MOVING_S, MIN_SPEED
+from usvid.prep.under_way import moving as moving_samples
 from usvid.trial import Finding, Trial
 
 RAD = 180.0 / np.pi
@@ -72,9 +75,9 @@ RAD = 180.0 / np.pi
 MAX_GRID_HZ = 50.0
 #: Physics checks need at least this much log [s].
 MIN_PHYSICS_S = 10.0
-#: The rudder sign is judged only on samples where the vessel makes way [m/s] (a boat at the
-#: dock turns with wind and lines, not with its rudder), on at least MIN_MOVING_S of them.
-MIN_SPEED, MIN_MOVING_S = 0.25, 20.0
+#: The rudder sign is judged only on samples where the vessel makes way (a boat at the dock
+#: turns with wind and lines, not with its rudder), on at least MIN_MOVING_S [s] of them:
+#: :mod:`usvid.prep.under_way`, the one definition (MIN_SPEED [m/s]).
 #: The yaw-rate check compares a body-axis rate with d(psi)/dt: only for a nearly level vehicle
 #: (roll and pitch within this [rad] on 90 % of the samples; a banked aircraft's body rate is no
 #: heading rate).
@@ -840,27 +843,12 @@ def _nomoto_sign(prep: Trial, cmd: np.ndarray, dt: float, window_s: float,
     return {"a": float(coef[0] / np.std(cmd[ok])), "t_value": tval, "n": int(ok.sum())}
 
 
-def _moving(prep: Trial, dt: float) -> np.ndarray | None:
-    """Samples where the vessel makes way (speed over :data:`MIN_SPEED`): from a measured speed
-    (U, sog, hypot(u, v)) or the positions; None when the log tells no speed."""
-    for ch in ("U", "sog"):
-        if prep.has(ch):
-            return np.nan_to_num(prep[ch]) > MIN_SPEED
-    if prep.has("u"):
-        v = np.nan_to_num(prep["v"]) if prep.has("v") else 0.0
-        return np.hypot(np.nan_to_num(prep["u"]), v) > MIN_SPEED
-    if prep.has("x") and prep.has("y"):
-        sp = np.hypot(savgol_derivative(prep["x"], dt, 2.0), savgol_derivative(prep["y"], dt, 2.0))
-        return np.nan_to_num(sp) > MIN_SPEED
-    return None
-
-
 def _check_rudder_sign(prep: Trial, dt: float, window_s: float) -> list[Finding]:
     out: list[Finding] = []
     if not prep.has("psi"):
         return out
     t = prep.t
-    moving = _moving(prep, dt)
+    moving = moving_samples(prep)
     cmds = [ch for ch in ("delta", "delta_cmd") if prep.has(ch)]
     pair = next(((a, b) for a, b in THRUSTER_PAIRS if prep.has(a) and prep.has(b)), None)
     if moving is not None and (cmds or pair) and moving.sum() * dt < MIN_MOVING_S:
