@@ -23,9 +23,10 @@ The checks:
   actuator channel constant over the whole log, time running backwards (errors), a rudder angle
   beyond any rudder's travel.
 
-Verdicts only where the data support them: the channels are compared on a grid at the rate of
-the fastest *message stream* (:func:`stream_rate`: samples per second where the stream flows,
-not the spacing of the merged records, which a gateway stamping in bursts makes a millisecond);
+Verdicts only where the data support them: the channels are compared on the prepared trial's
+grid (:func:`usvid.prep.prepare`, the one road: the rate of the fastest *message stream*,
+:func:`usvid.prep.resample.stream_rate`, not the spacing of the merged records, which a gateway
+stamping in bursts makes a millisecond);
 the physics checks need :data:`MIN_PHYSICS_S` of log, the yaw-rate check a nearly level
 vehicle and some turning, the rudder-sign check a vessel under way (:mod:`usvid.prep.under_way`,
 the one definition: speed at least :data:`MIN_SPEED` on :data:`MIN_MOVING_S` of the log). Every
@@ -59,20 +60,15 @@ from usvid.prep.glitches import (
     GLITCH_MIN,
     MAX_TURN_RATE,
     STEP_MIN,
-    repair_trial_heading,
 )
 from usvid.prep.kinematics import earth_to_body
-from usvid.prep.prepare import prepare
-from usvid.prep.resample import stream_rate
+from usvid.prep.prepare import PreparedTrial, prepare
 from usvid.prep.stale import POSITION_GROUPS, detect_stale
 from usvid.prep.under_way import MIN_MOVING_S, MIN_SPEED
 from usvid.prep.under_way import moving as moving_samples
 from usvid.trial import Finding, Trial
 
 RAD = 180.0 / np.pi
-#: Grid rate of the physics checks: the fastest message stream, at most this [Hz] (2-s
-#: derivative windows need no more).
-MAX_GRID_HZ = 50.0
 #: Physics checks need at least this much log [s].
 MIN_PHYSICS_S = 10.0
 #: The rudder sign is judged only on samples where the vessel makes way (a boat at the dock
@@ -309,15 +305,6 @@ def _check_saturation(trial: Trial, chans: list[str], hard_over_deg: float = 34.
                     t_end=float(t[long_runs[-1, 1] - 1]), channel=ch))
     return out
 
-
-
-# --- the time base of multi-rate logs ----------------------------------------------------------
-def grid_rate(trial: Trial, channels: list[str]) -> float | None:
-    """The grid rate [Hz] of the physics checks: the fastest :func:`stream_rate` of
-    ``channels``, at most :data:`MAX_GRID_HZ`; None when no channel has a rate."""
-    t = trial.t
-    rates = [r for r in (stream_rate(t, trial[c]) for c in channels) if r]
-    return min(max(rates), MAX_GRID_HZ) if rates else None
 
 
 # --- what to do: the format-spec line for the log's reader --------------------------------------
@@ -574,7 +561,8 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
     # glitches were found and repaired at the compass's own samples, before resampling
     n_glitch = int(prep.meta.get("heading_glitches", 0))
     if n_glitch:
-        a, b = prep.meta.get("heading_glitch_span", (None, None))
+        gt = prep.meta.get("heading_glitch_times") or [None]
+        a, b = gt[0], gt[-1]
         out.append(Finding(
             "warning", "heading_glitch",
             f"{n_glitch} heading sample(s) leave the heading's course (glitches of more than "
@@ -962,15 +950,22 @@ def _check_position_sources(trial: Trial, stale_rows: np.ndarray | None) -> list
     return out
 
 
-def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
+def audit(trial: Trial, *, window_s: float = 1.0,
+          prepared: PreparedTrial | None = None) -> list[Finding]:
     """Check each channel of a raw trial against the physics; returns the problems found.
 
     Parameters
     ----------
     trial : Trial
-        As read (SI units, possibly multi-rate with NaN, stale fixes, lat/lon).
+        As read (SI units, possibly multi-rate with NaN, stale fixes, lat/lon): the time,
+        record and sensor checks read its own stamps and samples.
     window_s : float
         Savitzky-Golay window [s] for the derivatives compared (d(psi)/dt, d(x, y)/dt).
+    prepared : PreparedTrial, optional
+        ``trial`` prepared by the one road (:func:`usvid.prep.prepare`, as the command that
+        audits it also fits or measures it): the physics checks run on it, so the log is
+        prepared once. Default: :func:`usvid.prep.prepare` of ``trial`` (its grid, the fastest
+        message stream's rate; its heading repaired at the compass's own samples).
 
     Returns
     -------
@@ -987,10 +982,10 @@ def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
     """
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
-        return sort_findings(_audit(trial, window_s))
+        return sort_findings(_audit(trial, window_s, prepared))
 
 
-def _audit(trial: Trial, window_s: float) -> list[Finding]:
+def _audit(trial: Trial, window_s: float, prepared: PreparedTrial | None) -> list[Finding]:
     measured = set(trial.channels)
     chans = _numeric_channels(trial)
     findings: list[Finding] = []
@@ -1024,17 +1019,15 @@ def _audit(trial: Trial, window_s: float) -> list[Finding]:
             f"{MIN_PHYSICS_S:g} s of trustworthy time are needed): the yaw rate, velocities and "
             "rudder sign are not checked"))
         return findings
-    try:
-        fixed, n_glitch = repair_trial_heading(trial)
-        if n_glitch:
-            gt = fixed.meta.get("heading_glitch_times") or [None]
-            fixed.meta["heading_glitch_span"] = (gt[0], gt[-1])
-        rate = grid_rate(fixed, [c for c in chans if c in measured])
-        prep = prepare(fixed, rate, derivatives=False, window_s=window_s)
-    except UsvidError as exc:  # the audit reports, it does not die on odd data
-        findings.append(Finding("warning", "not_prepared",
-                                f"physics checks skipped: the trial cannot be prepared ({exc})"))
-        return findings
+    prep = prepared
+    if prep is None:
+        try:
+            prep = prepare(trial, derivatives=False, window_s=window_s)
+        except UsvidError as exc:  # the audit reports, it does not die on odd data
+            findings.append(Finding(
+                "warning", "not_prepared",
+                f"physics checks skipped: the trial cannot be prepared ({exc})"))
+            return findings
     dt = 1.0 / (prep.sample_rate or 1.0)
     findings += _check_yaw_rate(prep, measured, dt, window_s)
     findings += _check_body_velocity(prep, measured, dt, window_s)
