@@ -7,19 +7,22 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import SHARED_DATA
 from usvid.cli import main
+from usvid.errors import IdentificationError
 from usvid.identify.checks import MIN_SPEED, check_model, envelope
 from usvid.identify.defaults import DEFAULT_METHODS
+from usvid.identify.estimator import ModelEstimator
 from usvid.identify.series import IdentificationWarning
 from usvid.io.modelfile import load_model
-from usvid.models import IdealServo, Nomoto1, Norrbin, VesselModel
+from usvid.models import IdealServo, Nomoto1, Norrbin, VesselModel, registry
+from usvid.prep.logs import read_log
 from usvid.sim import ZigZag, simulate
 from usvid.trial import Vessel
 
@@ -110,17 +113,60 @@ def test_a_log_not_under_way_is_refused_naming_the_speed(tmp_path, capsys):
     assert "was not under way: its median speed is 0.0" in err and f"below {MIN_SPEED:g} m/s" in err
 
 
-def test_the_dock_log_is_refused_naming_the_speed(tmp_path, capsys):
+def test_the_dock_log_is_refused_naming_the_speed(real_logs_dir, tmp_path, capsys):
     # a real NMEA 2000 log of a boat at the dock (speed over ground 0 .. 0.25 m/s, a rudder
-    # channel): refused before any fit, whatever the kind
-    log = SHARED_DATA / "real_logs" / "canboat_susteranna2020.raw"
-    if not log.is_file():
-        pytest.skip(f"real log not found at {log}")
-    for kind in ("nomoto1", "norrbin"):
+    # channel): refused before any fit, whatever the kind and its default method
+    log = real_logs_dir / "canboat_susteranna2020.raw"
+    for kind in ("nomoto1", "mmg"):
         code = main(["identify", str(log), "--model", kind, "--out", str(tmp_path / "m.json")])
         err = capsys.readouterr().err
         assert code == 2, err
         assert "was not under way: its median speed is 0 m/s (sog)" in err
+        assert not (tmp_path / "m.json").exists()
+    trial = read_log(log, "auto")
+    for kind in registry.names():
+        with pytest.raises(IdentificationError, match=r"was not under way: its median speed "
+                                                      r"is 0 m/s \(sog\)"):
+            ModelEstimator(kind).fit(trial)
+
+
+def test_the_bench_autopilot_log_is_refused_saying_why(real_logs_dir, tmp_path, capsys):
+    # the same capture of a Raymarine EV-1 autopilot on the bench as Actisense NGT-1 binary:
+    # the rudder moves +-17 deg, the heading wanders 8 deg, and there is no speed and no
+    # position: usvid cannot tell a bench from a vessel under way, and says so, for every kind
+    # with its default method (mmg said it needed vessel.length; nomoto1 that 'delta' was 34 %
+    # NaN, with the speed only in a trailing note)
+    log = real_logs_dir / "canboat_ydnu-02-raymarine-ev1.dle"
+    why = ("no speed (U, sog, u) and no positions: usvid cannot tell that the vessel was under "
+           "way")
+    for kind in ("nomoto1", "mmg"):
+        code = main(["identify", str(log), "--model", kind, "--out", str(tmp_path / "m.json")])
+        err = capsys.readouterr().err
+        assert code == 2, err
+        line = err.strip().splitlines()[-1]
+        assert line.startswith(f"usvid: error: trial canboat_ydnu-02-raymarine-ev1: {why}")
+        assert "vessel.speed" in line  # what to do if it was under way
+        assert not (tmp_path / "m.json").exists()
+    trial = read_log(log, "auto")
+    for kind in registry.names():
+        with pytest.raises(IdentificationError, match=re.escape(why)):
+            ModelEstimator(kind).fit(trial)
+
+
+def test_a_record_without_speed_is_identified_when_its_speed_is_declared(tmp_path, capsys):
+    # a basin's heading and rudder record (no speed, no positions): refused without a declared
+    # speed, identified with vessel.speed in the spec
+    df = _zigzag_df().drop(columns=["U"])
+    log, spec = _write(tmp_path, "basin", df)
+    spec.write_text(SPEC.replace("  U:     {col: U, unit: m/s}\n", "")
+                    .replace("vessel: {length: 6.0, speed: 2.0}", "vessel: {length: 6.0}"))
+    code, err = _identify(capsys, log, spec, "nomoto1", tmp_path)
+    assert code == 2 and "cannot tell that the vessel was under way" in err
+    assert "give its approach speed as vessel.speed [m/s]" in err
+    spec.write_text(SPEC.replace("  U:     {col: U, unit: m/s}\n", ""))
+    code, err = _identify(capsys, log, spec, "nomoto1", tmp_path)
+    assert code == 0, err
+    assert load_model(tmp_path / "m.json").dynamics.K == pytest.approx(0.3, rel=0.05)
 
 
 def test_a_diverging_model_is_not_written_unless_asked(tmp_path, capsys):
@@ -217,35 +263,12 @@ def test_defaults_on_the_twin_thruster_run(twin_dir, tmp_path, capsys):
     _standard_runs_inside_the_envelope(out, capsys)
 
 
-ESSO = SHARED_DATA / "esso_osaka"
-#: A test-local spec of the Esso Osaka runs (the motion channels; the shipped spec esso_osaka
-#: with the wind channels is another branch's).
-ESSO_SPEC = """reader: table
-delimiter: ","
-header: true
-columns:
-  t:     {col: "t [s]", unit: s}
-  x:     {col: "x_position_mid [m]", unit: m}
-  y:     {col: "y_position_mid [m]", unit: m}
-  u:     {col: "u_velo [m/s]", unit: m/s}
-  v:     {col: "vm_velo [m/s]", unit: m/s}
-  psi:   {col: "psi_hat [rad]", unit: rad}
-  r:     {col: "r_angvelo [rad/s]", unit: rad/s}
-  n:     {col: "n_prop [rps]", unit: rps}
-  delta: {col: "delta_rudder [rad]", unit: rad}
-vessel: {length: 3.0, beam: 0.489, draft: 0.201, mass: 244.6, block_coefficient: 0.830}
-"""
-
-
-def test_defaults_on_the_esso_osaka_runs(tmp_path, capsys):
-    if not ESSO.is_dir():
-        pytest.skip(f"real data not found at {ESSO}")
-    spec = tmp_path / "esso.yaml"
-    spec.write_text(ESSO_SPEC)
-    logs = [str(ESSO / f"zigzag_31-Jul-2020_13_{s}.csv") for s in ("22_52", "29_19")]
+def test_defaults_on_the_esso_osaka_runs(esso_dir, tmp_path, capsys):
+    """The shipped spec esso_osaka (motion, wind and the lab's vessel particulars)."""
+    logs = [str(esso_dir / f"zigzag_31-Jul-2020_13_{s}.csv") for s in ("22_52", "29_19")]
     for kind in ("nomoto1", "norrbin"):
         out = tmp_path / f"{kind}.json"
-        code = main(["identify", *logs, "--format", str(spec), "--model", kind, "--out",
+        code = main(["identify", *logs, "--format", "esso_osaka", "--model", kind, "--out",
                      str(out)])
         err = capsys.readouterr().err
         if code == 0:  # written: it passed its checks

@@ -16,7 +16,7 @@ from usvid.io import read_trial
 from usvid.io.n2k import _Encoder
 from usvid.io.nmea0183 import sentence
 from usvid.prep import audit, prepare
-from usvid.prep.channel_audit import grid_rate, stream_rate
+from usvid.prep.resample import stream_rate
 from usvid.trial import merge_shared_stamp_rows, merge_shared_stamps
 
 T0 = 1_700_000_000.0
@@ -120,7 +120,7 @@ def test_bursty_gateway_stamps_rates_from_the_streams(tmp_path):
     tr = read_trial(p)
     assert stream_rate(tr.t, tr["psi"]) == pytest.approx(10.0, rel=0.02)
     assert np.median(np.diff(tr.t[np.isfinite(tr["psi"])])) < 0.002  # the records' spacing
-    assert grid_rate(tr, ["psi", "r"]) == pytest.approx(10.0, rel=0.02)
+    assert prepare(tr, derivatives=False).sample_rate == pytest.approx(10.0, rel=0.02)
     f = {x.code: x for x in audit(tr)}
     assert not [x for x in f.values() if x.severity == "error"]
     assert "heading_jump" not in f

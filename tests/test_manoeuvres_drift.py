@@ -5,7 +5,6 @@ measured-metrics keys; the Esso Osaka turning tests."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,7 +20,6 @@ from usvid.models import VesselModel, mu2018_threedof
 from usvid.sim import Turning, simulate
 from usvid.trial import Vessel
 
-ESSO_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "esso_osaka"
 CURRENT = (0.3, math.radians(60.0))  # speed [m/s], towards [rad]
 
 
@@ -98,38 +96,18 @@ def test_measured_metrics_carry_current_and_corrected(calm_turn):
     assert m["corrected"]["tactical_diameter_m"] != pytest.approx(m["tactical_diameter_m"])
 
 
-SPEC = """reader: table
-delimiter: ","
-header: true
-columns:
-  t:     {col: "t [s]", unit: s}
-  x:     {col: "x_position_mid [m]", unit: m}
-  y:     {col: "y_position_mid [m]", unit: m}
-  psi:   {col: "psi_hat [rad]", unit: rad}
-  r:     {col: "r_angvelo [rad/s]", unit: rad/s}
-  n:     {col: "n_prop [rps]", unit: rps}
-  delta: {col: "delta_rudder [rad]", unit: rad}
-vessel: {length: 3.0}
-"""
-
-
 @pytest.mark.parametrize(("name", "turn_deg", "speed"), [
     ("turn_14-Sep-2020_13_39_32.csv", 641, 0.024),
     ("turn_14-Sep-2020_14_16_04.csv", 868, 0.035),
     ("turn_14-Sep-2020_15_58_08.csv", 659, 0.047),
     ("turn_cut_14-Sep-2020_16_09_02.csv", 361, None),
 ])
-def test_esso_osaka_turning_tests(tmp_path, name, turn_deg, speed):
+def test_esso_osaka_turning_tests(esso_dir, name, turn_deg, speed):
     """The pond's turning tests drift 0.02-0.05 m/s roughly downwind (the true wind blows
     towards 221, 321, 311 deg in the first three runs; the drift goes towards 252, 304, 285 deg):
     the IMO estimate attributes the whole drift to a current, wind leeway included. The cut run
     turns only 361 deg: no estimate. Values as measured (3 digits)."""
-    path = ESSO_DIR / name
-    if not path.is_file():
-        pytest.skip(f"real data not found at {ESSO_DIR}")
-    spec = tmp_path / "esso.yaml"
-    spec.write_text(SPEC)
-    trial = read_trial(path, spec)
+    trial = read_trial(esso_dir / name, "esso_osaka")
     (m,) = [m for m in measured_metrics(trial) if m["kind"] == "turning"]
     assert m["heading_change_deg"] == pytest.approx(turn_deg, abs=2)
     if speed is None:

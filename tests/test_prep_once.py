@@ -2,10 +2,10 @@
 (estimator, validation, report) uses that prepared trial.
 
 Counted here: the series builds (:func:`usvid.identify.series.build_series`), the heading-glitch
-repairs (:func:`usvid.prep.glitches.repair_trial_heading`) and the manoeuvre segmentations
-(:func:`usvid.manoeuvres.detect.segment_trial`) of one command. Before the prepared trial, one
-``identify --validate --report`` of 3 training and 2 held-out HSVA logs built 15 series, repaired
-12 headings and segmented 7 times (5 logs); now 5 of each.
+repairs of a trial (:func:`usvid.prep.glitches.repair_trial_heading`) and the manoeuvre
+segmentations (:func:`usvid.manoeuvres.detect.segment_trial`) of one command. Before the
+prepared trial, one ``identify --validate --report`` of 3 training and 2 held-out HSVA logs built
+15 series, repaired 12 headings and segmented 7 times (5 logs); now 5 of each.
 """
 
 from __future__ import annotations

@@ -197,3 +197,25 @@ def test_real_log(runs, name):
     # no silently collapsed records: samples lost to shared stamps are reported
     if tr.meta.get("superseded"):
         assert "shared_time_stamp" in by, name
+
+
+@pytest.mark.parametrize("name", sorted(EXPECT))
+def test_turning_circles_only_under_way(runs, name):
+    """A turning circle is measured only where the vessel was under way: never a negative or
+    vanishing diameter. arcturus_mav.tlog (a simulated skid-steer boat at rest, its heading
+    turning 472 deg before its GPS lock, sog 0) measured one with a tactical diameter of
+    -0.0008 m; now it says why there is none."""
+    code, out, _ = runs[name]["metrics"]
+    if code != 0:
+        return
+    j = json.loads(out)
+    for m in j["manoeuvres"]:
+        if m["kind"] == "turning":
+            assert m["approach"]["speed_m_s"] is None or m["approach"]["speed_m_s"] >= 0.2
+            assert m["tactical_diameter_m"] > 1.0, (name, m["tactical_diameter_m"])
+    if name == "arcturus_mav.tlog":
+        assert j["count"] == 0
+        (f,) = j["findings"]
+        assert f["code"] == "turn_not_under_way"
+        assert f["data"]["heading_change_deg"] == pytest.approx(472, abs=1)
+        assert f["data"]["median_speed_m_s"] == 0.0 and f["data"]["speed_from"] == "sog"

@@ -10,7 +10,13 @@ import numpy as np
 import pytest
 
 from usvid.io import read_trial
+from usvid.io.spec import shipped_spec
 from usvid.models.environment.wind import apparent_to_true
+from usvid.models.environment.wind_loads import (
+    FUJIWARA_NEEDS,
+    wind_coefficients,
+    wind_load_model,
+)
 from usvid.prep.filters import savgol_derivative
 
 RUNS = [
@@ -26,6 +32,27 @@ ROWS = {"turn_14-Sep-2020_13_39_32": 3646, "turn_14-Sep-2020_14_16_04": 4225,
         "zigzag_31-Jul-2020_13_50_28": 1701, "zigzag_31-Jul-2020_13_57_45": 1136,
         "zigzag_31-Jul-2020_14_03_39": 1461}
 WIND = ("wind_speed", "wind_angle", "wind_speed_true", "wind_dir_true")
+#: The laboratory's windage particulars of the 3 m model beyond A_T and A_L (vessel.extra keys of
+#: usvid.models.environment.wind_loads.WINDAGE_EXTRA).
+ESSO_WINDAGE = {"superstructure_area": 0.14230, "superstructure_x": -1.23339,
+                "superstructure_height": 0.2940, "lateral_centroid_x": -0.01299,
+                "lateral_centroid_height": 0.10359}
+
+
+def test_the_spec_vessel_gets_the_fujiwara_wind_loads():
+    """Every particular Fujiwara et al. (1998) needs is in the shipped spec (no data needed), so
+    the selector picks it over Blendermann (1994); its head-wind drag coefficient for these
+    particulars is C_X(0) = X0 + X1 + X3 + X5 (test_environment_wind_loads computes the same
+    coefficients from the lab's unrounded areas 0.13544 / 0.52038 m^2: -0.6360; the spec's
+    areas, rounded as in the data README to 0.135 / 0.520 m^2, give -0.6363)."""
+    v = shipped_spec("esso_osaka").vessel
+    assert {k: v.extra[k] for k in ESSO_WINDAGE} == ESSO_WINDAGE
+    assert set(FUJIWARA_NEEDS) - {"length_overall"} <= {*v.extra, "frontal_area",
+                                                        "lateral_area", "beam"}
+    m = wind_load_model(v)
+    assert m.name == "fujiwara1998" and "every particular" in m.reason
+    cx, _, _, _ = wind_coefficients(m, np.array([0.0]))
+    assert cx[0] == pytest.approx(-0.6363, abs=1e-4)  # 4 digits as measured
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +81,8 @@ def test_every_run_loads_with_all_channels(runs, name):
     v = tr.vessel
     assert (v.length, v.beam, v.draft, v.mass) == (3.0, 0.489, 0.201, 244.6)
     assert (v.frontal_area, v.lateral_area) == (0.135, 0.520)
-    assert v.extra == {"x_g": 0.094, "propeller_diameter": 0.084, "rudder_area": 0.0106}
+    assert v.extra == {"x_g": 0.094, "propeller_diameter": 0.084, "rudder_area": 0.0106,
+                       **ESSO_WINDAGE}
     # the contract's intervals: the apparent angle (logged in [0, 2 pi)) in (-pi, pi], the
     # true direction in [0, 2 pi); both sides of the bow occur in every run
     wa, wd = tr["wind_angle"], tr["wind_dir_true"]

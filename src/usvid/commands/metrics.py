@@ -11,7 +11,9 @@ metric keys); when the log holds exactly one manoeuvre its keys are also at the 
 turning circle also has ``current`` (the current measured from positions 360 deg of heading
 apart, IMO MSC/Circ.1053 3.4.2.5: ``speed_m_s``, ``dir_deg`` towards, ``spread_m_s``, ...) and
 ``corrected`` (its metrics with the current's drift removed, the same keys as the raw ones),
-both null for a turn of less than 540 deg.
+both null for a turn of less than 540 deg. ``findings``: what the detection left out and why
+(``turn_not_under_way``: a turn of the heading while the vessel was not under way is no turning
+circle), as the audit's findings.
 """
 
 from __future__ import annotations
@@ -38,24 +40,24 @@ def metrics_log(log: Path, fmt: str, psi_deg: float | None = None,
                 min_turn_deg: float = 180.0) -> dict[str, Any]:
     """The JSON object of ``usvid metrics`` for one log."""
     from usvid.commands._common import check_number, check_psi_deg
-    from usvid.manoeuvres import measured_metrics
+    from usvid.manoeuvres import manoeuvre_findings, measured_metrics
+    from usvid.prep import as_prepared
     from usvid.prep.logs import read_log
 
     check_psi_deg(psi_deg)
     check_number(min_turn_deg, "--min-turn-deg", lo=0.0, hi=3600.0, lo_open=True, unit="deg")
-    trial = read_log(log, fmt)
+    trial = as_prepared(read_log(log, fmt), derivatives=False)
     say_format([trial], [log])
-    ms = measured_metrics(
-        trial,
-        psi_switch=math.radians(psi_deg) if psi_deg is not None else None,
-        min_turn_deg=min_turn_deg,
-    )
+    options = {"psi_switch": math.radians(psi_deg) if psi_deg is not None else None,
+               "min_turn_deg": min_turn_deg}
+    ms = measured_metrics(trial, **options)
     out: dict[str, Any] = {
         "file": str(log),
         "format": fmt,
         "rejected": dict(trial.rejected),
         "count": len(ms),
         "manoeuvres": ms,
+        "findings": [f.to_dict() for f in manoeuvre_findings(trial, **options)],
     }
     if len(ms) == 1:
         for k, v in ms[0].items():
@@ -90,6 +92,8 @@ def register(app: typer.Typer) -> None:
         from rich.table import Table
 
         con = Console()
+        for f in out["findings"]:
+            con.print(f"{log.name}: {f['message']}")
         if not out["manoeuvres"]:
             con.print(f"{log.name}: {out['message']}")
             return

@@ -4,10 +4,12 @@ Before fitting (:func:`check_data`), a trial is refused (:class:`IdentificationE
 trial, the channel and the statistic) when
 
 * it was not under way: the median speed over the trial is below :data:`MIN_SPEED` [m/s]
-  (measured ``u``, ``U`` or the receiver's speed over ground ``sog``; a speed derived from the
-  positions only when none is logged: GNSS noise at rest makes a derived speed of a moored boat
-  look like motion). A log with no speed at all cannot be checked (a basin's rudder and heading
-  record, a simulation); the other checks still apply;
+  (:func:`usvid.prep.under_way.under_way`, the one definition: a logged ``U``, ``sog`` or
+  ``u``, ``v``; a speed derived from the positions only when none is logged: GNSS noise at rest
+  makes a derived speed of a moored boat look like motion);
+* it tells no speed at all (no speed channel, no positions) and the format spec declares none
+  (``vessel.speed``): a bench or dock record with a moving rudder looks the same as a basin's
+  rudder and heading record; the user who knows it was under way says so by its speed;
 * the heading does not respond: it stays within :data:`MIN_HEADING_RANGE` [rad] over the whole
   trial (a constant heading, a compass stuck at one value).
 
@@ -46,6 +48,7 @@ from usvid.errors import IdentificationError, UsvidError
 from usvid.manoeuvres.logic import Turning, ZigZag
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
+from usvid.prep.under_way import MIN_SPEED, under_way
 from usvid.sim.runs import default_t_end
 from usvid.sim.simulate import approach_speed, simulate
 from usvid.trial import Trial
@@ -53,9 +56,6 @@ from usvid.trial import Trial
 __all__ = ["Check", "ChecksFailed", "Envelope", "MIN_HEADING_RANGE", "MIN_R2", "MIN_SPEED",
            "check_data", "check_model", "envelope", "failed", "refusal", "trial_speed"]
 
-#: Lowest median speed [m/s] of a trial that was under way (0.2 m/s = 0.4 kn: a moored or
-#: drifting boat's speed over ground stays below it; a model in a basin or pond runs faster).
-MIN_SPEED = 0.2
 #: Smallest range of the heading [rad] over a trial that responds to its steering (0.5 deg).
 MIN_HEADING_RANGE = math.radians(0.5)
 #: Smallest share of the heading's variance the windowed replays of the training data must
@@ -93,18 +93,11 @@ def failed(checks: Sequence[Check]) -> list[Check]:
 
 # -- before the fit ------------------------------------------------------------------------------
 def trial_speed(trial: Trial) -> tuple[float | None, str]:
-    """The median speed [m/s] of a trial and the channel it is read from: a logged ``u``,
-    ``U`` or ``sog`` (in that order), else ``U`` derived from the positions; (None, "") when
-    the trial has no speed."""
-    derived = set(getattr(trial, "derived", ()))
-    for ch in ("u", "U", "sog"):
-        if trial.has(ch) and ch not in derived:
-            x = trial[ch]
-            return float(np.median(np.abs(x[np.isfinite(x)]))), ch
-    if trial.has("U"):
-        x = trial["U"]
-        return float(np.median(x[np.isfinite(x)])), "U from the positions"
-    return None, ""
+    """The median speed [m/s] of a trial and the channel it is read from
+    (:func:`usvid.prep.under_way.under_way`, the one definition); (None, "") when the trial
+    has no speed."""
+    uw = under_way(trial)
+    return uw.median_speed, uw.source if uw.known else ""
 
 
 def check_data(trials: Sequence[Trial], kind_name: str) -> None:
@@ -113,12 +106,19 @@ def check_data(trials: Sequence[Trial], kind_name: str) -> None:
     channel and the statistic."""
     for tr in trials:
         name = tr.name or (tr.sources[0] if tr.sources else "?")
-        speed, ch = trial_speed(tr)
-        if speed is not None and speed < MIN_SPEED:
+        uw = under_way(tr)
+        if uw.is_under_way is False:
             raise IdentificationError(
-                f"trial {name} was not under way: its median speed is {speed:.3g} m/s "
-                f"({ch}), below {MIN_SPEED:g} m/s; a {kind_name} model needs manoeuvres at "
-                "speed (a boat at the dock or drifting says nothing about its manoeuvring)")
+                f"trial {name} was not under way: {uw.reason()}; a {kind_name} model needs "
+                "manoeuvres at speed (a boat at the dock or drifting says nothing about its "
+                "manoeuvring)")
+        if not uw.known and (tr.vessel is None or tr.vessel.speed is None):
+            raise IdentificationError(
+                f"trial {name}: {uw.reason()} (a bench or dock record with a moving rudder "
+                f"looks the same), and the format spec gives no vessel.speed; a {kind_name} "
+                "model needs manoeuvres at speed. If the vessel was under way, give its "
+                "approach speed as vessel.speed [m/s] in the format spec's vessel block (or "
+                "log a speed or positions)")
         if tr.has("psi"):
             psi = tr["psi"]
             psi = psi[np.isfinite(psi)]

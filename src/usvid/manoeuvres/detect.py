@@ -34,7 +34,10 @@ differential port - starboard, the catamaran paper: tau_r = (T_port - T_stbd) b/
   ``min_turn_deg`` (180 deg by default, enough for the tactical diameter);
 * where no command explains it, a run of one-signed yaw rate turning at least 360 deg is a
   turning circle found from the heading alone (closed-loop circles of a thruster-driven USV);
-  its "execute" is the start of the run (``execute_from="heading"``).
+  its "execute" is the start of the run (``execute_from="heading"``);
+* a turning circle needs the vessel under way at its execute (:func:`turn_under_way`: over its
+  approach, :mod:`usvid.prep.under_way`); a turn of the heading on the spot or at the dock is
+  left out and said (:func:`manoeuvre_findings`), never measured as a circle of no diameter.
 
 The segments are measured by :mod:`usvid.manoeuvres.measure` with the definitions of
 :mod:`usvid.manoeuvres.metrics` (the simulator uses the same functions), so a measured and a
@@ -52,7 +55,8 @@ import numpy as np
 from usvid.errors import UsvidError
 from usvid.prep.filters import savgol_derivative, savgol_smooth, unwrap_angle
 from usvid.prep.prepare import PreparedTrial, as_prepared
-from usvid.trial import Trial
+from usvid.prep.under_way import UnderWay, under_way
+from usvid.trial import Finding, Trial
 
 #: The approach before a manoeuvre [s]: the rudder over it is the reference ``delta_0``.
 APPROACH_S = 5.0
@@ -87,12 +91,10 @@ class Approach:
                 else math.degrees(self.rudder_offset)}
 
 
-def approach(trial: Trial, t_execute: float) -> Approach:
-    """The :class:`Approach` before ``t_execute`` [s]: means over ``t_execute - APPROACH_S ..
-    t_execute`` (the samples up to the execute's when none lies in that window; the first
-    :data:`APPROACH_S` of a record that starts at its execute); the one definition of a
-    manoeuvre's approach speed, shaft speed and rudder offset ``delta_0``."""
-    t = trial.t
+def approach_window(t: np.ndarray, t_execute: float) -> np.ndarray:
+    """The samples of the approach before ``t_execute`` [s] (times ``t`` [s]): ``t_execute -
+    APPROACH_S .. t_execute``; the samples up to the execute's when none lies in that window;
+    the first :data:`APPROACH_S` of a record that starts at its execute."""
     sel = (t >= t_execute - APPROACH_S) & (t <= t_execute)
     if sel.sum() < 2:
         i = int(np.searchsorted(t, t_execute, side="right"))
@@ -100,6 +102,14 @@ def approach(trial: Trial, t_execute: float) -> Approach:
         sel[:max(i, 1)] = True
         if i <= 1:  # the record starts at the execute: its first APPROACH_S
             sel = t <= t[0] + APPROACH_S
+    return sel
+
+
+def approach(trial: Trial, t_execute: float) -> Approach:
+    """The :class:`Approach` before ``t_execute`` [s]: means over :func:`approach_window`; the
+    one definition of a manoeuvre's approach speed, shaft speed and rudder offset
+    ``delta_0``."""
+    sel = approach_window(trial.t, t_execute)
 
     def mean(ch: str) -> float | None:
         if not trial.has(ch):
@@ -695,21 +705,58 @@ def find_manoeuvres(
     """
     if not trial.has("psi"):
         raise UsvidError(f"trial {trial.name or '?'}: no heading 'psi', cannot find manoeuvres")
-    options = dict(min_level=min_level, min_pulse_s=min_pulse_s,
-                   max_transition_s=max_transition_s, min_turn_deg=min_turn_deg,
-                   psi_switch=psi_switch, smooth_s=smooth_s)
+    options = _options(min_level=min_level, min_pulse_s=min_pulse_s,
+                       max_transition_s=max_transition_s, min_turn_deg=min_turn_deg,
+                       psi_switch=psi_switch, smooth_s=smooth_s)
     prepared = as_prepared(trial, derivatives=False)
     if not prepared.has("psi"):
         raise UsvidError(f"trial {trial.name or '?'}: no heading 'psi', cannot find manoeuvres")
+    return list(_segmentation(prepared, options)[0])
+
+
+def manoeuvre_findings(trial: Trial, **options: Any) -> list[Finding]:
+    """What :func:`find_manoeuvres` (with the same ``options``) found and did not return, and
+    why: a turn of the heading while the vessel was not under way (code
+    ``turn_not_under_way``). From the same segmentation (no second one)."""
+    if not trial.has("psi"):
+        return []
+    prepared = as_prepared(trial, derivatives=False)
+    if not prepared.has("psi"):
+        return []
+    return list(_segmentation(prepared, _options(**options))[1])
+
+
+def _options(*, min_level: float | None = None, min_pulse_s: float = 2.0,
+             max_transition_s: float = 10.0, min_turn_deg: float = 180.0,
+             psi_switch: float | None = None, smooth_s: float | None = None) -> dict[str, Any]:
+    return dict(min_level=min_level, min_pulse_s=min_pulse_s,
+                max_transition_s=max_transition_s, min_turn_deg=min_turn_deg,
+                psi_switch=psi_switch, smooth_s=smooth_s)
+
+
+def _segmentation(prepared: PreparedTrial, options: dict[str, Any]
+                  ) -> tuple[list[Segment], list[Finding]]:
     key = ("segments", *sorted(options.items()))
-    return list(prepared.remember(key, lambda: segment_trial(prepared, **options)))
+    return prepared.remember(key, lambda: segment_trial(prepared, **options))
+
+
+def turn_under_way(trial: PreparedTrial, seg: Segment) -> UnderWay:
+    """Whether the vessel was under way at the execute of a turn ``seg``
+    (:func:`usvid.prep.under_way.under_way`, the one definition): over its approach
+    (:func:`approach_window`), else, when the log tells no speed there, over the turn."""
+    t = trial.t
+    uw = under_way(trial, approach_window(t, seg.t_execute))
+    if not uw.known:
+        uw = under_way(trial, (t >= seg.t_execute) & (t <= seg.t_end))
+    return uw
 
 
 def segment_trial(trial: PreparedTrial, *, min_level: float | None, min_pulse_s: float,
                   max_transition_s: float, min_turn_deg: float, psi_switch: float | None,
-                  smooth_s: float | None) -> list[Segment]:
+                  smooth_s: float | None) -> tuple[list[Segment], list[Finding]]:
     """The segmentation behind :func:`find_manoeuvres` (run once per prepared trial and
-    options; call :func:`find_manoeuvres`)."""
+    options; call :func:`find_manoeuvres`): the segments, and the findings of the turns left
+    out because the vessel was not under way (:func:`manoeuvre_findings`)."""
     t = trial.t
     dt = float(np.median(np.diff(t)))
     psi = unwrap_angle(trial["psi"])
@@ -756,9 +803,25 @@ def segment_trial(trial: PreparedTrial, *, min_level: float | None, min_pulse_s:
             floor = _plateau_end(cc, chain[-1])
     segs += _turning_from_heading(t, psi, dt, used)
     segs.sort(key=lambda s: s.t_start)
+    kept: list[Segment] = []
+    findings: list[Finding] = []
     for seg in segs:
         seg.approach = approach(trial, seg.t_execute)
-    return segs
+        if seg.kind == "turning":  # a turning circle is sailed: the vessel under way
+            uw = turn_under_way(trial, seg)
+            if uw.is_under_way is False:
+                findings.append(Finding(
+                    "info", "turn_not_under_way",
+                    f"the heading turns {math.degrees(seg.heading_change):.0f} deg from t = "
+                    f"{seg.t_start:.1f} s to {seg.t_end:.1f} s, but the vessel was not under "
+                    f"way: {uw.reason()}; not a turning circle (on the spot or at the dock the "
+                    "heading turns without a track to measure)",
+                    t_start=seg.t_start, t_end=seg.t_end, channel="psi",
+                    data={"heading_change_deg": math.degrees(seg.heading_change),
+                          "median_speed_m_s": uw.median_speed, "speed_from": uw.source}))
+                continue
+        kept.append(seg)
+    return kept, findings
 
 
 def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch

@@ -23,11 +23,13 @@ The checks:
   actuator channel constant over the whole log, time running backwards (errors), a rudder angle
   beyond any rudder's travel.
 
-Verdicts only where the data support them: the channels are compared on a grid at the rate of
-the fastest *message stream* (:func:`stream_rate`: samples per second where the stream flows,
-not the spacing of the merged records, which a gateway stamping in bursts makes a millisecond);
+Verdicts only where the data support them: the channels are compared on the prepared trial's
+grid (:func:`usvid.prep.prepare`, the one road: the rate of the fastest *message stream*,
+:func:`usvid.prep.resample.stream_rate`, not the spacing of the merged records, which a gateway
+stamping in bursts makes a millisecond);
 the physics checks need :data:`MIN_PHYSICS_S` of log, the yaw-rate check a nearly level
-vehicle and some turning, the rudder-sign check a vessel under way (:data:`MIN_SPEED`). Every
+vehicle and some turning, the rudder-sign check a vessel under way (:mod:`usvid.prep.under_way`,
+the one definition: speed at least :data:`MIN_SPEED` on :data:`MIN_MOVING_S` of the log). Every
 error says what to do, with the format-spec line that does it for the log's reader
 (:func:`spec_hint`). Heading glitches and steps are those of :mod:`usvid.prep.glitches` (the
 one definition the manoeuvre metrics use too).
@@ -58,22 +60,20 @@ from usvid.prep.glitches import (
     GLITCH_MIN,
     MAX_TURN_RATE,
     STEP_MIN,
-    repair_trial_heading,
 )
 from usvid.prep.kinematics import earth_to_body
-from usvid.prep.prepare import prepare
+from usvid.prep.prepare import PreparedTrial, prepare
 from usvid.prep.stale import POSITION_GROUPS, detect_stale
+from usvid.prep.under_way import MIN_MOVING_S, MIN_SPEED
+from usvid.prep.under_way import moving as moving_samples
 from usvid.trial import Finding, Trial
 
 RAD = 180.0 / np.pi
-#: Grid rate of the physics checks: the fastest message stream, at most this [Hz] (2-s
-#: derivative windows need no more).
-MAX_GRID_HZ = 50.0
 #: Physics checks need at least this much log [s].
 MIN_PHYSICS_S = 10.0
-#: The rudder sign is judged only on samples where the vessel makes way [m/s] (a boat at the
-#: dock turns with wind and lines, not with its rudder), on at least MIN_MOVING_S of them.
-MIN_SPEED, MIN_MOVING_S = 0.25, 20.0
+#: The rudder sign is judged only on samples where the vessel makes way (a boat at the dock
+#: turns with wind and lines, not with its rudder), on at least MIN_MOVING_S [s] of them:
+#: :mod:`usvid.prep.under_way`, the one definition (MIN_SPEED [m/s]).
 #: The yaw-rate check compares a body-axis rate with d(psi)/dt: only for a nearly level vehicle
 #: (roll and pitch within this [rad] on 90 % of the samples; a banked aircraft's body rate is no
 #: heading rate).
@@ -305,34 +305,6 @@ def _check_saturation(trial: Trial, chans: list[str], hard_over_deg: float = 34.
                     t_end=float(t[long_runs[-1, 1] - 1]), channel=ch))
     return out
 
-
-
-# --- the time base of multi-rate logs ----------------------------------------------------------
-def stream_rate(t: np.ndarray, y: np.ndarray) -> float | None:
-    """Samples per second [Hz] of channel ``y`` (times ``t`` [s], NaN where it has no sample)
-    over the stretches where its stream flows: its samples over their time span, less the gaps
-    longer than max(1 s, 5 x its mean spacing). Unlike the median spacing (a millisecond for a
-    gateway that stamps ten records in a burst every 0.3 s) it is the rate of the messages.
-    None with fewer than three samples."""
-    ts = np.unique(t[np.isfinite(y) & np.isfinite(t)])
-    if len(ts) < 3:
-        return None
-    d = np.diff(ts)
-    span = float(ts[-1] - ts[0])
-    if span <= 0:
-        return None
-    gap = d > max(1.0, 5.0 * span / len(d))
-    flowing = span - float(d[gap].sum())
-    n = len(d) - int(gap.sum())
-    return n / flowing if flowing > 0 and n > 0 else None
-
-
-def grid_rate(trial: Trial, channels: list[str]) -> float | None:
-    """The grid rate [Hz] of the physics checks: the fastest :func:`stream_rate` of
-    ``channels``, at most :data:`MAX_GRID_HZ`; None when no channel has a rate."""
-    t = trial.t
-    rates = [r for r in (stream_rate(t, trial[c]) for c in channels) if r]
-    return min(max(rates), MAX_GRID_HZ) if rates else None
 
 
 # --- what to do: the format-spec line for the log's reader --------------------------------------
@@ -589,7 +561,8 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
     # glitches were found and repaired at the compass's own samples, before resampling
     n_glitch = int(prep.meta.get("heading_glitches", 0))
     if n_glitch:
-        a, b = prep.meta.get("heading_glitch_span", (None, None))
+        gt = prep.meta.get("heading_glitch_times") or [None]
+        a, b = gt[0], gt[-1]
         out.append(Finding(
             "warning", "heading_glitch",
             f"{n_glitch} heading sample(s) leave the heading's course (glitches of more than "
@@ -858,27 +831,12 @@ def _nomoto_sign(prep: Trial, cmd: np.ndarray, dt: float, window_s: float,
     return {"a": float(coef[0] / np.std(cmd[ok])), "t_value": tval, "n": int(ok.sum())}
 
 
-def _moving(prep: Trial, dt: float) -> np.ndarray | None:
-    """Samples where the vessel makes way (speed over :data:`MIN_SPEED`): from a measured speed
-    (U, sog, hypot(u, v)) or the positions; None when the log tells no speed."""
-    for ch in ("U", "sog"):
-        if prep.has(ch):
-            return np.nan_to_num(prep[ch]) > MIN_SPEED
-    if prep.has("u"):
-        v = np.nan_to_num(prep["v"]) if prep.has("v") else 0.0
-        return np.hypot(np.nan_to_num(prep["u"]), v) > MIN_SPEED
-    if prep.has("x") and prep.has("y"):
-        sp = np.hypot(savgol_derivative(prep["x"], dt, 2.0), savgol_derivative(prep["y"], dt, 2.0))
-        return np.nan_to_num(sp) > MIN_SPEED
-    return None
-
-
 def _check_rudder_sign(prep: Trial, dt: float, window_s: float) -> list[Finding]:
     out: list[Finding] = []
     if not prep.has("psi"):
         return out
     t = prep.t
-    moving = _moving(prep, dt)
+    moving = moving_samples(prep)
     cmds = [ch for ch in ("delta", "delta_cmd") if prep.has(ch)]
     pair = next(((a, b) for a, b in THRUSTER_PAIRS if prep.has(a) and prep.has(b)), None)
     if moving is not None and (cmds or pair) and moving.sum() * dt < MIN_MOVING_S:
@@ -992,15 +950,22 @@ def _check_position_sources(trial: Trial, stale_rows: np.ndarray | None) -> list
     return out
 
 
-def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
+def audit(trial: Trial, *, window_s: float = 1.0,
+          prepared: PreparedTrial | None = None) -> list[Finding]:
     """Check each channel of a raw trial against the physics; returns the problems found.
 
     Parameters
     ----------
     trial : Trial
-        As read (SI units, possibly multi-rate with NaN, stale fixes, lat/lon).
+        As read (SI units, possibly multi-rate with NaN, stale fixes, lat/lon): the time,
+        record and sensor checks read its own stamps and samples.
     window_s : float
         Savitzky-Golay window [s] for the derivatives compared (d(psi)/dt, d(x, y)/dt).
+    prepared : PreparedTrial, optional
+        ``trial`` prepared by the one road (:func:`usvid.prep.prepare`, as the command that
+        audits it also fits or measures it): the physics checks run on it, so the log is
+        prepared once. Default: :func:`usvid.prep.prepare` of ``trial`` (its grid, the fastest
+        message stream's rate; its heading repaired at the compass's own samples).
 
     Returns
     -------
@@ -1017,10 +982,10 @@ def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
     """
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)
-        return sort_findings(_audit(trial, window_s))
+        return sort_findings(_audit(trial, window_s, prepared))
 
 
-def _audit(trial: Trial, window_s: float) -> list[Finding]:
+def _audit(trial: Trial, window_s: float, prepared: PreparedTrial | None) -> list[Finding]:
     measured = set(trial.channels)
     chans = _numeric_channels(trial)
     findings: list[Finding] = []
@@ -1054,17 +1019,15 @@ def _audit(trial: Trial, window_s: float) -> list[Finding]:
             f"{MIN_PHYSICS_S:g} s of trustworthy time are needed): the yaw rate, velocities and "
             "rudder sign are not checked"))
         return findings
-    try:
-        fixed, n_glitch = repair_trial_heading(trial)
-        if n_glitch:
-            gt = fixed.meta.get("heading_glitch_times") or [None]
-            fixed.meta["heading_glitch_span"] = (gt[0], gt[-1])
-        rate = grid_rate(fixed, [c for c in chans if c in measured])
-        prep = prepare(fixed, rate, derivatives=False, window_s=window_s)
-    except UsvidError as exc:  # the audit reports, it does not die on odd data
-        findings.append(Finding("warning", "not_prepared",
-                                f"physics checks skipped: the trial cannot be prepared ({exc})"))
-        return findings
+    prep = prepared
+    if prep is None:
+        try:
+            prep = prepare(trial, derivatives=False, window_s=window_s)
+        except UsvidError as exc:  # the audit reports, it does not die on odd data
+            findings.append(Finding(
+                "warning", "not_prepared",
+                f"physics checks skipped: the trial cannot be prepared ({exc})"))
+            return findings
     dt = 1.0 / (prep.sample_rate or 1.0)
     findings += _check_yaw_rate(prep, measured, dt, window_s)
     findings += _check_body_velocity(prep, measured, dt, window_s)
