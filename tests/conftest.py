@@ -15,6 +15,15 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
 HSVA_DIR = SHARED_DATA / "kvlcc2_hsva"
 TWIN_DIR = SHARED_DATA / "usv_twin_thruster"
+ESSO_DIR = SHARED_DATA / "esso_osaka"
+REAL_LOGS_DIR = SHARED_DATA / "real_logs"
+VTEC_DIR = SHARED_DATA / "vtec_usv"
+
+
+def _data_dir(path: Path) -> Path:
+    if not path.is_dir():
+        pytest.skip(f"real data not found at {path} (../shared/data is not beside the repo)")
+    return path
 
 
 @pytest.fixture(scope="session")
@@ -31,6 +40,24 @@ def twin_dir() -> Path:
     if not TWIN_DIR.is_dir():
         pytest.skip(f"real data not found at {TWIN_DIR} (../shared/data is not beside the repo)")
     return TWIN_DIR
+
+
+@pytest.fixture(scope="session")
+def esso_dir() -> Path:
+    """Folder of the nine Esso Osaka pond runs (CSV); skipped when absent."""
+    return _data_dir(ESSO_DIR)
+
+
+@pytest.fixture(scope="session")
+def real_logs_dir() -> Path:
+    """Folder of the public sample logs of real devices and gateways; skipped when absent."""
+    return _data_dir(REAL_LOGS_DIR)
+
+
+@pytest.fixture(scope="session")
+def vtec_dir() -> Path:
+    """Folder of the VTec S3 twin-thruster USV ROS 1 bags; skipped when absent."""
+    return _data_dir(VTEC_DIR)
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:

@@ -158,3 +158,18 @@ def test_campaign_reads_back(quick_campaign) -> None:
     u = trial["u"][np.isfinite(trial["u"])]
     assert np.mean(u[:10]) == pytest.approx(10.0 * C.KNOT, abs=0.1)
     assert trial.duration == pytest.approx(ct.manoeuvre.duration_s, abs=0.05)
+
+
+@pytest.mark.parametrize("ext,spec", [("nmea", "lanxin_nmea0183.yaml"),
+                                      ("candump", "lanxin_nmea2000.yaml"),
+                                      ("csv", "lanxin_logger_csv.yaml")])
+def test_validate_report_on_the_campaign_logs(quick_campaign, tmp_path, ext, spec) -> None:
+    """``usvid validate --report`` succeeds wherever ``validate`` does, on the campaign's NMEA
+    0183, NMEA 2000 and CSV logs (the NMEA ones exited 2 before: the report rebuilt the series
+    of the raw multi-rate log on a 460 Hz grid of its own; tests/test_validate_report_logs.py)."""
+    from test_validate_report_logs import EXAMPLES, validate_and_report
+
+    out, _ = quick_campaign
+    for name in ("zigzag_10_10", "turning_25"):
+        assert validate_and_report(EXAMPLES / "lanxin.json", str(out / f"{name}.{ext}"),
+                                   str(out / spec), tmp_path / name)

@@ -213,9 +213,13 @@ def test_imo_turning_verdict_only_at_max_rudder(capsys, nomoto_file):
 
 
 def test_tiny_speed_is_bounded_not_memory_error(capsys, nomoto_file):
-    # the automatic run length 40 L / U was unbounded: U = 1e-6 m/s asked for 2e8 s (MemoryError)
-    t0 = time.perf_counter()
+    # the automatic run length 40 L / U was unbounded: U = 1e-6 m/s asked for 2e8 s (MemoryError);
+    # a speed below 0.01 m/s is refused at the edge, the slowest one runs at most 3600 s
     code = main(["simulate", "turning", str(nomoto_file), "--speed", "1e-6", "--dt", "0.5",
+                 "--json"])
+    assert code == 2 and "--speed must be in [0.01, 100] m/s" in capsys.readouterr().err
+    t0 = time.perf_counter()
+    code = main(["simulate", "turning", str(nomoto_file), "--speed", "0.01", "--dt", "0.5",
                  "--json"])
     capsys.readouterr()
     assert code == 0

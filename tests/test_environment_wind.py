@@ -7,7 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from usvid.models.environment.wind import apparent_to_true, true_to_apparent
+from usvid.models.environment.wind import (
+    apparent_to_true,
+    true_to_apparent,
+    true_to_apparent_scalar,
+)
 
 # (true speed, true dir from, v_north, v_east, psi) -> (apparent speed, apparent angle from bow)
 TRIANGLES = [
@@ -64,3 +68,17 @@ def test_zero_speed_has_direction_zero():
     assert s == 0.0 and a == 0.0
     s, b = apparent_to_true(0.0, 1.0, 0.0, 0.0, 0.3)
     assert s == 0.0 and b == 0.0
+
+
+def test_scalar_twin_matches_the_array_function():
+    for vt, bt, vn, ve, psi, va, ga in TRIANGLES:
+        s, a = true_to_apparent_scalar(vt, bt, vn, ve, psi)
+        assert (s, a) == pytest.approx((va, ga), abs=1e-12)
+    rng = np.random.default_rng(11)
+    args = rng.uniform(0.1, 10, 200), rng.uniform(0, 7, 200), *rng.normal(0, 3, (2, 200)), \
+        rng.uniform(-5, 5, 200)
+    va, ga = true_to_apparent(*args)
+    for i in range(200):
+        assert true_to_apparent_scalar(*(a[i] for a in args)) == pytest.approx(
+            (va[i], ga[i]), abs=1e-12)
+    assert true_to_apparent_scalar(0.0, 0.0, 0.0, 0.0, 1.0) == (0.0, 0.0)

@@ -1,12 +1,19 @@
 """Hostile and careless input: the fault matrix over every command, and time integrity.
 
-For every case of the matrix (bad output paths, outputs equal to inputs, hostile specs, model
-files and run files, resource bombs, bad seeds and steps, broken logs) the CLI, called in
-process, must
+For every case of the matrix (bad output paths, outputs equal to inputs through trims, ``./``,
+symlinks and hard links, device nodes and FIFOs as outputs, hostile specs, model files, run
+files and campaigns, resource bombs, bad seeds, steps and numeric options, broken logs, Dask
+addresses and sizes, models outside their kind's physics, metrics that cannot be computed) the
+CLI, called in process, must
 - exit 0 or 2, never 1 (no internal error);
 - when it exits 2, print exactly one line on stderr, ``usvid: error: ...``, naming the culprit;
-- leave every input file byte-identical (sha256);
+- leave every input file byte-identical (sha256) and every file its type (a device node or FIFO
+  is never replaced by a regular file);
+- answer within LIMIT_S seconds and add less than MAX_CASE_BYTES to the process's memory;
 - leave no temporary file and no partial file under an output's final name.
+The cases that would hang or exhaust memory without their guards (FIFOs and /dev/zero read as
+every kind of input, a one-line 200 MB table, the scale-out commands' resource bombs) run in one
+child process (fault_runner.py) under the same limits, its peak resident memory below MAX_RSS.
 """
 
 from __future__ import annotations
@@ -20,6 +27,10 @@ import math
 import os
 import resource
 import shutil
+import signal
+import stat
+import subprocess
+import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -41,6 +52,10 @@ from usvid.sim import run_zigzag
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
+#: Device nodes can be made (os.mknod) only as root; elsewhere the FIFO stands for them.
+IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
+#: A special file to write over: a copy of /dev/null as root, else a FIFO.
+DEVICE = "null.dev" if IS_ROOT else "fifo"
 
 
 def _sha(p: Path) -> str:
@@ -113,6 +128,10 @@ def ws(tmp_path_factory: pytest.TempPathFactory) -> WS:
 
     (root / "run").mkdir()
     (root / "run" / "run.json").write_text(json.dumps(synthetic_run()))
+    shutil.copy(EXAMPLES / "lanxin_norrbin.json", root / "lanxin_norrbin.json")
+    os.mkfifo(root / "fifo")  # read: would block until a writer comes; written: never replaced
+    if IS_ROOT:  # a copy of /dev/null (cp -a): a character device node
+        os.mknod(root / "null.dev", stat.S_IFCHR | 0o666, os.makedev(1, 3))
     return w
 
 
@@ -491,22 +510,350 @@ def _html_is_run(ws: WS) -> str:
 _out_cases()
 
 
+# ----------------------------------------------------------------------------------------------
+# second round: trims, hard links and device nodes as outputs, scale-out commands, numeric
+# options, physics, metrics that cannot be computed
+# ----------------------------------------------------------------------------------------------
+def _mc(ws: WS, *extra: str, model: str = "lanxin.json", out: str | None = None) -> list[str]:
+    return ["montecarlo", str(ws.p(model)), "--manoeuvre", "zigzag", "--runs", "2", "--vary",
+            "K=normal:0.707,0.01", "--out", out or str(ws.out / "mc.parquet"), *extra]
+
+
+def _ident(ws: WS, *args: str, out: str | None = None) -> list[str]:
+    return ["identify", *args, "--format", str(ws.p("spec.yaml")), "--model", "nomoto1",
+            "--out", out or str(ws.out / "m.json")]
+
+
+def _copy(ws: WS, name: str, src: str = "log.csv") -> str:
+    p = ws.p(name)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    if not p.exists():
+        shutil.copy(ws.p(src), p)
+    return str(p)
+
+
+GROUP = {"name": "g", "logs": ["logs/*.csv"], "spec": "spec.yaml", "kinds": ["nomoto1"]}
+
+
+def _campaign(ws: WS, name: str, doc: dict | None = None, text: str | bytes | None = None,
+              folder: str = "camp") -> str:
+    """A campaign file ``folder/name`` beside a copy of the log (``logs/run.csv``) and its
+    spec; ``doc`` a mapping, or the raw ``text``."""
+    _copy(ws, f"{folder}/logs/run.csv")
+    _copy(ws, f"{folder}/spec.yaml", "spec.yaml")
+    if text is None:
+        text = yaml.safe_dump(doc if doc is not None else {"groups": [GROUP]})
+    return ws.write(f"{folder}/{name}", text)
+
+
+def _batch(ws: WS, campaign: str, *extra: str, out: str | None = None) -> list[str]:
+    return ["batch", campaign, "--out", out or str(ws.out / "batch"), *extra]
+
+
+def _edited(ws: WS, name: str, base: str, **params) -> str:
+    def edit(d):
+        d["parameters"].update(params)
+    return _model(ws, name, base, edit)
+
+
+def _fifo_report(ws: WS) -> str:
+    """A run folder whose report.html is a FIFO."""
+    d = Path(_run_dir(ws, "run_fifo"))
+    if not (d / "report.html").exists():
+        os.mkfifo(d / "report.html")
+    return str(d)
+
+
+def _mc_turning(model: str) -> list[str]:
+    """montecarlo turning circles of ``model``, varying a parameter of its kind."""
+    vary = "x_l=normal:3.5,0.1" if json.loads(Path(model).read_text())["kind"] == "threedof" \
+        else "K=normal:-0.7,0.01"
+    return ["montecarlo", model, "--manoeuvre", "turning", "--runs", "2", "--vary", vary]
+
+
+def _second_round() -> None:
+    add = CASES.append
+    # outputs over inputs through a trim, ./, a hard link; device nodes and FIFOs as outputs
+    add(("identify-out-is-trimmed-log", lambda ws: (
+        _ident(ws, str(ws.p("log.csv")) + ":0:30", out=str(ws.p("log.csv"))), "log.csv")))
+    add(("identify-out-is-trimmed-validate-log", lambda ws: (
+        _ident(ws, str(ws.p("log.csv")), "--validate", _copy(ws, "v2.csv") + ":5:", out=str(
+            ws.p("v2.csv"))), "v2.csv")))
+    add(("identify-out-is-trimmed-turning-log", lambda ws: (
+        _ident(ws, str(ws.p("log.csv")), "--turning", _copy(ws, "t2.csv") + "::20",
+               out=str(ws.p("t2.csv"))), "t2.csv")))
+    add(("identify-out-device", lambda ws: (_ident(ws, str(ws.p("log.csv")), out=str(
+        ws.p(DEVICE))), DEVICE)))
+    add(("identify-out-fifo", lambda ws: (_ident(ws, str(ws.p("log.csv")), out=str(
+        ws.p("fifo"))), "FIFO")))
+    add(("identify-out-symlink-to-device", lambda ws: (_ident(ws, str(ws.p("log.csv")), out=_link(
+        ws, "devlink.json", DEVICE)), "devlink.json")))
+    add(("report-html-is-fifo", lambda ws: (["report", _fifo_report(ws)], "FIFO")))
+    add(("identify-report-html-is-log", lambda ws: (
+        _ident(ws, _copy(ws, "rep/report.html"), "--report", str(ws.root / "rep")),
+        "report.html")))
+    add(("montecarlo-out-is-model", lambda ws: (_mc(ws, out=str(ws.p("lanxin.json"))),
+                                                "lanxin.json")))
+    add(("montecarlo-out-is-model-dot", lambda ws: (
+        _mc(ws, out=os.path.relpath(ws.p("lanxin.json"))), "lanxin.json")))
+    add(("montecarlo-out-hardlink-to-model", lambda ws: (
+        _mc(ws, out=_link(ws, "mhard.json", "lanxin.json", hard=True)), "lanxin.json")))
+    add(("montecarlo-out-device", lambda ws: (_mc(ws, out=str(ws.p(DEVICE))), DEVICE)))
+    add(("validate-report-run-json-is-model", lambda ws: (
+        ["validate", _copy(ws, "vrep/run.json", "lanxin.json"), str(ws.p("log.csv")),
+         "--format", str(ws.p("spec.yaml")), "--report", str(ws.root / "vrep")], "run.json")))
+    add(("validate-report-run-json-is-trimmed-log", lambda ws: (
+        ["validate", str(ws.p("lanxin.json")), _copy(ws, "vrep2/run.json") + ":0:30",
+         "--format", str(ws.p("spec.yaml")), "--report", str(ws.root / "vrep2")], "run.json")))
+    # batch: --out over the campaign's own inputs, or where its globs would read the results
+    add(("batch-out-holds-a-log-named-logs-parquet", lambda ws: (_batch(
+        ws, _campaign(ws, "c.yaml", {"groups": [{**GROUP, "logs": ["logs/*"]}]}, folder="b1")
+        if _copy(ws, "b1/logs/logs.parquet") else "", out=str(ws.root / "b1" / "logs")),
+        "logs.parquet")))
+    add(("batch-out-summary-json-is-the-campaign", lambda ws: (_batch(
+        ws, _campaign(ws, "summary.json", folder="b2"), out=str(ws.root / "b2")),
+        "summary.json")))
+    add(("batch-out-matched-by-a-log-glob", lambda ws: (_batch(
+        ws, _campaign(ws, "c.yaml", {"groups": [{**GROUP, "logs": ["**/*.csv", "out/*"]}]},
+                      folder="b3"), out=str(ws.root / "b3" / "out")), "glob")))
+    add(("batch-out-device", lambda ws: (_batch(ws, _campaign(ws, "c.yaml"), out=str(
+        ws.p(DEVICE))), DEVICE)))
+    # batch: campaign contents
+    for cid, group, culprit in (
+            ("kinds-empty", {**GROUP, "kinds": []}, "kinds"),
+            ("holdout-matches-nothing", {**GROUP, "holdout": ["logs/none*.csv"]}, "holdout"),
+            ("name-with-nul", {**GROUP, "name": "a\0b"}, "name"),
+            ("name-list", {**GROUP, "name": ["a"]}, "name"),
+            ("name-dotdot", {**GROUP, "name": ".."}, "name"),
+            ("kinds-dict", {**GROUP, "kinds": [{"a": 1}]}, "kinds"),
+            ("method-list", {**GROUP, "method": ["ls"] * 50}, "method"),
+            ("logs-with-nul", {**GROUP, "logs": ["logs/\0.csv"]}, "logs"),
+            ("spec-not-utf8", {**GROUP, "spec": "bad.yaml"}, "bad.yaml")):
+        add((f"batch-campaign-{cid}", lambda ws, g=group, c=cid, cu=culprit: (_batch(
+            ws, _campaign(ws, f"{c}.yaml", {"groups": [g]})
+            if ws.write("camp/bad.yaml", b"reader: \xff\n") else ""), cu)))
+    for cid, text, culprit in (
+            ("not-utf8", b"groups:\n  - name: \xff\xfe\n", "UTF-8"),
+            ("utf16", "groups: []\n".encode("utf-16"), "UTF-16"),
+            ("alias-bomb-name", _alias_bomb("groups") , "alias"),
+            ("deep", "groups: " + "[" * 3000 + "]" * 3000 + "\n", "nested"),
+            ("python-tag", "groups: !!python/object/apply:os.system [echo]\n", "python-tag.yaml")):
+        add((f"batch-campaign-{cid}", lambda ws, t=text, c=cid, cu=culprit: (
+            _batch(ws, _campaign(ws, f"{c}.yaml", text=t)), cu)))
+    # Dask: scheduler addresses and workers, checked before anything starts
+    for addr in ("garbage", "inproc://x", "tls://127.0.0.1:8786", "ucx://127.0.0.1:8786",
+                 "http://127.0.0.1:8786", "tcp://127.0.0.1:99999", "tcp://:8786"):
+        add((f"montecarlo-scheduler-{addr}", lambda ws, a=addr: (_mc(ws, "--scheduler", a),
+                                                                  "--scheduler")))
+        add((f"batch-scheduler-{addr}", lambda ws, a=addr: (
+            _batch(ws, _campaign(ws, "c.yaml"), "--scheduler", a), "--scheduler")))
+    for w in ("0", "-1", "100000"):
+        add((f"montecarlo-workers={w}", lambda ws, w=w: (_mc(ws, "--workers", w), "--workers")))
+        add((f"batch-workers={w}", lambda ws, w=w: (
+            _batch(ws, _campaign(ws, "c.yaml"), "--workers", w), "--workers")))
+    add(("montecarlo-scheduler-and-workers", lambda ws: (
+        _mc(ws, "--scheduler", "tcp://127.0.0.1:9", "--workers", "2"), "--workers")))
+    # numeric options at the edge, each error naming its option
+    for opt, val in (("--t-end", "nan"), ("--t-end", "inf"), ("--t-end", "0"),
+                     ("--speed", "0"), ("--speed", "-5"), ("--speed", "1e-9"),
+                     ("--psi-deg", "0"), ("--delta-deg", "1e-300"), ("--delta-deg", "1e9"),
+                     ("--dt", "0"), ("--chunk", "0"), ("--runs", "0"), ("--kp", "nan"),
+                     ("--target-deg", "inf"), ("--disturbance-deg", "inf")):
+        add((f"montecarlo-option-{opt[2:]}={val}", lambda ws, o=opt, v=val: (_mc(ws, o, v), o)))
+    add(("montecarlo-vary-sway-force-on-threedof", lambda ws: (
+        ["montecarlo", str(ws.p("lanxin_threedof.json")), "--manoeuvre", "zigzag", "--runs",
+         "2", "--vary", "sway_force=normal:0.7,0.01", "--out", str(ws.out / "mc.parquet")],
+        "sway_force")))
+    add(("montecarlo-t-end-too-short", lambda ws: (_mc(ws, "--t-end", "2"), "--t-end")))
+    for cmd, extra in (("zigzag", ()), ("turning", ())):
+        for opt, val in (("--speed", "0"), ("--speed", "-5"), ("--speed", "1e-9"),
+                         ("--delta-deg", "1e-300"), ("--delta-deg", "1e9"),
+                         ("--t-end", "inf"), ("--rps", "nan")):
+            add((f"{cmd}-option2-{opt[2:]}={val}", lambda ws, c=cmd, o=opt, v=val, e=extra: (
+                ["simulate", c, str(ws.p("lanxin.json")), *e, o, v], o)))
+    add(("zigzag-option2-psi-deg=0", lambda ws: (
+        ["simulate", "zigzag", str(ws.p("lanxin.json")), "--psi-deg", "0"], "--psi-deg")))
+    for opt, val in (("--noise", "nan"), ("--noise", "1e300"), ("--kp", "nan"),
+                     ("--kd", "inf"), ("--ki", "nan"), ("--target-deg", "inf")):
+        add((f"course-keeping-option2-{opt[2:]}={val}", lambda ws, o=opt, v=val: (
+            ["simulate", "course-keeping", str(ws.p("lanxin.json")), "--controller", "pid",
+             o, v], o)))
+    for opt, val in (("--zeta", "0"), ("--zeta", "nan"), ("--horizon", "0"),
+                     ("--bandwidth", "-1"), ("--target-deg", "0"), ("--target-deg", "nan"),
+                     ("--uncertainty-pct", "nan"), ("--uncertainty-pct", "1e9"),
+                     ("--disturbance-deg", "nan")):
+        add((f"autopilot-option2-{opt[2:]}={val}", lambda ws, o=opt, v=val: (
+            ["autopilot", str(ws.p("lanxin.json")), "--samples", "0", o, v], o)))
+    for opt, val in (("--window-s", "inf"), ("--window-s", "0"), ("--lam", "0"),
+                     ("--lam", "nan"), ("--lam", "2"), ("--overlap", "1"), ("--x-l", "nan"),
+                     ("--t-start", "-1"), ("--t-end", "inf"), ("--psi-deg", "0"),
+                     ("--model", "bogus"), ("--method", "bogus"), ("--norrbin", "bogus")):
+        add((f"identify-option-{opt[2:]}={val}", lambda ws, o=opt, v=val: (
+            [*_ident(ws, str(ws.p("log.csv")))[:-2], o, v, "--out", str(ws.out / "m.json")]
+            if o != "--model" else ["identify", str(ws.p("log.csv")), "--format",
+                                    str(ws.p("spec.yaml")), "--model", v, "--out",
+                                    str(ws.out / "m.json")], o)))
+    for opt, val in (("--psi-deg", "0"), ("--t-end", "nan"), ("--t-start", "inf")):
+        add((f"validate-option-{opt[2:]}={val}", lambda ws, o=opt, v=val: (
+            ["validate", str(ws.p("lanxin.json")), str(ws.p("log.csv")), "--format",
+             str(ws.p("spec.yaml")), o, v], o)))
+    for opt, val in (("--psi-deg", "0"), ("--psi-deg", "nan"), ("--min-turn-deg", "nan")):
+        add((f"metrics-option-{opt[2:]}={val}", lambda ws, o=opt, v=val: (
+            ["metrics", str(ws.p("log.csv")), "--format", str(ws.p("spec.yaml")), o, v], o)))
+    for val in ("0", "nan", "-1"):
+        add((f"fit-turning-diameter-length={val}", lambda ws, v=val: (
+            ["fit-turning-diameter", "--length", v], "--length")))
+    # models outside their kind's physics, metrics that cannot be computed
+    physics = {
+        "K-negative": (lambda ws: _edited(ws, "kneg.json", "lanxin.json", K=-0.707),
+                       "turns to port"),
+        "n-negative": (lambda ws: _edited(ws, "nneg.json", "lanxin_threedof.json", n=-52.9),
+                       "shaft speed"),
+    }
+    for pid, (mk, culprit) in physics.items():
+        for cmd in ("zigzag", "turning", "course-keeping"):
+            add((f"{cmd}-physics-{pid}", lambda ws, c=cmd, mk=mk, cu=culprit: (
+                ["simulate", c, mk(ws)], cu)))
+        add((f"autopilot-physics-{pid}", lambda ws, mk=mk, cu=culprit: (
+            ["autopilot", mk(ws), "--samples", "0"], cu)))
+        add((f"montecarlo-physics-{pid}", lambda ws, mk=mk, cu=culprit: (
+            _mc_turning(mk(ws)) + ["--out", str(ws.out / "mc.parquet")], cu)))
+    add(("autopilot-physics-K-1e12", lambda ws: (
+        ["autopilot", _edited(ws, "kbig.json", "lanxin.json", K=1e12), "--samples", "0"],
+        "diverges")))
+    add(("autopilot-physics-n3-negative", lambda ws: (
+        ["autopilot", _edited(ws, "n3neg.json", "lanxin_norrbin.json", n3=-1.1), "--samples",
+         "0"], "n3")))
+    add(("turning-rps-1e-6", lambda ws: (
+        ["simulate", "turning", str(ws.p("lanxin_threedof.json")), "--rps", "1e-6"], "--rps")))
+    add(("zigzag-no-overshoot-in-5-s", lambda ws: (
+        ["simulate", "zigzag", str(ws.p("lanxin.json")), "--t-end", "5", "--speed", "0.2",
+         "--json"], "overshoot")))
+    add(("turning-no-circle-in-3-s", lambda ws: (
+        ["simulate", "turning", str(ws.p("lanxin.json")), "--t-end", "3", "--json"],
+        "turning circle")))
+
+
+_second_round()
+
+
+def _numeric_option_cases() -> None:
+    """Every numeric option of every command (read from the CLI's own command tree, so an
+    option added later is covered too) given NaN, infinity and -1e300 (floats) or -1 (integers):
+    exit 2, one line naming the option, before any work."""
+    from usvid.cli import _command
+
+    def base(ws: WS, path: tuple[str, ...]) -> list[str]:
+        log, spec, model = str(ws.p("log.csv")), str(ws.p("spec.yaml")), str(ws.p("lanxin.json"))
+        return {
+            ("simulate", "zigzag"): ["simulate", "zigzag", model],
+            ("simulate", "turning"): ["simulate", "turning", str(ws.p("lanxin_threedof.json"))],
+            ("simulate", "course-keeping"): ["simulate", "course-keeping", model, "--controller",
+                                             "pid"],
+            ("autopilot",): ["autopilot", model, "--samples", "0"],
+            ("audit",): ["audit", log, "--format", spec],
+            ("metrics",): ["metrics", log, "--format", spec],
+            ("identify",): _ident(ws, log),
+            ("validate",): ["validate", model, log, "--format", spec],
+            ("fit-turning-diameter",): ["fit-turning-diameter"],
+            ("montecarlo",): _mc(ws),
+            ("batch",): _batch(ws, _campaign(ws, "c.yaml")),
+            ("demo",): ["demo", "--quick", "--out", str(ws.out / "demo-options")],
+        }[path]
+
+    root = _command()
+    commands: list[tuple[tuple[str, ...], object]] = []
+    for name, cmd in sorted(root.commands.items()):
+        subs = getattr(cmd, "commands", None)
+        commands += ([((name, sub), c) for sub, c in sorted(subs.items())] if subs else
+                     [((name,), cmd)])
+    for path, cmd in commands:
+        for prm in cmd.params:
+            ann = getattr(getattr(prm, "type_descriptor", None), "annotation", None)
+            if "Option" not in type(prm).__name__ or ann is None:
+                continue
+            kind = "float" if "float" in str(ann) else "int" if "int" in str(ann) else None
+            if kind is None:
+                continue
+            opt = max(prm.opts, key=len)
+            for val in (("nan", "inf", "-1e300") if kind == "float" else ("-1",)):
+                CASES.append((f"{'-'.join(path[-1:])}-numeric{opt}={val}",
+                              lambda ws, p=path, o=opt, v=val: ([*base(ws, p), o, v], o)))
+
+
+_numeric_option_cases()
+
 def _leftovers(root: Path) -> list[str]:
     return [str(p) for p in root.rglob("*") if p.name.endswith(".tmp")
             or p.name.startswith(".usvid-probe")]
+
+
+def _types(root: Path) -> dict[str, int]:
+    """The file type (``stat.S_IFMT``, symlinks not followed) of everything under ``root``: a
+    device node or FIFO replaced by a regular file changes it."""
+    return {str(p.relative_to(root)): stat.S_IFMT(p.lstat().st_mode) for p in root.rglob("*")}
+
+
+class CaseTimeout(BaseException):
+    """A case ran out of time (a BaseException: the CLI does not turn it into an exit code)."""
+
+
+def _timeout(signum, frame):
+    raise CaseTimeout()
+
+
+#: Time limit of one case [s] (the slowest, a quick demo refused at its folder, takes ~1 s).
+LIMIT_S = 30
+#: Memory one case may add to the process [bytes].
+MAX_CASE_BYTES = 2**30
+
+
+def _rss() -> int:
+    """Resident memory of this process now [bytes]."""
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _children_cpu() -> float:
+    """CPU time [s] of this process's ended children (a started cluster adds to it)."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _peak() -> int:
+    """Peak resident memory of this process so far [bytes]."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 @pytest.mark.parametrize("cid,build", CASES, ids=[c[0] for c in CASES])
 def test_fault_matrix(ws: WS, cid: str, build) -> None:
     argv, culprit = build(ws)
     before = _tree(ws.root)
+    types = _types(ws.root)
     outs_before = _tree(ws.out)
-    code, _, err = run_cli(argv)
+    rss0, peak0, kids0 = _rss(), _peak(), _children_cpu()
+    previous = signal.signal(signal.SIGALRM, _timeout)
+    signal.alarm(LIMIT_S)  # a hang (a FIFO opened for reading blocks) fails the case
+    try:
+        code, _, err = run_cli(argv)
+    except CaseTimeout:
+        pytest.fail(f"{cid}: no answer within {LIMIT_S} s")
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    peak = _peak()
+    # the process's peak rose during the case: it is the case's own, measured from where it began
+    assert peak == peak0 or peak - rss0 < MAX_CASE_BYTES, \
+        f"{cid}: {(peak - rss0) / 2**20:.0f} MiB of memory"
+    assert {k: v for k, v in _types(ws.root).items() if k in types} == types, \
+        f"{cid}: a file changed type (a device node or FIFO replaced?)"
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert code in (0, 2), f"{cid}: exit {code}\n{err[-3000:]}"
     if code == 2:
         assert len(lines) == 1 and lines[0].startswith("usvid: error: "), err[-3000:]
         assert len(lines[0]) < 2000
+        # refused before any work: no process was started for it (a Dask cluster, ...)
+        assert _children_cpu() == kids0, f"{cid}: child processes ran before the refusal"
         assert culprit.lower() in lines[0].lower(), f"{cid}: {culprit!r} not in {lines[0]!r}"
         # a refused command writes nothing
         assert _tree(ws.out) == outs_before, f"{cid}: output written despite exit 2"
@@ -521,13 +868,105 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
         json.loads(p.read_text())
 
 
+# ----------------------------------------------------------------------------------------------
+# cases that would hang or exhaust memory without their guards: one child process runs them
+# all, each under a time limit, and its peak resident memory bounds every one of them
+# ----------------------------------------------------------------------------------------------
+#: Peak resident memory of the child running every resource case [bytes] (interpreter, numpy,
+#: pandas, numba and the kernel: ~350 MB; the one-line 200 MB table adds its 200 MB of bytes).
+MAX_RSS = 2**30
+
+
+def _resource_cases(ws: WS) -> list[tuple[str, list[str], str]]:
+    """(id, argv, culprit) of the resource cases; their inputs written under ``ws.root``."""
+    spec, log, model = str(ws.p("spec.yaml")), str(ws.p("log.csv")), str(ws.p("lanxin.json"))
+    line = ws.p("oneline.csv")
+    if not line.exists():  # a table of one 200 MB line (the line bound is 1 MB)
+        with open(line, "wb") as fh:
+            fh.write(b"t,psi,r,delta\n")
+            for _ in range(200):
+                fh.write(b"0," * 500_000)
+    out = str(ws.out / "r.json")
+    cases: list[tuple[str, list[str], str]] = []
+    for src, culprit in (("/dev/zero", "character device"), (str(ws.p("fifo")), "FIFO")):
+        tag = "zero" if src == "/dev/zero" else "fifo"
+        cases += [
+            (f"audit-log-{tag}", ["audit", src, "--format", spec], culprit),
+            (f"metrics-log-{tag}", ["metrics", src, "--format", spec], culprit),
+            (f"identify-log-{tag}", ["identify", src, "--format", spec, "--model", "nomoto1",
+                                     "--out", out], culprit),
+            (f"validate-log-{tag}", ["validate", model, src, "--format", spec], culprit),
+            (f"audit-spec-{tag}", ["audit", log, "--format", src], culprit),
+            (f"zigzag-model-{tag}", ["simulate", "zigzag", src], culprit),
+            (f"autopilot-model-{tag}", ["autopilot", src], culprit),
+            (f"validate-model-{tag}", ["validate", src, log, "--format", spec], culprit),
+            (f"montecarlo-model-{tag}", ["montecarlo", src, "--manoeuvre", "zigzag", "--runs",
+                                         "2", "--vary", "K=normal:1,0.1", "--out",
+                                         str(ws.out / "mc.parquet")], culprit),
+            (f"batch-campaign-{tag}", ["batch", src, "--out", str(ws.out / "b")], culprit),
+            (f"fit-turning-diameter-table-{tag}", ["fit-turning-diameter", src], culprit),
+        ]
+    mc = ["montecarlo", model, "--manoeuvre", "zigzag", "--vary", "K=normal:1,0.1",
+          "--out", str(ws.out / "mc.parquet")]
+    cases += [
+        ("metrics-one-line-200-MB", ["metrics", str(line), "--format", spec], "line 2"),
+        ("montecarlo-runs-1e12", [*mc, "--runs", "1000000000000"], "--runs"),
+        ("montecarlo-runs-1e9-chunk-1", [*mc, "--runs", "1000000000", "--chunk", "1"],
+         "--runs"),
+        ("montecarlo-runs-1e7-chunk-1", [*mc, "--runs", "10000000", "--chunk", "1"],
+         "--chunk"),
+        ("montecarlo-workers-1e9", [*mc, "--runs", "2", "--workers", "1000000000"],
+         "--workers"),
+        ("batch-campaign-alias-bomb-name", ["batch", _campaign(ws, "bomb1.yaml", text=(
+            _alias_bomb("x") + "groups:\n  - {name: *a8, logs: [x], spec: s, kinds: [nomoto1]}"
+            "\n")), "--out", str(ws.out / "b")], "alias"),
+        ("batch-campaign-alias-bomb-method", ["batch", _campaign(ws, "bomb2.yaml", text=(
+            _alias_bomb("x") + "groups:\n  - {name: a, logs: [x], spec: s, kinds: [nomoto1], "
+            "method: *a8}\n")), "--out", str(ws.out / "b")], "alias"),
+    ]
+    return cases
+
+
+def test_resource_cases_are_bounded_in_time_and_memory(ws: WS, tmp_path) -> None:
+    """FIFOs and /dev/zero as logs, specs, model files, campaigns and tables (every command
+    that reads one), a one-line 200 MB table, and the scale-out commands' resource bombs: each
+    exits 2 with one line naming the culprit within LIMIT_S seconds, the child that runs them
+    all stays under MAX_RSS of resident memory, and no input or device node is changed."""
+    cases = _resource_cases(ws)
+    before, types = _tree(ws.root), _types(ws.root)
+    spec = tmp_path / "cases.json"
+    spec.write_text(json.dumps([[cid, argv] for cid, argv, _ in cases]))
+    proc = subprocess.run([sys.executable, str(Path(__file__).with_name("fault_runner.py")),
+                           str(spec)], capture_output=True, text=True, cwd=REPO,
+                          timeout=120 + LIMIT_S * len(cases))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = [json.loads(ln) for ln in proc.stdout.splitlines() if ln.startswith("{")]
+    got = {r["id"]: r for r in rows if "id" in r}
+    for cid, _, culprit in cases:
+        r = got[cid]
+        lines = [ln for ln in r["err"].splitlines() if ln.strip()]
+        assert r["code"] == 2, f"{cid}: exit {r['code']}\n{r['err']}"
+        assert len(lines) == 1 and lines[0].startswith("usvid: error: "), f"{cid}: {r['err']}"
+        assert culprit.lower() in lines[0].lower(), f"{cid}: {culprit!r} not in {lines[0]!r}"
+        assert r["seconds"] < LIMIT_S
+    peak = rows[-1]["maxrss_kb"] * 1024
+    print(f"resource cases: peak RSS {peak / 2**20:.0f} MiB, slowest "
+          f"{max(r['seconds'] for r in got.values()):.2f} s")
+    assert peak < MAX_RSS, f"peak resident memory {peak / 2**20:.0f} MiB"
+    assert rows[-1]["children_maxrss_kb"] * 1024 < MAX_RSS  # (no cluster should start at all)
+    after = _tree(ws.root)
+    assert {k: after.get(k) for k in before} == before
+    assert {k: v for k, v in _types(ws.root).items() if k in types} == types
+    assert _leftovers(ws.root) == [] and _leftovers(ws.out) == []
+
 def test_fault_matrix_size() -> None:
     # the issue's campaign found 61 internal errors, 2 hangs and the path cases; the matrix
     # generates every one of them over every command that can meet it
-    assert len(CASES) >= 150
+    assert len(CASES) >= 450
     commands = {c[0].split("-")[0] for c in CASES}
     assert commands >= {"audit", "metrics", "identify", "zigzag", "turning", "course",
-                        "autopilot", "fit", "demo", "report"}
+                        "autopilot", "fit", "demo", "report", "montecarlo", "batch",
+                        "validate"}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -809,3 +1248,20 @@ def test_damaged_dataflash_log_prints_no_library_noise(tmp_path, capfd) -> None:
     code = main(["audit", str(p), "--format", "ardupilot_rover"])
     err = capfd.readouterr().err
     assert code in (0, 3) and "bad header" not in err, err[:500]
+
+
+def test_table_line_bound_is_exact() -> None:
+    """check_line_length: lines of exactly the bound pass, one byte more is refused with its
+    line number, wherever it lies relative to the search windows."""
+    from usvid.errors import LogReadError
+    from usvid.io.table import check_line_length
+
+    n = 10
+    ok = b"h\n" + (b"x" * n + b"\n") * 7 + b"x" * n  # the last line without a line feed
+    check_line_length(Path("t.csv"), ok, n)
+    for k in range(1, 6):  # the long line after k short ones of varied length
+        head = b"".join(b"y" * (i % n) + b"\n" for i in range(k))
+        for tail in (b"\n", b"\nz\n", b""):
+            bad = head + b"x" * (n + 1) + tail
+            with pytest.raises(LogReadError, match=f"t.csv line {k + 1}: longer than {n} "):
+                check_line_length(Path("t.csv"), bad, n)

@@ -17,6 +17,11 @@ from usvid.identify.series import IdentificationWarning
 from usvid.models.thrust import PodThrust
 from usvid.trial import Trial, Vessel
 
+#: The synthetic records below hold no speed and no positions (a basin's heading and rudder
+#: record): their approach speed is declared, as a format spec's vessel.speed would, so that
+#: they pass the under-way check and reach the check each test is about.
+BASIN = Vessel(speed=2.0)
+
 
 def _nomoto_trial(n=2000, h=0.1, name="log.csv", nan_at=(), delta=None):
     t = np.arange(n) * h
@@ -28,7 +33,7 @@ def _nomoto_trial(n=2000, h=0.1, name="log.csv", nan_at=(), delta=None):
     df = pd.DataFrame({"t": t, "psi": psi, "r": r, "delta": d})
     for i in nan_at:
         df.loc[i, "r"] = np.nan
-    return Trial(data=df, name=name)
+    return Trial(data=df, name=name, vessel=BASIN)
 
 
 def test_too_short_trial():
@@ -52,7 +57,7 @@ def test_collinear_regressors_named():
     d = 0.2 * (t / t[-1]) ** 2 - 0.05
     df = pd.DataFrame({"t": t, "r": 0.5 * d, "delta": d})
     with pytest.raises(IdentificationError, match=r"collinear regressors.*'a'.*'b'"):
-        ModelEstimator("nomoto1").fit(Trial(data=df, name="col"))
+        ModelEstimator("nomoto1").fit(Trial(data=df, name="col", vessel=BASIN))
 
 
 def test_few_nan_samples_warn_and_interpolate():
@@ -129,12 +134,19 @@ def test_course_unstable_with_nomoto1_says_use_norrbin():
         psi[k + 1] = psi[k] + h * r[k]
     d[-1] = cmd
     tr = Trial(data=pd.DataFrame({"t": np.arange(n) * h, "psi": psi, "r": r, "delta": d}),
-               name="unstable")
+               name="unstable", vessel=BASIN)
     with pytest.raises(IdentificationError, match="use --model norrbin"):
         ModelEstimator("nomoto1").fit(tr)
-    est = ModelEstimator("norrbin").fit(tr)
+    # the rudder has two levels only, so K and the offset delta0 are not separated (K = 118 +-
+    # 2480, delta0 = -0.17 rad): the Norrbin model's replays diverge and it is refused ...
+    with pytest.raises(IdentificationError, match="fails its checks.*diverges"):
+        ModelEstimator("norrbin", "ls").fit(tr)
+    # ... though its time constant and sign are right (kept, with its failed checks, on demand)
+    with pytest.warns(IdentificationWarning, match="written anyway"):
+        est = ModelEstimator("norrbin", "ls", checks="record").fit(tr)
     assert est.params_["n1"] == -1.0
     assert est.params_["T"] == pytest.approx(10.0, rel=0.05)
+    assert "free run" in [c.name for c in est.checks_ if not c.passed]
 
 
 def test_all_nan_channel_is_named_as_such_not_absent():
@@ -163,8 +175,8 @@ def test_quasi_static_rudder_warns_poorly_determined():
     tr = Trial(data=pd.DataFrame({"t": t, "psi": psi, "r": r_meas, "delta": delta}),
                vessel=Vessel(length=7.0, speed=1.18), name="slow")
     with pytest.warns(IdentificationWarning, match=r"nomoto1: poorly determined .*\bT = "):
-        ModelEstimator("nomoto1").fit(tr)
+        ModelEstimator("nomoto1", "ls").fit(tr)
     # ... and a well-excited zig-zag does not warn
     with warnings.catch_warnings():
         warnings.simplefilter("error", IdentificationWarning)
-        ModelEstimator("nomoto1").fit(nomoto_zoh_zigzag())
+        ModelEstimator("nomoto1", "ls").fit(nomoto_zoh_zigzag())

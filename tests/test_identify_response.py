@@ -3,6 +3,7 @@ trials (sensor noise, servo dead time, rudder-equivalent disturbance; all seeded
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,7 +13,7 @@ from scipy.signal import cont2discrete
 from reference import nomoto_zoh_zigzag
 from usvid.identify.estimator import ModelEstimator, identify
 from usvid.identify.series import IdentificationWarning
-from usvid.io.modelfile import model_from_dict
+from usvid.io.modelfile import model_from_dict, model_to_dict
 from usvid.models import Nomoto1, Nomoto2, Norrbin, get_kind
 from usvid.models.model import VesselModel
 from usvid.models.servo import SecondOrderServo
@@ -174,6 +175,23 @@ def test_identify_functional_and_model_file(nomoto_trials):
     assert ident["fit"]["psi"]["r2"] > 0.99
     m = model_from_dict(d)
     assert m.dynamics.K == pytest.approx(res.params["K"])
+
+
+def test_the_identified_model_keeps_every_vessel_particular(nomoto_trials):
+    """The model's vessel is the trials' vessel: the windage areas and the extra particulars
+    kept (the wind loads need them), only the missing approach speed filled in from the
+    training data (3 m/s in the virtual trials); and so in the model file."""
+    vessel = Vessel(length=7.0, beam=1.3, draft=0.4, frontal_area=0.9, lateral_area=2.5,
+                    extra={"superstructure_area": 0.7, "x_g": 0.1})
+    trials = [tr.with_data(tr.data, vessel=vessel) for tr in nomoto_trials]
+    est = ModelEstimator("nomoto1", "ls").fit(trials)
+    v = est.model_.vessel
+    assert v.speed == pytest.approx(3.0, rel=0.02)  # the logged U (noise 0.05 m/s)
+    assert dataclasses.replace(v, speed=None) == vessel
+    assert v.extra is not vessel.extra  # a copy: the trials' vessel is not changed
+    assert vessel.speed is None
+    back = model_from_dict(model_to_dict(est.model_)).vessel
+    assert back == v
 
 
 def test_simulate_and_score(nomoto_trials):

@@ -389,6 +389,131 @@ def test_ctrl_c_exits_130(log, tmp_path) -> None:
     assert not (tmp_path / "m.json").exists()
 
 
+def _child(code: str, **kw) -> subprocess.Popen:
+    """``python -c CODE`` in a session of its own (a terminal's Ctrl-C reaches its whole
+    process group: os.killpg), stdout and stderr piped."""
+    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=REPO, start_new_session=True, **kw)
+
+
+def _finish(proc: subprocess.Popen, timeout: float = 120) -> tuple[int, str]:
+    try:
+        _, err = proc.communicate(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    return proc.returncode, err.decode()
+
+
+def test_sigterm_exits_143_like_ctrl_c(log, tmp_path) -> None:
+    """SIGTERM in the middle of a command is handled as Ctrl-C: exit 143, one line, and a
+    SIGTERM between writing the output's temporary file and renaming it removes the temporary
+    file (the fsync is held back to reach that moment)."""
+    csv, spec = log
+    out = tmp_path / "m.json"
+    for stage in ("fit", "fsync"):
+        code = ("import os, sys, time\n"
+                "from usvid.cli import main\n"
+                "import usvid.identify.estimator as e, usvid.files as f\n"
+                f"stage = {stage!r}\n"
+                "orig_fit, orig_fsync = e.ModelEstimator.fit, os.fsync\n"
+                "def fit(self, *a, **k):\n"
+                "    if stage == 'fit':\n"
+                "        print('ready', flush=True); time.sleep(60)\n"
+                "    return orig_fit(self, *a, **k)\n"
+                "def fsync(fd):\n"
+                "    print('ready', flush=True); time.sleep(60)\n"
+                "e.ModelEstimator.fit = fit\n"
+                "if stage == 'fsync':\n"
+                "    f.os.fsync = fsync\n"
+                f"sys.exit(main(['identify', {str(csv)!r}, '--format', {str(spec)!r}, "
+                f"'--model', 'nomoto1', '--out', {str(out)!r}]))\n")
+        proc = _child(code)
+        assert proc.stdout.readline().strip() == b"ready"
+        names = [p.name for p in tmp_path.iterdir()]
+        if stage == "fit":
+            assert names == []
+        else:  # the temporary file is written, not yet renamed
+            assert len(names) == 1 and names[0].startswith(".m.json.") \
+                and names[0].endswith(".tmp"), names
+        proc.send_signal(signal.SIGTERM)
+        rc, err = _finish(proc)
+        assert rc == 143 and err.strip() == "usvid: terminated", (stage, rc, err[-2000:])
+        assert list(tmp_path.iterdir()) == [], stage  # no model file, no temporary file
+
+
+def test_ctrl_c_while_the_cli_starts_is_quiet() -> None:
+    """Ctrl-C while ``usvid.cli`` is still being imported (here: when it imports typer): exit
+    130 with one line, not a KeyboardInterrupt traceback nor death by the signal (-2)."""
+    code = ("import builtins, os, signal\n"
+            "real = builtins.__import__\n"
+            "def imp(name, *a, **k):\n"
+            "    if name == 'typer':\n"
+            "        os.kill(os.getpid(), signal.SIGINT)\n"
+            "    return real(name, *a, **k)\n"
+            "builtins.__import__ = imp\n"
+            "from usvid.cli import main\n"
+            "print('not reached')\n")
+    rc, err = _finish(_child(code))
+    assert rc == 130 and err.strip() == "usvid: interrupted", (rc, err[-2000:])
+
+
+_SCALE = """
+import sys
+import usvid.scale.batch as b, usvid.scale.cluster as c, usvid.scale.montecarlo as m
+from usvid.cli import main
+real = c.map_ordered
+def announce(*a, **k):
+    print('tasks', flush=True)
+    return real(*a, **k)
+b.map_ordered = m.map_ordered = announce
+sys.exit(main({argv!r}))
+"""
+
+
+def _running(psutil, pid: int) -> bool:
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+def test_ctrl_c_during_dask_montecarlo_and_batch_is_quiet(tmp_path) -> None:
+    """A terminal's Ctrl-C (SIGINT to the whole process group: the command and its Dask
+    worker processes) while montecarlo (on a local cluster: --workers above the cores) and
+    batch run their tasks: exit 130, exactly one line "usvid: interrupted" (no traceback, no
+    Dask log line, no worker's traceback), no temporary file, no process left."""
+    psutil = pytest.importorskip("psutil")
+    from test_scale import SPEC, _write_log
+
+    model = tmp_path / "m.json"
+    model.write_text(json.dumps(model_to_dict(load_model(EXAMPLES / "lanxin.json"))))
+    (tmp_path / "spec.yaml").write_text(SPEC)
+    for i in range(4):
+        _write_log(tmp_path / f"run{i}.csv", 0.3, 10 + i, seed=i)
+    groups = [{"name": f"g{i}", "logs": ["*.csv"], "spec": "spec.yaml",
+               "kinds": ["nomoto1", "norrbin"], "method": "oe"} for i in range(8)]
+    (tmp_path / "c.yaml").write_text(json.dumps({"groups": groups}))
+    cores = len(os.sched_getaffinity(0))
+    runs = [["montecarlo", str(model), "--manoeuvre", "zigzag", "--runs", "2000000",
+             "--chunk", "4000", "--vary", "K=normal:0.707,0.01", "--workers", str(cores + 1),
+             "--out", str(tmp_path / "mc.parquet")],
+            ["batch", str(tmp_path / "c.yaml"), "--out", str(tmp_path / "out")]]
+    for argv in runs:
+        proc = _child(_SCALE.format(argv=argv))
+        assert proc.stdout.readline().strip() == b"tasks", _finish(proc)
+        time.sleep(1.0)  # the tasks run on the workers
+        family = [proc.pid, *(p.pid for p in psutil.Process(proc.pid).children(recursive=True))]
+        os.killpg(proc.pid, signal.SIGINT)
+        rc, err = _finish(proc)
+        assert rc == 130 and err.strip() == "usvid: interrupted", (argv[0], rc, err[-3000:])
+        time.sleep(0.5)
+        assert [p for p in family if _running(psutil, p)] == [], argv[0]
+        assert [p.name for p in tmp_path.rglob("*.tmp")] == []
+        assert not (tmp_path / "mc.parquet").exists()
+
+
 NUMBA_MODULE = """
 import numba, sys
 

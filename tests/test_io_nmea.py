@@ -123,7 +123,7 @@ def test_nmea0183_sentence_time_interpolation_and_any_talker(tmp_path):
         out.append(sentence(f"GNRMC,1200{k:02d}.00,A,5400.000,N,01000.000,E,4.0,90.0,241125,,,A"))
         out += [sentence(f"INTHS,{90 + k + j / 4:.2f},A") for j in range(1, 4)]
         out.append(sentence(f"IIROT,{-30.0:.1f},A"))
-    out.append(sentence("HEHDG,80.0,1.0,E,2.0,W"))  # magnetic heading: kept as psi_hdg
+    out.append(sentence("HEHDG,80.0,1.0,E,2.0,W"))  # magnetic heading: kept as psi_mag
     p = tmp_path / "s.nmea"
     p.write_text("\r\n".join(out) + "\r\n")
     tr = read_nmea0183(p)
@@ -138,7 +138,9 @@ def test_nmea0183_sentence_time_interpolation_and_any_talker(tmp_path):
     assert psi[ok][:3] == pytest.approx(np.radians([90.25, 90.5, 90.75]), rel=1e-12)
     assert np.nanmax(tr["r"]) == pytest.approx(math.radians(-30.0) / 60.0)  # deg/min, to port
     assert np.nanmax(tr["sog"]) == pytest.approx(4.0 * 1852 / 3600)
-    assert np.nanmax(tr["psi_hdg"]) == pytest.approx(math.radians(80.0 + 1.0 - 2.0))
+    # the magnetic heading plus its deviation (the variation is not added while a true
+    # heading is logged)
+    assert np.nanmax(tr["psi_mag"]) == pytest.approx(math.radians(80.0 + 1.0))
 
 
 def test_nmea0183_midnight_rollover_without_prefix(tmp_path):

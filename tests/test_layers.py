@@ -1,9 +1,10 @@
 """The package's layers: data flows one way, no import cycles, imports at module top.
 
 The layers contract (``[tool.importlinter]`` in pyproject.toml) is checked with import-linter:
-cli > commands > demo > report > identify | control (independent) > sim > prep > io > models >
-trial/files > errors. A new import against the flow (or a cycle, which always is one) fails
-this test.
+cli > commands > scale > demo > report > identify | control (independent) > sim > manoeuvres >
+prep > io > models > trial/files > errors; and the commands are independent of each other (a
+command never imports another; shared code is a layer down or in ``usvid.commands._common``).
+A new import against the flow (or a cycle, which always is one) fails this test.
 """
 
 from __future__ import annotations
@@ -14,6 +15,17 @@ from pathlib import Path
 from importlinter.cli import lint_imports
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "usvid"
+
+
+def test_every_command_is_in_the_independence_contract():
+    import tomllib
+
+    from usvid.commands import COMMAND_MODULES
+
+    cfg = tomllib.loads((SRC.parents[1] / "pyproject.toml").read_text(encoding="utf-8"))
+    contracts = cfg["tool"]["importlinter"]["contracts"]
+    independent = next(c for c in contracts if c["type"] == "independence")["modules"]
+    assert sorted(independent) == sorted(f"usvid.commands.{m}" for m in COMMAND_MODULES)
 
 
 def test_layers_contract_is_kept():

@@ -30,6 +30,7 @@ from usvid.models import (
     mu2018_threedof,
     registry,
 )
+from usvid.models.kinds.nomoto2_nonlinear import Nomoto2Nonlinear
 from usvid.models.thrust import Propeller
 from usvid.sim import Commanded, ZigZag, simulate
 from usvid.sim.virtual import SensorModel, virtual_trial_uniform
@@ -56,6 +57,11 @@ def _truth(kind: str) -> tuple[VesselModel, dict[str, float]]:
                            Vessel(length=20.0, speed=3.0)), {}
     if kind == "norrbin":
         return VesselModel(Norrbin(K=0.2, T=10.0, n1=1.0, n3=400.0), servo,
+                           Vessel(length=20.0, speed=3.0)), {}
+    if kind == "nomoto2_nonlinear":
+        # Mu et al. 2018 eq. 34: the nomoto2 truth with the Norrbin truth's cubic (strong enough
+        # to show in the 15-20 deg zig-zags the identification sees)
+        return VesselModel(Nomoto2Nonlinear(K=0.25, T1=8.0, T2=1.2, T3=2.0, alpha=400.0), servo,
                            Vessel(length=20.0, speed=3.0)), {}
     if kind == "threedof":
         n0 = 52.88  # [rps] holds about 10 kn with this propeller (Lanxin USV)

@@ -178,7 +178,7 @@ def test_batch_model_cannot_be_saved():
 
 
 @pytest.mark.parametrize("name", ["lanxin.json", "lanxin_norrbin.json", "lanxin_threedof.json",
-                                  "pod_usv.json"])
+                                  "pod_usv.json", "pod_usv_eq25.json", "catamaran.json"])
 def test_examples_load(name):
     m = load_model(EXAMPLES / name)
     assert m.vessel.speed is not None and m.vessel.speed > 0

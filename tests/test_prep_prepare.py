@@ -52,7 +52,7 @@ def test_recovers_u_v_r_from_noisy_positions_and_heading():
     tr = Trial(pd.DataFrame({"t": t, "x": x, "y": y, "psi": psi_m}))
     p = prepare(tr, window_s=2.0)
     assert {"u", "v", "r", "U", "u_dot", "v_dot", "r_dot"} <= set(p.channels)
-    assert set(p.meta["derived"]) >= {"u", "v", "r", "U"}
+    assert set(p.derived) >= {"u", "v", "r", "U"}
     np.testing.assert_allclose(p["psi"], psi, atol=np.radians(0.5))  # unwrapped again
     core = slice(20, -20)
     # noise gain of a 21-sample cubic SG derivative at 0.1 s is 0.908 /s (sqrt of the sum of

@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from usvid.errors import UsvidError
-from usvid.prep.resample import infer_rate, interp_channel, resample
+from usvid.prep import prepare
+from usvid.prep.resample import infer_rate, interp_channel, resample, stream_rate
 from usvid.trial import Trial
 
 
@@ -69,3 +70,57 @@ def test_resample_downsamples_and_rejects_bad_rate():
         resample(tr, 0.0)
     with pytest.raises(UsvidError, match="fewer than two"):
         resample(Trial(pd.DataFrame({"t": [0.0], "r": [1.0]})))
+
+
+# --- the rate of a channel: its message stream ------------------------------------------------
+def _bursty(rate_hz: float = 10.0, burst_s: float = 0.5, seconds: float = 60.0) -> Trial:
+    """A gateway that stamps the frames of a ``rate_hz`` heading stream in bursts: every
+    ``burst_s`` the frames of the last ``burst_s`` arrive within a few milliseconds (the
+    records' median spacing is 1 ms, the stream's rate ``rate_hz``)."""
+    k = np.arange(int(seconds * rate_hz))
+    t_true = k / rate_hz
+    per = int(round(burst_s * rate_hz))
+    t = np.floor(t_true / burst_s) * burst_s + burst_s + 0.001 * (k % per)
+    return Trial(pd.DataFrame({"t": t, "psi": 0.01 * t_true}), name="burst")
+
+
+def test_stream_rate_of_bursty_regular_jittered_and_gappy_streams():
+    tr = _bursty()
+    assert np.median(np.diff(tr.t)) == pytest.approx(0.001)  # what the median saw: 1 kHz
+    # bursty: 599 spacings from the first stamp (0.5 s) to the last (60.004 s; every spacing,
+    # the 0.496 s between bursts included, flows): 599 / 59.504 s
+    assert stream_rate(tr.t, tr["psi"]) == pytest.approx(599 / 59.504, rel=1e-9)
+    assert infer_rate(tr) == pytest.approx(10.07, abs=0.01)
+    # regular with every tenth sample dropped: the nominal 10 Hz (the log keeps its samples
+    # on the grid), not the 9 Hz of the samples over the time
+    t = np.arange(0.0, 60.0, 0.1)
+    keep = np.arange(len(t)) % 10 != 5
+    assert stream_rate(t[keep], t[keep]) == pytest.approx(10.0, rel=1e-9)
+    # jitter of +-20 ms on 10 Hz stamps (seeded): within 5 % of 10 Hz (the median of 600
+    # jittered spacings)
+    rng = np.random.default_rng(0)
+    tj = t + rng.uniform(-0.02, 0.02, len(t))
+    assert stream_rate(tj, tj) == pytest.approx(10.0, rel=0.05)
+    # a 20-s hole in a 10 Hz stream is not part of its rate
+    hole = (t < 20.0) | (t >= 40.0)
+    assert stream_rate(t[hole], t[hole]) == pytest.approx(10.0, rel=1e-9)
+    assert stream_rate(np.array([1.0]), np.array([1.0])) is None
+
+
+def test_a_bursty_log_is_prepared_on_the_streams_grid():
+    p = prepare(_bursty(), derivatives=False)
+    assert p.sample_rate == pytest.approx(10.07, abs=0.01)  # was 1000 Hz (the median spacing)
+    assert len(p) == pytest.approx(60 * 10.07, abs=15)
+
+
+def test_the_real_bursty_gateway_log_gets_a_sane_grid(real_logs_dir):
+    """canboat_dirona-actisense-serial.raw: NMEA 2000 frames stamped in bursts (median record
+    spacing 2 ms); the fastest stream, the heading (1,402 frames in 64.5 s, mostly in pairs 2 ms
+    apart), flows at 21.7 Hz. The one road (prepare, so metrics and identify) used a 500 Hz
+    grid."""
+    from usvid.prep.logs import read_log
+
+    tr = read_log(real_logs_dir / "canboat_dirona-actisense-serial.raw", "auto")
+    p = prepare(tr, derivatives=False)
+    assert p.sample_rate == pytest.approx(21.72, abs=0.01)  # as measured
+    assert p.sample_rate <= 50.0 and len(p) < 1500  # 64.5 s of log

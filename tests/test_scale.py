@@ -1,11 +1,13 @@
 """Scale-out on Dask: ``usvid montecarlo`` and ``usvid batch`` on a local 2-worker cluster give
-the results of the in-process run (same seed), whatever the chunking."""
+the results of the in-process run (same seed), whatever the chunking; the local cluster opens no
+HTTP port and its errors are one line; montecarlo's in-process path on a small machine."""
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import logging
+import operator
+import os
 
 import numpy as np
 import pandas as pd
@@ -15,10 +17,27 @@ import yaml
 from usvid.cli import main
 from usvid.commands.batch import batch
 from usvid.commands.montecarlo import montecarlo
+from usvid.errors import UsvidError
 from usvid.io.modelfile import model_to_dict
 from usvid.models import Nomoto1, VesselModel, mu2018_servo
 from usvid.scale.batch import run_batch
-from usvid.scale.montecarlo import MonteCarlo, Vary, run_montecarlo
+from usvid.scale.cluster import (
+    TaskFailed,
+    check_scheduler_address,
+    connect,
+    map_ordered,
+    max_workers,
+)
+from usvid.scale.montecarlo import (
+    CHUNK_BYTES,
+    MAX_RUNS,
+    MAX_TASKS,
+    MonteCarlo,
+    Vary,
+    check_size,
+    run_montecarlo,
+    use_dask,
+)
 from usvid.trial import Vessel
 
 distributed = pytest.importorskip("distributed")
@@ -26,13 +45,10 @@ distributed = pytest.importorskip("distributed")
 
 @pytest.fixture(scope="module")
 def client():
-    """One local cluster of 2 single-threaded worker processes for the module (start-up ~2 s)."""
-    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
-    cl = distributed.Client(cluster)
-    yield cl
-    cl.close()
-    cluster.close()
+    """One local cluster of 2 single-threaded worker processes for the module, as the commands
+    make it (:func:`usvid.scale.cluster.connect`; start-up ~2 s idle, ~8 s under load)."""
+    with connect(workers=2) as cl:
+        yield cl
 
 
 def _model_file(tmp_path):
@@ -55,6 +71,8 @@ def test_montecarlo_on_dask_equals_in_process(client, tmp_path):
                    vary=["delta0=normal:0,0.001"], seed=5, options={"t_end": 60.0},
                    chunk=256, client=client, progress=False)
     assert s["workers"] == 2 and s["chunks"] == 3 and s["uncertainty"] == "covariance"
+    # the bounds policy's counts (T = 5 +- 0.3 s, K = 0.2 +- 0.01: never out of bounds)
+    assert s["redrawn"] == 0 and s["failed_draws"] == 0 and s["diverged"] == 0
     got = pd.read_parquet(out)
     mc = MonteCarlo(d, "zigzag", {"t_end": 60.0}, ("K", "T"), np.array([0.2, 5.0]),
                     np.array([[1e-4, 1e-3], [1e-3, 0.09]]), (Vary("delta0", "normal", 0, 0.001),),
@@ -217,3 +235,75 @@ def test_course_keeping_with_disturbance_on_dask_equals_in_process(client, tmp_p
     # another seed: other noise, other results (the same parameters would need the same seed)
     other = run_montecarlo(dataclasses.replace(mc, seed=4), 8, chunk=8)
     assert not np.allclose(other["iae"], got["iae"][:8])
+
+
+def test_local_cluster_has_no_http_server(client):
+    """Dask's scheduler serves HTTP on port 8787 even without a dashboard: usvid's local cluster
+    serves none (scheduler and workers), and everything it listens on is 127.0.0.1."""
+    psutil = pytest.importorskip("psutil")
+    assert client.cluster.scheduler.services == {}
+    assert set(client.run(lambda dask_worker: len(dask_worker.services)).values()) == {0}
+    me = psutil.Process()
+    listening = [c.laddr for p in [me, *me.children(recursive=True)]
+                 for c in p.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
+    assert listening and all(a.ip == "127.0.0.1" and a.port != 8787 for a in listening)
+
+
+def test_worker_error_is_one_line(client, capfd):
+    # a task's own error comes back as one line naming the task; Dask prints nothing
+    with pytest.raises(TaskFailed, match=r"^mc task 2 of 2 failed on a worker: "
+                                         r"ZeroDivisionError: division by zero$"):
+        map_ordered(client, operator.truediv, [(1, 2), (1, 0)], progress=False, label="mc")
+    assert "distributed" not in capfd.readouterr().err
+
+
+def test_montecarlo_in_process_path_equals_dask(client, tmp_path):
+    """On this small machine (<= 8 cores) with no scheduler and no more workers than cores,
+    montecarlo runs in process on the kernel's threads: the same rows as on the cluster."""
+    path, _ = _model_file(tmp_path)
+    opts = {"t_end": 60.0}
+    a = montecarlo(path, "turning", 300, tmp_path / "a.parquet", vary=["K=normal:0.2,0.01"],
+                   seed=2, options=opts, chunk=128, progress=False)
+    b = montecarlo(path, "turning", 300, tmp_path / "b.parquet", vary=["K=normal:0.2,0.01"],
+                   seed=2, options=opts, chunk=100, client=client, progress=False)
+    assert a["backend"] == "in-process" and b["backend"] == "dask"
+    assert a["workers"] == len(os.sched_getaffinity(0))
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "a.parquet"),
+                                  pd.read_parquet(tmp_path / "b.parquet"))
+    assert a["quantiles"] == b["quantiles"]
+
+
+def test_which_path_montecarlo_takes():
+    assert not use_dask(None, None, 2) and not use_dask(None, 2, 2) and not use_dask(None, 1, 8)
+    assert use_dask("tcp://head:8786", None, 2)  # a remote scheduler
+    assert use_dask(None, 3, 2)  # more workers than cores
+    assert use_dask(None, None, 64)  # a large machine: one process per core
+
+
+def test_scheduler_addresses():
+    assert check_scheduler_address("tcp://head:8786") == "tcp://head:8786"
+    assert check_scheduler_address("10.0.0.2:8786") == "tcp://10.0.0.2:8786"
+    assert check_scheduler_address("tcp://[::1]:8786") == "tcp://[::1]:8786"
+    for bad in ("garbage", "inproc://x", "tls://h:1", "ucx://h:1", "http://h:1", "ws://h:1",
+                "tcp://h:0", "tcp://h:65536", "tcp://:8786", "tcp://h", "tcp://h:1/x",
+                "tcp://-h:1", "tcp://[zz]:1", "tcp://h_h:1", "tcp://h:1:2", "x" * 10000):
+        with pytest.raises(UsvidError, match="--scheduler"):
+            check_scheduler_address(bad)
+
+
+def test_sizes_are_bounded():
+    vm = VesselModel(Nomoto1(K=0.2, T=5.0), servo=mu2018_servo(),
+                     vessel=Vessel(length=7.0, speed=3.0))
+    zz = MonteCarlo(model_to_dict(vm), "zigzag", {"t_end": 60.0},
+                    vary=(Vary("K", "normal", 0.2, 0.01),))
+    assert check_size(zz, 100, 4096) == 100 and check_size(zz, 10**6, 4096) == 4096
+    with pytest.raises(UsvidError, match=f"--runs must be in 1..{MAX_RUNS}"):
+        check_size(zz, 10**12, 4096)
+    with pytest.raises(UsvidError, match=f"at most {MAX_TASKS}: give --chunk 1000 or more"):
+        check_size(zz, 10**7, 1)
+    # a turning chunk records x, y, psi, delta every 5 steps: 3600 s at 0.02 s is 36,001
+    # records of 32 bytes a run, so CHUNK_BYTES (256 MiB) holds 233 runs of a chunk
+    tc = dataclasses.replace(zz, manoeuvre="turning", options={"t_end": 3600.0})
+    assert check_size(tc, 10**4, 4096) == CHUNK_BYTES // (32 * 36_002) == 233
+    n, why = max_workers()
+    assert 1 <= n <= 4 * len(os.sched_getaffinity(0)) and ("core" in why or "memory" in why)

@@ -1,6 +1,7 @@
 """Validation: simulated zig-zag against usvid.sim, cross-validation, comparison of kinds, and the
 real-data result on the HSVA KVLCC2 zig-zags (Mu et al. 2018 section 5.2 style: simulated versus
-measured overshoots)."""
+measured overshoots), all through the one validation of a held-out trial
+(:func:`usvid.identify.validation.validate_trial`)."""
 
 from __future__ import annotations
 
@@ -10,12 +11,8 @@ import numpy as np
 import pytest
 
 from usvid.identify.estimator import ModelEstimator, compare_kinds
-from usvid.identify.validate import (
-    cross_validate,
-    validation_table,
-    zigzag_check,
-    zigzag_response,
-)
+from usvid.identify.validate import cross_validate, zigzag_response
+from usvid.identify.validation import validate_trial
 from usvid.manoeuvres.metrics import zigzag_metrics
 from usvid.models import Nomoto1, Norrbin
 from usvid.models.model import VesselModel
@@ -55,8 +52,7 @@ def virtual_set():
     trials = [virtual_trial_uniform(res, SensorModel(), seed=4, i=i, rate_hz=10.0,
                                     name=f"zz{i}") for i in range(3)]
     truth = res.zigzag_metrics()
-    for i, (tr, a) in enumerate(zip(trials, amps, strict=True)):
-        tr.meta["psi_switch"] = float(a)
+    for i, tr in enumerate(trials):
         tr.meta["truth_overshoot_deg"] = truth[i].overshoot_deg
     # a rudder angle and no command logged: the identified model gets an ideal servo at the
     # measured rudder rate (the truth's servo; a logged command would be fitted by a
@@ -73,22 +69,23 @@ def test_cross_validation_leave_one_out(virtual_set):
     assert cv["mean"]["psi"]["r2"] > 0.99
 
 
-def test_compare_kinds_and_validation_table(virtual_set):
+def test_compare_kinds_and_validation_of_a_held_out_trial(virtual_set):
     rows = compare_kinds(virtual_set[:2], ("nomoto1", "norrbin"), method="ls",
                          validate=virtual_set[2])
     assert [r["kind"] for r in rows] == ["nomoto1", "norrbin"]
     assert all(r["validation"]["psi"]["r2"] > 0.99 for r in rows)
     est = ModelEstimator("nomoto1", "ls").fit(virtual_set[:2])
-    tab = validation_table(est, virtual_set[2:])
-    z = tab[0]["zigzag"]
-    # the noise-free-model zig-zag reproduces the truth's first overshoot (13.40 deg; the model
-    # gives 13.42 at the measured rudder rate, 9.9 deg/s) ...
+    row = validate_trial(est.model_, virtual_set[2], psi_switch=15 * DEG, window_s=est.window_s)
+    assert row.manoeuvre == "zigzag"
+    # the identified model's zig-zag (its servo at the measured rudder rate, 9.9 deg/s; the
+    # measured approach speed) reproduces the truth's first overshoot (13.40 deg) ...
     truth = virtual_set[2].meta["truth_overshoot_deg"]
-    assert z["simulated_overshoot_deg"][0] == pytest.approx(truth[0], abs=0.2)
-    # ... and the measured one within the compass noise (0.5 deg): the measured overshoot is the
-    # peak of the noisy heading over its noisy value at the execute, here 13.99 deg, 0.59 above
-    # the truth: error -0.57 deg (was < 0.5 deg with the old measurement rules)
-    assert abs(z["overshoot_error_deg"][0]) < 1.0
+    assert row.predicted["overshoot_deg"][0] == pytest.approx(truth[0], abs=0.2)
+    # ... and the measured one within the compass noise (0.5 deg, smoothed over 2 s)
+    assert abs(row.error["overshoot_deg"][0]) < 0.5
+    # the windowed fit metrics of the held-out trial are the estimator's score of it
+    sc = est.score(virtual_set[2])
+    assert row.metrics["psi"]["rmse"] == pytest.approx(sc["psi"]["rmse"], rel=1e-9)
 
 
 # --- real data: HSVA KVLCC2 (model scale 1:45.7, 1.18 m/s) --------------------------------------
@@ -117,9 +114,9 @@ KV_OPTS = {"window_s": 35.0, "overlap": 0.5}
 def test_kvlcc2_measured_overshoots_match_published(kvlcc2):
     est = ModelEstimator("nomoto1", "ls").fit(kvlcc2[0])
     for name, want in VALID.items():
-        z = zigzag_check(est, kvlcc2[1][name])
+        row = validate_trial(est.model_, kvlcc2[1][name], replay=False)
         # published first overshoots (SIMMAN 2008): 9.7 deg for 10/10, 12.0 / 11.7 for 20/10 P/S
-        assert z["measured_overshoot_deg"][0] == pytest.approx(want, abs=0.1)
+        assert row.measured["overshoot_deg"][0] == pytest.approx(want, abs=0.1)
 
 
 def test_kvlcc2_norrbin_first_overshoot_within_1p5_deg(kvlcc2):
@@ -133,9 +130,9 @@ def test_kvlcc2_norrbin_first_overshoot_within_1p5_deg(kvlcc2):
     # course-unstable: n1 = -1 (the linear yaw damping is negative), held by the cubic
     assert est.params_["n1"] == -1.0 and est.params_["n3"] > 0
     for name in VALID:
-        z = zigzag_check(est, valid[name])
+        err = validate_trial(est.model_, valid[name], replay=False).error["overshoot_deg"]
         # task acceptance: first overshoot within 1.5 deg of the measured one
-        assert abs(z["overshoot_error_deg"][0]) < 1.5, (name, z["overshoot_error_deg"])
+        assert abs(err[0]) < 1.5, (name, err)
 
 
 def test_kvlcc2_norrbin_is_best_kind(kvlcc2):
@@ -143,6 +140,6 @@ def test_kvlcc2_norrbin_is_best_kind(kvlcc2):
     err = {}
     for kind in ("nomoto1", "nomoto2", "norrbin"):
         est = ModelEstimator(kind, "oe", **KV_OPTS).fit(train)
-        err[kind] = np.mean([abs(zigzag_check(est, v)["overshoot_error_deg"][0])
-                             for v in valid.values()])
+        err[kind] = np.mean([abs(validate_trial(est.model_, v, replay=False)
+                                 .error["overshoot_deg"][0]) for v in valid.values()])
     assert err["norrbin"] < err["nomoto1"] and err["norrbin"] < err["nomoto2"]

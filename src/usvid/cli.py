@@ -3,18 +3,46 @@
 Each command lives in ``usvid.commands.<name>`` and registers itself on :data:`app`. Every command
 takes ``--json`` and then prints exactly one JSON object on stdout. Exit codes: 0 success,
 2 bad usage or bad input (one-line reason on stderr), 3 ``usvid audit`` found error-severity
-problems, 1 internal error. Warnings are printed as one line each (``usvid: warning: ...``).
+problems, 130 Ctrl-C (SIGINT) and 143 SIGTERM (both: temporary files removed, clusters shut
+down, one line ``usvid: interrupted`` / ``usvid: terminated``), 1 internal error. Warnings are
+printed as one line each (``usvid: warning: ...``).
+
+Signals at every moment: while this module is imported (before any work) a SIGINT or SIGTERM
+exits at once, quietly, with 130 / 143; during a command both raise into it (SIGTERM as
+:class:`usvid.errors.Terminated`, a KeyboardInterrupt) so that its clean-up runs; once the exit
+code is known, further signals are ignored while the interpreter shuts down (a late Ctrl-C
+would otherwise kill it by the signal, exit status -2).
 """
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
-import traceback
+import threading
 
-import typer
 
-from usvid.errors import UsvidError, raised_by_interrupt
-from usvid.files import os_reason
+def _exit_at_start_up(signum: int, frame: object) -> None:
+    """SIGINT / SIGTERM while the CLI is imported: nothing to clean up yet; exit quietly."""
+    os.write(2, b"usvid: interrupted\n" if signum == signal.SIGINT else b"usvid: terminated\n")
+    os._exit(130 if signum == signal.SIGINT else 143)
+
+
+_IN_MAIN_THREAD = threading.current_thread() is threading.main_thread()
+_START_UP = ({s: signal.signal(s, _exit_at_start_up) for s in (signal.SIGINT, signal.SIGTERM)}
+             if _IN_MAIN_THREAD else {})
+
+import traceback  # noqa: E402 - the start-up handlers above come first
+
+import typer  # noqa: E402
+
+from usvid.errors import (  # noqa: E402
+    Terminated,
+    UsvidError,
+    interrupt_exit_code,
+    raised_by_interrupt,
+)
+from usvid.files import os_reason  # noqa: E402
 
 app = typer.Typer(
     name="usvid",
@@ -67,6 +95,14 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
 
 _register_all()
 
+for _sig, _handler in _START_UP.items():  # the CLI is imported: back to the usual handlers
+    if _handler is None:  # (a handler not set from Python: Python's own defaults)
+        _handler = signal.default_int_handler if _sig == signal.SIGINT else signal.SIG_DFL
+    signal.signal(_sig, _handler)
+
+#: The line printed for each interrupt exit code.
+_INTERRUPTED = {130: "usvid: interrupted", 143: "usvid: terminated"}
+
 
 #: click's base exception as typer uses it (its own copy of click in recent versions)
 _CLICK_ERROR = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
@@ -86,63 +122,104 @@ def _command() -> typer.core.TyperGroup:
     return _COMMAND[1]
 
 
+#: Set when SIGTERM arrived during the command (typer reports any interrupt as exit code 130).
+_TERMINATED = threading.Event()
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    """SIGTERM during a command: raised into it as Ctrl-C is (its clean-up runs); a second one
+    while it cleans up is ignored."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _TERMINATED.set()
+    raise Terminated()
+
+
+def _ignore_signals() -> None:
+    """The exit code is known: SIGINT and SIGTERM can no longer change it (nor kill the
+    interpreter while it shuts down worker threads and pools)."""
+    if threading.current_thread() is threading.main_thread():
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_IGN)
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI; returns (and exits with) the process exit code."""
+    """Run the CLI; returns (and exits with) the process exit code. ``argv`` given: run in
+    process (tests), the signal handlers and warning format restored on return."""
     import warnings
 
     previous = warnings.formatwarning
     warnings.formatwarning = _one_line_warning  # restored on return (main() called in-process)
+    handlers = {}
+    _TERMINATED.clear()
+    if threading.current_thread() is threading.main_thread():
+        handlers[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
-        return _main(argv)
+        code = _main(argv)
     finally:
         warnings.formatwarning = previous
+        if argv is not None:
+            for s, h in handlers.items():
+                if h is not None:
+                    signal.signal(s, h)
+    if argv is not None:
+        return code
+    sys.exit(code)  # (signals are ignored from here: _main's done())
 
 
 def _main(argv: list[str] | None) -> int:
+    """Run the command; its exit code, the one line of an error or interrupt printed."""
 
     def done(code: int, message: str | None = None) -> int:
+        if code == 130 and _TERMINATED.is_set():  # (typer's 130 for any interrupt)
+            code, message = 143, _INTERRUPTED[143]
         if message is not None:
             print(message, file=sys.stderr)
-        if argv is not None:
-            return code
-        sys.exit(code)
+        if argv is None:  # a process of its own: the code is final
+            _ignore_signals()
+        return code
 
     try:
         # not standalone: click's usage errors come here (one line below), not as a usage box
         rv = _command()(args=argv, prog_name="usvid", standalone_mode=False)
         code = rv if isinstance(rv, int) and not isinstance(rv, bool) else 0  # typer.Exit(code)
-        if code == 130:  # typer turns Ctrl-C into exit code 130, silently
-            return done(130, "usvid: interrupted")
+        if code in _INTERRUPTED:  # typer turns Ctrl-C into exit code 130, silently
+            return done(code, _INTERRUPTED[code])
         return done(code)
-    except SystemExit as exc:
+    except SystemExit as exc:  # sys.exit in a command or library
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
-        if code == 130:
-            print("usvid: interrupted", file=sys.stderr)
-        if argv is not None:
-            return code
-        raise
+        if code == 130 and _TERMINATED.is_set():
+            code = 143
+        text = exc.code if isinstance(exc.code, str) else None
+        return done(code, _INTERRUPTED.get(code) or (text and "usvid: error: " + text))
     except _CLICK_ERROR as exc:  # wrong option type, missing argument, unknown option
         if type(exc).__name__ == "NoArgsIsHelpError":  # plain `usvid`: the help, as before
             return done(exc.exit_code, exc.format_message())
         where = f" (see '{exc.ctx.command_path} --help')" if getattr(exc, "ctx", None) else ""
         return done(exc.exit_code if exc.exit_code else 2,
                     "usvid: error: " + " ".join(exc.format_message().split()) + where)
-    except typer.Abort:
-        return done(130, "usvid: interrupted")
+    except typer.Abort as exc:  # click's Ctrl-C (from the KeyboardInterrupt or Terminated)
+        code = interrupt_exit_code(exc) or 130
+        return done(code, _INTERRUPTED[code])
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (Terminated)
+        code = interrupt_exit_code(exc) or 130
+        return done(code, _INTERRUPTED[code])
     except UsvidError as exc:
+        if raised_by_interrupt(exc):  # (an error of the clean-up under an interrupt)
+            code = interrupt_exit_code(exc) or 130
+            return done(code, _INTERRUPTED[code])
         return done(2, "usvid: error: " + " ".join(str(exc).split()))
-    except KeyboardInterrupt:
-        return done(130, "usvid: interrupted")
     except OSError as exc:  # the environment (a file vanished, permissions, disk): not a bug
-        if exc.filename is not None and not raised_by_interrupt(exc):
-            return done(2, f"usvid: error: {exc.filename}: {os_reason(exc)}")
         if raised_by_interrupt(exc):
-            return done(130, "usvid: interrupted")
+            code = interrupt_exit_code(exc) or 130
+            return done(code, _INTERRUPTED[code])
+        if exc.filename is not None:
+            return done(2, f"usvid: error: {exc.filename}: {os_reason(exc)}")
         traceback.print_exc()
         return done(1, "usvid: internal error (please report with the traceback above)")
     except Exception as exc:  # a bug: say so, with the traceback
         if raised_by_interrupt(exc):
-            return done(130, "usvid: interrupted")
+            code = interrupt_exit_code(exc) or 130
+            return done(code, _INTERRUPTED[code])
         traceback.print_exc()
         return done(1, "usvid: internal error (please report with the traceback above)")
     return 0

@@ -32,6 +32,27 @@ class SimulationError(UsvidError):
     """A simulation request is inconsistent (bad step, bad manoeuvre definition)."""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled as Ctrl-C (temporary files removed, clean-up run): the CLI raises it
+    from its SIGTERM handler and exits with 143 (128 + 15) instead of 130."""
+
+
+def interrupt_exit_code(exc: BaseException) -> int | None:
+    """143 when ``exc`` is, or was raised while handling, a :class:`Terminated` (SIGTERM); 130
+    for a KeyboardInterrupt (Ctrl-C); None otherwise (see :func:`raised_by_interrupt`)."""
+    seen = set()
+    e: BaseException | None = exc
+    code = None
+    while e is not None and id(e) not in seen:
+        if isinstance(e, Terminated):
+            return 143
+        if isinstance(e, KeyboardInterrupt):
+            code = 130
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return code
+
+
 def raised_by_interrupt(exc: BaseException) -> bool:
     """True when ``exc`` is, or was raised while handling, a KeyboardInterrupt (Ctrl-C): an
     interrupt inside compiled code or inside a library's clean-up can surface as another

@@ -5,8 +5,14 @@ nothing of usvid but :mod:`usvid.errors`. Every file usvid writes goes through
 :func:`write_atomic`; a command checks its outputs against its inputs first with
 :func:`check_outputs`; a command that fills a folder claims it with :func:`claim_output_dir`.
 
-- :func:`check_outputs` ``(outputs, inputs)``: a :class:`OutputError` when an output is one of
-  the inputs (paths resolved, symlinks followed, hard links compared by inode) or is a folder.
+- :func:`check_outputs` ``(outputs, inputs, patterns)``: a :class:`OutputError` when an output is
+  one of the inputs (paths resolved, symlinks followed, hard links compared by device and inode),
+  lies inside an input folder, would match a glob the command reads its inputs from, is a folder,
+  or is a device node, FIFO or socket (never replaced: ``--out /dev/null`` is refused).
+- :func:`check_input` ``(path, what)``: the one check of a file a command reads: a regular file
+  (a clear error for a FIFO, which would block the reader, a device such as ``/dev/zero``, which
+  never ends, a socket or a folder); :func:`read_input_bytes` / :func:`read_input_text` read one
+  with a size bound (``O_NONBLOCK``: a FIFO swapped in is refused, never waited on).
 - :func:`write_atomic` ``(path, data, inputs=())``: temporary file in the same folder, ``fsync``,
   rename; an OS error (permission, no space, read-only file system, name too long, a parent that
   is not a folder, file size limit) becomes one :class:`OutputError` line naming the path and
@@ -31,6 +37,7 @@ import json
 import math
 import os
 import re
+import stat
 import tempfile
 import time
 from collections.abc import Iterable
@@ -101,16 +108,6 @@ def _resolved(p: str | Path) -> Path | None:
         return None
 
 
-def _same(a: Path, b: Path) -> bool:
-    ra, rb = _resolved(a), _resolved(b)
-    if ra is not None and ra == rb:
-        return True
-    try:
-        return os.path.samefile(a, b)  # hard links
-    except (OSError, ValueError):
-        return False
-
-
 def _is_dir(p: Path) -> bool:
     try:
         return p.is_dir()
@@ -135,33 +132,124 @@ def _probe(out: Path) -> None:
         raise _fail(out, exc) from None
 
 
+def file_type(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` is, in words: ``"a regular file"``, ``"a folder"``,
+    ``"a FIFO (named pipe)"``, ``"a character device"``, ``"a block device"``, ``"a socket"``."""
+    for test, name in ((stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a folder"),
+                       (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def special_file(path: str | Path) -> str | None:
+    """What ``path`` is (:func:`file_type`, symlinks followed) when it exists and is neither a
+    regular file nor a folder: a device node, FIFO or socket, which no command may write over or
+    read as a file; ``None`` otherwise (also when it does not exist)."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return file_type(mode)
+
+
+def _split_glob(text: str) -> list[str]:
+    return [c for c in os.path.normpath(os.path.abspath(text)).split(os.sep) if c]
+
+
+_MAGIC = re.compile(r"[*?\[]")
+
+
+def _glob_prefix(comps: list[str]) -> str:
+    """The literal folder a glob's components start with, as a path prefix (a quick filter:
+    a path outside it cannot match)."""
+    lead = next((k for k, c in enumerate(comps) if _MAGIC.search(c)), len(comps))
+    return os.sep + os.sep.join(comps[:lead])
+
+
+def _glob_match(parts: list[str], pattern: list[str]) -> bool:
+    """Path components ``parts`` matched by the glob components ``pattern`` as
+    :func:`glob.glob` with ``recursive=True`` reads them (``**`` spans any number of folders,
+    ``*``, ``?`` and ``[...]`` stay within one component)."""
+    import fnmatch
+
+    if not pattern:
+        return not parts
+    if not _MAGIC.search(pattern[0]):  # a plain name: compared, no pattern matching
+        return bool(parts) and parts[0] == pattern[0] and _glob_match(parts[1:], pattern[1:])
+    if pattern[0] == "**":
+        return any(_glob_match(parts[i:], pattern[1:]) for i in range(len(parts) + 1))
+    return bool(parts) and fnmatch.fnmatchcase(parts[0], pattern[0]) \
+        and _glob_match(parts[1:], pattern[1:])
+
+
 def check_outputs(outputs: Iterable[str | Path | None],
-                  inputs: Iterable[str | Path | None] = (), *, probe: bool = True) -> None:
-    """Refuse outputs that would overwrite an input of the same command, that are folders, or
-    that cannot be created.
+                  inputs: Iterable[str | Path | None] = (), *, probe: bool = True,
+                  patterns: Iterable[str] = ()) -> None:
+    """Refuse outputs that would overwrite an input of the same command, that are folders,
+    device nodes, FIFOs or sockets, or that cannot be created.
 
     ``outputs``, ``inputs``: file paths (``None`` entries are ignored; an input folder such as a
-    ROS 2 bag also protects every file inside it). ``probe``: also create and remove a
-    temporary file in the output's folder (or its nearest existing ancestor), so a read-only or
-    full file system, a missing permission or a too long name is reported before any work.
-    Raises :class:`OutputError` naming the path:
+    ROS 2 bag also protects every file inside it). Paths are compared resolved (``./``, ``..``,
+    symlinks) and by device and inode (hard links). ``patterns``: globs (absolute, or relative
+    to the working folder) the command reads its inputs from: an output a pattern matches would
+    be read back as an input by the next run, and is refused too. ``probe``: also create and
+    remove a temporary file in the output's folder (or its nearest existing ancestor), so a
+    read-only or full file system, a missing permission or a too long name is reported before
+    any work. Raises :class:`OutputError` naming the path:
     ``"in.dat: output would overwrite the input in.dat; choose another output path"``.
     """
-    ins = [Path(p) for p in inputs if p is not None and str(p) != ""]
+    # the inputs indexed once (a campaign has thousands of logs): resolved paths, (device,
+    # inode) of those that exist, and the folders among them
+    by_path: dict[Path, Path] = {}
+    by_id: dict[tuple[int, int], Path] = {}
+    folders: dict[Path, Path] = {}
+    for i in (Path(x) for x in inputs if x is not None and str(x) != ""):
+        ri = _resolved(i)
+        if ri is not None:
+            by_path.setdefault(ri, i)
+        try:
+            st = os.stat(i)
+        except (OSError, ValueError):
+            continue
+        by_id.setdefault((st.st_dev, st.st_ino), i)
+        if stat.S_ISDIR(st.st_mode) and ri is not None:
+            folders.setdefault(ri, i)
+    globs = {g: (_glob_prefix(c), c) for g in dict.fromkeys(str(x) for x in patterns)
+             for c in [_split_glob(g)]}
     for out in outputs:
         if out is None:
             continue
         o = Path(out)
+        kind = special_file(o) if str(out) != "" else None
+        if kind is not None:
+            raise OutputError(f"{o}: is {kind}; usvid writes only regular files and never "
+                              "replaces a device node, FIFO or socket: choose a file name")
         if str(out) == "" or _is_dir(o):
             raise OutputError(f"{str(out) or repr('')}: output is a folder or empty; give a "
                               "file name")
         ro = _resolved(o)
-        for i in ins:
-            ri = _resolved(i)
-            inside = ri is not None and ro is not None and _is_dir(ri) and ri in ro.parents
-            if _same(o, i) or inside:
-                raise OutputError(f"{o}: output would overwrite the input {i}; choose another "
-                                  "output path")
+        hit = by_path.get(ro) if ro is not None else None
+        if hit is None:
+            try:
+                st = os.stat(o)
+                hit = by_id.get((st.st_dev, st.st_ino))  # a hard link of an input
+            except (OSError, ValueError):
+                pass
+        if hit is None and ro is not None:  # inside an input folder (a ROS 2 bag)
+            hit = next((folders[d] for d in ro.parents if d in folders), None)
+        if hit is not None:
+            raise OutputError(f"{o}: output would overwrite the input {hit}; choose another "
+                              "output path")
+        names = {os.path.normpath(os.path.abspath(o)), *([str(ro)] if ro is not None else [])}
+        for text, (prefix, g) in globs.items():
+            if any(n.startswith(prefix) and _glob_match(_split_glob(n), g) for n in names):
+                raise OutputError(f"{o}: output would be read back as an input (it matches "
+                                  f"the glob {text!r}); choose another output folder")
         if probe:
             _probe(o)
 
@@ -212,6 +300,10 @@ def publish(tmp: str | Path, path: str | Path) -> Path:
     folder: an existing non-empty folder (a user's data, an earlier bag) is never deleted, it
     is an :class:`OutputError`. OS errors are one-line :class:`OutputError` naming ``path``."""
     tmp, path = Path(tmp), Path(path)
+    kind = special_file(path)
+    if kind is not None:
+        raise OutputError(f"{path}: is {kind}; usvid writes only regular files and never "
+                          "replaces a device node, FIFO or socket: choose a file name")
     if tmp.is_dir():
         if path.is_dir() and any(path.iterdir()):
             raise OutputError(f"{path}: a folder with files already exists (not replaced: "
@@ -336,6 +428,86 @@ def move_into(src_dir: str | Path, dst_dir: str | Path) -> list[Path]:
                 raise _fail(d, exc) from None
             moved.append(d)
     return moved
+
+
+# ----------------------------------------------------------------------------------------------
+# inputs: regular files only, read with a bound
+# ----------------------------------------------------------------------------------------------
+def _refuse_type(path: str | Path, mode: int, what: str, folder: bool,
+                 error: type[UsvidError]) -> None:
+    if stat.S_ISREG(mode) or (folder and stat.S_ISDIR(mode)):
+        return
+    if stat.S_ISDIR(mode):
+        raise error(f"{path}: is a folder, not a {what}")
+    raise error(f"{path}: is {file_type(mode)}, not a regular file; a {what} is read only "
+                "from a regular file")
+
+
+def check_input(path: str | Path, what: str = "file", *, folder: bool = False,
+                error: type[UsvidError] = UsvidError) -> os.stat_result:
+    """The one check of a file a command reads, before it is opened: it exists and is a regular
+    file (or, with ``folder``, a folder, e.g. a ROS 2 bag). A FIFO (the reader would block until
+    a writer comes), a device node (``/dev/zero`` never ends), a socket, and a folder where a
+    file is wanted are refused with one line naming the path and what it is. ``what`` names the
+    file in the message (``"log"``, ``"model file"``); ``error`` is the class raised. Returns the
+    ``os.stat`` result (symlinks followed)."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise error(f"{path}: cannot read the {what}: not found (no such file)") from None
+    except (OSError, ValueError) as exc:
+        reason = os_reason(exc) if isinstance(exc, OSError) else "invalid file name"
+        raise error(f"{path}: cannot read the {what} ({reason})") from None
+    _refuse_type(path, st.st_mode, what, folder, error)
+    return st
+
+
+def read_input_bytes(path: str | Path, what: str, max_bytes: int, *,
+                     error: type[UsvidError] = UsvidError) -> bytes:
+    """The bytes of the input file ``path`` (:func:`check_input`), at most ``max_bytes``: a
+    larger file is an :class:`InputLimitError` naming the bound, refused before it is read.
+    The file is opened read-only and non-blocking and checked again on the open descriptor, so
+    a FIFO put in its place after the check is refused too, never waited on. Errors are
+    ``error`` (the size bound :class:`InputLimitError` when ``error`` is the base class)."""
+    check_input(path, what, error=error)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except FileNotFoundError:
+        raise error(f"{path}: cannot read the {what}: not found (no such file)") from None
+    except (OSError, ValueError) as exc:
+        reason = os_reason(exc) if isinstance(exc, OSError) else "invalid file name"
+        raise error(f"{path}: cannot read the {what} ({reason})") from None
+    with os.fdopen(fd, "rb") as fh:
+        st = os.fstat(fh.fileno())
+        _refuse_type(path, st.st_mode, what, False, error)
+        # (the caller's error class when it names one: it may be caught as such)
+        limit = InputLimitError if error is UsvidError else error
+        if st.st_size > max_bytes:
+            raise limit(f"{path}: {st.st_size} bytes; a {what} has at most {max_bytes} bytes")
+        try:
+            data = fh.read(max_bytes + 1)
+        except OSError as exc:
+            raise error(f"{path}: cannot read the {what} ({os_reason(exc)})") from None
+    if len(data) > max_bytes:  # (grew while read)
+        raise limit(f"{path}: more than {max_bytes} bytes; a {what} has at most {max_bytes} "
+                    "bytes")
+    return data
+
+
+def read_input_text(path: str | Path, what: str, max_bytes: int, *,
+                    error: type[UsvidError] = UsvidError) -> str:
+    """The text of the input file ``path`` (:func:`read_input_bytes`), which must be UTF-8 (a
+    leading byte-order mark is dropped): UTF-16 or other bytes are one line naming the file,
+    the offset and what to do."""
+    data = read_input_bytes(path, what, max_bytes, error=error)
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise error(f"{path}: is UTF-16 text; save the {what} as UTF-8")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset "
+                    f"{exc.start}); save the {what} as UTF-8") from None
+    return text[1:] if text.startswith("\ufeff") else text
 
 
 # ----------------------------------------------------------------------------------------------

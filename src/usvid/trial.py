@@ -248,3 +248,63 @@ class Trial:
             "rejected": dict(self.rejected),
             "vessel": self.vessel.to_dict(),
         }
+
+
+def merge_shared_stamps(t: np.ndarray, chans: dict[str, np.ndarray],
+                        streams: np.ndarray | None = None,
+                        ) -> tuple[np.ndarray, dict[str, np.ndarray], dict[str, int]]:
+    """Records that share a time stamp merged into one row: the one rule of usvid for equal
+    stamps (readers and :func:`usvid.prep.prepare`).
+
+    ``t`` [s] in time order (stably sorted: the records of one stamp in log order), ``chans``
+    arrays of the same length. Per channel the last finite value of each stamp (in log order)
+    is kept. Returns the distinct stamps, the merged channels and, per channel, the number of
+    samples superseded by a later sample of the same stamp *with another value* (an equal
+    value repeated loses nothing and is not counted); with ``streams`` (the message stream
+    of each record) only a sample superseded by one of its own stream is counted (GGA and RMC
+    of one fix rounding a position differently report one instant twice); channels with none
+    are left out.
+    """
+    t = np.asarray(t, dtype=float)
+    if len(t) < 2 or not (t[1:] == t[:-1]).any():
+        return t, chans, {}
+    uniq, inv = np.unique(t, return_inverse=True)
+    merged: dict[str, np.ndarray] = {}
+    superseded: dict[str, int] = {}
+    for k, v in chans.items():
+        out = np.full(len(uniq), np.nan)
+        idx = np.flatnonzero(np.isfinite(v))
+        if len(idx):
+            g = inv[idx]  # non-decreasing: t is sorted
+            last = np.r_[g[1:] != g[:-1], True]
+            out[g[last]] = v[idx[last]]
+            lost = ~last & (v[idx] != out[g])
+            if streams is not None and lost.any():
+                kept = np.full(len(uniq), np.nan)
+                kept[g[last]] = streams[idx[last]]
+                lost &= streams[idx] == kept[g]
+            if lost.any():
+                superseded[k] = int(lost.sum())
+        merged[k] = out
+    return uniq, merged, superseded
+
+
+
+def merge_shared_stamp_rows(data: pd.DataFrame) -> tuple[pd.DataFrame, int]:
+    """:func:`merge_shared_stamps` on a table whose column ``t`` [s] is in time order (stably
+    sorted); the numeric columns are merged, the table keeps its column order. Returns the
+    table and the number of rows merged away."""
+    t = data["t"].to_numpy(dtype=float)
+    if len(t) < 2 or not (t[1:] == t[:-1]).any():
+        return data, 0
+    cols = {c: data[c].to_numpy(dtype=float) for c in data.columns
+            if c != "t" and pd.api.types.is_numeric_dtype(data[c])}
+    tu, merged, _ = merge_shared_stamps(t, cols)
+    out = pd.DataFrame({"t": tu, **merged})
+    first = np.r_[True, t[1:] != t[:-1]]  # other columns: the first row of each stamp
+    for c in data.columns:
+        if c not in out.columns:
+            out[c] = data[c].to_numpy()[first]
+    return out[list(data.columns)], len(t) - len(tu)
+
+

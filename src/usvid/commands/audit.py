@@ -1,7 +1,8 @@
 """CLI: ``usvid audit LOG --format SPEC [--json]`` - check a log's channels against the physics.
 
 Reads the log with its trial format spec (a YAML path or a shipped spec name), runs
-:func:`usvid.prep.audit` and prints the findings (reader findings first). With ``--json`` one
+:func:`usvid.prep.audit` and prints the findings (the reader's and the audit's, errors first,
+then warnings, then infos). With ``--json`` one
 object: ``file``, ``format``, ``samples``, ``duration_s``, ``channels``, ``rejected`` (record counts
 per reason from the reader), ``findings`` (list of {severity, code, message, count, t_start, t_end,
 channel, data}) and ``counts`` per severity. Exit code 3 when error-severity findings exist
@@ -16,38 +17,29 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.errors import LogReadError
+from usvid.commands._common import FormatOpt, JsonOpt
 
 LogArg = Annotated[Path, typer.Argument(help="Log file to check.", show_default=False)]
-FormatOpt = Annotated[str, typer.Option(
-    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto "
-    "(detect the format by content and pick the shipped preset).")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
 
 
 def load_log(log: Path, fmt: str) -> Any:
-    """Read ``log`` with spec ``fmt``; a log without three valid records is a LogReadError."""
-    from usvid.io import read_trial
+    """Read ``log`` with spec ``fmt`` (:func:`usvid.prep.logs.read_log`), saying on stderr
+    what ``--format auto`` chose."""
+    from usvid.commands._common import say_format
+    from usvid.prep.logs import read_log
 
-    trial = read_trial(log, fmt)
-    if "format_detected" in trial.meta:  # --format auto: say what was chosen
-        import sys
-
-        print(f"usvid: {log}: {trial.meta['format_detected']}", file=sys.stderr)
-    if len(trial) < 3:
-        rej = ", ".join(f"{k}: {v}" for k, v in trial.rejected.items()) or "none"
-        raise LogReadError(
-            f"{log}: only {len(trial)} valid record(s), nothing to work on (rejected: {rej})"
-        )
+    trial = read_log(log, fmt)
+    say_format([trial], [log])
     return trial
 
 
 def audit_log(log: Path, fmt: str) -> dict[str, Any]:
     """The JSON object of ``usvid audit`` for one log."""
     from usvid.prep import audit
+    from usvid.prep.channel_audit import sort_findings
 
     trial = load_log(log, fmt)
-    findings = list(trial.findings) + audit(trial)
+    findings = sort_findings(list(trial.findings) + audit(trial))  # errors first
     counts = {s: sum(1 for f in findings if f.severity == s) for s in ("error", "warning", "info")}
     return {
         "file": str(log),

@@ -11,14 +11,22 @@ margins and the robustness over samples of the parameter uncertainty. ``--json``
 
 from __future__ import annotations
 
-import math
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._common import Controller, check_seed
+from usvid.commands._common import (
+    Controller,
+    check_disturbance_deg,
+    check_dt,
+    check_number,
+    check_seed,
+    check_speed,
+    check_steps,
+    check_target_deg,
+)
 from usvid.errors import UsvidError
 
 
@@ -57,22 +65,32 @@ def autopilot_cmd(
         = False,
 ) -> None:
     """Heading-autopilot gains from a model: pole placement or ITAE-optimal, with margins."""
+    from usvid.commands._physics import check_physics
     from usvid.control import design_autopilot
     from usvid.io.modelfile import load_model
 
     check_seed(seed)
-    if not (math.isfinite(dt) and 0 < dt <= 1.0):
-        raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
-    if not (math.isfinite(horizon) and 0 < horizon <= 3600):
-        raise UsvidError(f"--horizon must be in (0, 3600] s (got {horizon!r})")
-    if not (math.isfinite(disturbance_deg) and disturbance_deg >= 0):
-        raise UsvidError(f"--disturbance-deg must be >= 0 deg (got {disturbance_deg!r})")
-    if not 0 <= samples <= 100_000:
-        raise UsvidError(f"--samples must be in [0, 100000] (got {samples!r})")
+    check_dt(dt)
+    check_number(horizon, "--horizon", lo=0.0, hi=3600.0, lo_open=True, unit="s")
+    check_disturbance_deg(disturbance_deg, "--disturbance-deg")
+    check_number(samples, "--samples", lo=0, hi=100_000)
+    check_number(bandwidth, "--bandwidth", lo=0.0, hi=100.0, lo_open=True, unit="rad/s")
+    check_number(zeta, "--zeta", lo=0.0, hi=10.0, lo_open=True)
+    check_target_deg(target_deg)
+    if abs(target_deg) < 0.1:
+        raise UsvidError(f"--target-deg must be at least 0.1 deg in magnitude (got "
+                         f"{target_deg!r}): the design is judged on a course change")
+    check_number(uncertainty_pct, "--uncertainty-pct", lo=0.0, hi=100.0, unit="%")
     model = load_model(model_path)
     if getattr(model.vessel, "speed", None) is None:
         raise UsvidError(f"{model_path.name}: vessel.speed is not given (the design needs the "
                          "approach speed)")
+    check_speed(model.vessel.speed, f"{model_path.name}: vessel.speed")
+    # a model outside a vessel's physics (turning to port under starboard rudder, backing,
+    # running away) gets no gains
+    check_steps(horizon, dt, "--horizon")
+    check_physics(model, model_path, float(model.vessel.speed), dt, strict=True,
+                  duration=horizon)
     d = design_autopilot(model, method=method.value, controller=controller.value,
                          bandwidth=bandwidth, zeta=zeta, disturbance_deg=disturbance_deg,
                          horizon=horizon, seed=seed, target_deg=target_deg, dt=dt,

@@ -23,9 +23,13 @@ def batch(campaign: Path, out: Path, *, scheduler: str | None = None,
           workers: int | None = None, progress: bool = True) -> dict[str, Any]:
     """Everything ``usvid batch`` does; returns its JSON object."""
     from usvid.scale.batch import run_batch, stale_groups
-    from usvid.scale.cluster import connect
+    from usvid.scale.cluster import check_scheduler_address, check_workers, connect
 
-    # (a bad campaign file fails before a cluster is started; nothing to run: none is started)
+    if scheduler:
+        check_scheduler_address(scheduler)
+    check_workers(workers)
+    # (a bad campaign file, or an --out over its inputs, fails before a cluster is started;
+    # nothing to run: none is started)
     if not stale_groups(campaign, out):
         return run_batch(campaign, out, progress=progress)
     with connect(scheduler, workers) as client:

@@ -2,7 +2,9 @@
 usvid (package data ``usvid/data/examples``) into ``DIR``.
 
 Examples: ``lanxin`` (Nomoto, Mu et al. 2018), ``lanxin_norrbin``, ``lanxin_threedof`` (Mu et
-al. 2018, eq. 37) and ``pod_usv`` (podded USV, Mu et al. 2016). JSON: ``example``, ``file``.
+al. 2018, eq. 37), ``pod_usv`` (podded USV, Mu et al. 2016, K and T as its text prints them) and
+``pod_usv_eq25`` (the same with K and T of its eq. 25 as printed) and ``catamaran`` (twin
+thrusters, the catamaran paper). JSON: ``example``, ``file``.
 An existing file is not overwritten (exit 2 naming it).
 """
 
@@ -14,7 +16,8 @@ from typing import Annotated
 
 import typer
 
-EXAMPLES = ("lanxin", "lanxin_norrbin", "lanxin_threedof", "pod_usv")
+EXAMPLES = ("lanxin", "lanxin_norrbin", "lanxin_threedof", "pod_usv", "pod_usv_eq25",
+            "catamaran")
 
 NameArg = Annotated[str, typer.Argument(help="Example: " + " | ".join(EXAMPLES) + ".",
                                         show_default=False)]

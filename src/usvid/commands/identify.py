@@ -1,29 +1,42 @@
-"""CLI: ``usvid identify LOG... --format SPEC --model KIND [--method ls|rls|oe]
-[--validate LOG...] --out MODEL.json [--json]``.
+"""CLI: ``usvid identify LOG... --format SPEC --model KIND [--method ls|rls|oe|oe-zigzag]
+[--validate LOG...] [--report DIR] [--accept-failed-checks] --out MODEL.json [--json]``.
 
-Reads the logs with the format spec, prepares them (:func:`usvid.prep.prepare`: uniform grid,
-unwrapped heading, missing channels derived), identifies the model (:mod:`usvid.identify`) and
-writes the model file atomically (ARCHITECTURE.md schema; ``identification`` holds the data files
-with their sha256, the method, standard errors, 95 % intervals and fit metrics). Prints a fit
-summary; with ``--json`` one JSON object: ``model_file``, ``kind``, ``method``, ``params``,
-``std_errors``, ``ci95``, ``fit`` (training metrics per output channel: rmse, nrmse, r2,
-max_error), ``validation`` (per validation log: metrics and, for zig-zags, simulated vs measured
-overshoots) and ``data``.
+Reads the logs with the format spec and prepares each once (:func:`usvid.prep.logs.
+prepare_logs`: uniform grid, repaired and unwrapped heading, missing channels derived); the
+estimator, the validation and the report use those prepared trials. Identifies the model
+(:mod:`usvid.identify`; without ``--method`` the kind's best method,
+:data:`usvid.identify.defaults.DEFAULT_METHODS`), checks it (:mod:`usvid.identify.checks`:
+refused with exit 2 when it fails, unless ``--accept-failed-checks``) and writes the model file
+atomically (ARCHITECTURE.md schema; ``identification`` holds the data files with their sha256,
+the method, standard errors, covariance, 95 % intervals, fit metrics and the checks). Prints a
+fit summary; with ``--json`` one JSON object: ``model_file``, ``kind``, ``method``, ``params``,
+``std_errors``, ``ci95``, ``held``, ``fit`` (training metrics per output channel: rmse, nrmse,
+r2, max_error), ``validation`` (the rows of ``usvid validate``, one per held-out log:
+:class:`usvid.identify.validation.TrialValidation`), ``report`` and ``data``.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import warnings
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._common import emit_json
-from usvid.commands._logs import TEndOpt, TStartOpt, load_trimmed
-from usvid.commands.validate import PsiOpt, ReportOpt, print_validation, psi_switch_option
+from usvid.commands._common import (
+    FormatOpt,
+    JsonOpt,
+    PsiOpt,
+    ReportOpt,
+    TEndOpt,
+    TStartOpt,
+    emit_json,
+    print_validation,
+    psi_switch_option,
+    report_files,
+    say_format,
+)
 from usvid.errors import UsvidError
 
 
@@ -37,18 +50,27 @@ def kind_names() -> list[str]:
 
 LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify from.",
                                                show_default=False)]
-FormatOpt = Annotated[str, typer.Option(
-    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto "
-    "(detect the format by content and pick the shipped preset).")]
 ModelOpt = Annotated[str, typer.Option(
     "--model", "-m", help="Model kind: " + " | ".join(kind_names()) + ".")]
-MethodOpt = Annotated[str, typer.Option(
-    "--method", help="ls (least squares) | rls (recursive, --lam) | oe (LS + output error) | "
-    "oe-zigzag (LS + closed-loop zig-zag replay output error).")]
+def _method_help() -> str:
+    from usvid.identify.defaults import DEFAULT_METHODS
+
+    defaults = "; ".join(f"{k} {', then '.join(m)}" for k, m in sorted(DEFAULT_METHODS.items()))
+    return ("ls (least squares) | rls (recursive, --lam) | oe (LS + output error) | oe-zigzag "
+            "(LS + closed-loop zig-zag replay output error). Default: the kind's method that "
+            f"predicts held-out zig-zags best, the next one when its model fails the checks "
+            f"(oe-zigzag only for logs with zig-zags): {defaults}; others ls.")
+
+
+MethodOpt = Annotated[str | None, typer.Option("--method", help=_method_help())]
+AcceptOpt = Annotated[bool, typer.Option(
+    "--accept-failed-checks", help="Write the model even when it fails its checks (a standard "
+    "manoeuvre inside the training envelope diverges or turns the wrong way, the training free "
+    "run diverges, it explains too little of the heading); the failures are kept in the model "
+    "file's identification.checks. Without it such a model is refused (exit 2).")]
 ValidateOpt = Annotated[list[Path] | None, typer.Option(
     "--validate", help="Held-out log(s) to validate on (repeat the option for several).")]
 OutOpt = Annotated[Path, typer.Option("--out", "-o", help="Model file to write (JSON).")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
 WindowOpt = Annotated[float, typer.Option(
     "--window-s", help="Output-error / metric window [s] (multiple shooting).")]
 OverlapOpt = Annotated[float, typer.Option(
@@ -68,31 +90,42 @@ VesselOpt = Annotated[list[str] | None, typer.Option(
 
 def _load(paths: list[Path], fmt: str, t_start: float | None = None,
           t_end: float | None = None) -> list[Any]:
-    from usvid.identify.series import IdentificationWarning
-    from usvid.prep import prepare
+    """Read, trim and prepare each log once (:func:`usvid.prep.logs.prepare_logs`)."""
+    from usvid.prep.logs import prepare_logs
 
-    out = []
-    for p in paths:
-        tr = load_trimmed(p, fmt, t_start, t_end)
-        if tr.is_uniform:
-            # a single-rate log with gaps: prepare() repairs them before the estimator sees the
-            # data, so the estimator's own NaN count would under-report; name them here
-            nan = tr.data.drop(columns=["t"], errors="ignore").isna().sum()
-            nan = nan[nan > 0]
-            if len(nan):
-                counts = ", ".join(f"{c}: {n} of {len(tr)}" for c, n in nan.items())
-                warnings.warn(f"{p}: missing samples ({counts}) interpolated or derived by "
-                              "usvid.prep.prepare", IdentificationWarning, stacklevel=2)
-        if not tr.is_uniform or tr.data.isna().any().any():
-            tr = prepare(tr, derivatives=False)
-        out.append(tr)
-    return out
+    trials = prepare_logs(paths, fmt, t_start, t_end)
+    say_format(trials, paths)
+    return trials
 
 
 def _spec_files(fmt: str) -> list[Path]:
     """The format spec's file when ``fmt`` names one (an input the output must not overwrite)."""
     p = Path(fmt) if fmt else None
     return [p] if p is not None and p.is_file() else []
+
+
+def check_options(kind: str, method: str | None, *, window_s: float, overlap: float, lam: float,
+                  norrbin: str) -> None:
+    """The options of ``usvid identify`` at the edge, each error naming its option."""
+    from usvid.commands._common import check_number
+    from usvid.identify.estimator import METHODS
+
+    kinds = kind_names()
+    if kind not in kinds:
+        raise UsvidError(f"--model {kind!r}: not a model kind (choose one of: "
+                         f"{', '.join(kinds)})")
+    if method is not None and method not in METHODS:
+        raise UsvidError(f"--method {method!r}: not a method (choose one of: "
+                         f"{', '.join(METHODS)})")
+    if norrbin not in ("joint", "two_step"):
+        raise UsvidError(f"--norrbin {norrbin!r}: choose joint or two_step")
+    check_number(window_s, "--window-s", lo=0.0, hi=MAX_WINDOW_S, lo_open=True, unit="s")
+    check_number(overlap, "--overlap", lo=0.0, hi=1.0, hi_open=True)
+    check_number(lam, "--lam", lo=0.0, hi=1.0, lo_open=True)
+
+
+#: Longest output-error / metric window [s] (a log of an hour; longer is one whole log).
+MAX_WINDOW_S = 3600.0
 
 
 def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float]:
@@ -108,61 +141,65 @@ def _particulars(x_l: float | None, vessel: list[str] | None) -> dict[str, float
         if not math.isfinite(out[key.strip()]):
             raise UsvidError(f"--vessel {item!r}: the value must be finite")
     if x_l is not None:
-        if not math.isfinite(x_l):
-            raise UsvidError(f"--x-l must be a finite number of metres (got {x_l!r})")
+        from usvid.commands._common import check_number
+
+        check_number(x_l, "--x-l", lo=-1000.0, hi=1000.0, unit="m")
         out["x_l"] = x_l
     return out
 
 
-def identify_logs(logs: list[Path], fmt: str, kind: str, method: str = "ls", *,
+def identify_logs(logs: list[Path], fmt: str, kind: str, method: str | None = None, *,
                   validate: list[Path] | None = None, out: Path | None = None,
                   window_s: float = 20.0, overlap: float = 0.0, lam: float = 1.0,
                   norrbin: str = "joint", turning: list[Path] | None = None,
                   x_l: float | None = None, vessel: list[str] | None = None,
                   t_start: float | None = None, t_end: float | None = None,
-                  psi_deg: float | None = None, report: Path | None = None
-                  ) -> dict[str, Any]:
+                  psi_deg: float | None = None, report: Path | None = None,
+                  accept_failed_checks: bool = False) -> dict[str, Any]:
     """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``).
-    Logs are ``LOG`` or ``LOG:T0:T1`` (:func:`usvid.commands._logs.parse_log_arg`)."""
+    Logs are ``LOG`` or ``LOG:T0:T1`` (:func:`usvid.prep.logs.parse_log_arg`), each read and
+    prepared once: the estimator, the validation and the report use the same prepared trials."""
     from usvid.files import check_outputs
     from usvid.identify.estimator import ModelEstimator
-    from usvid.identify.validate import validation_table
     from usvid.identify.validation import validate_model
     from usvid.io.modelfile import save_model
+    from usvid.prep.logs import input_paths
 
     if not logs:
         raise UsvidError("identify: give at least one LOG")
-    inputs = [*logs, *(validate or []), *(turning or []), *_spec_files(fmt)]
-    check_outputs([out], inputs)  # before any work: never overwrite an input
+    check_options(kind, method, window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin)
+    psi_switch_option(psi_deg)
+    # the files read (LOG:T0:T1 trims resolved to their files), checked against every output
+    # before any work: never overwrite an input
+    inputs = [*input_paths([*logs, *(validate or []), *(turning or [])], t_start, t_end),
+              *_spec_files(fmt)]
+    check_outputs([out, *report_files(report)], inputs)
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
-                         norrbin=norrbin, particulars=_particulars(x_l, vessel))
+                         norrbin=norrbin, particulars=_particulars(x_l, vessel),
+                         checks="record" if accept_failed_checks else "error")
+    psi_switch = psi_switch_option(psi_deg)  # the zig-zag switching angle of every log, as given
     trials = _load(logs, fmt, t_start, t_end)
-    if psi_deg is not None:  # the zig-zag switching angle of the training logs, as given
-        for tr in trials:
-            tr.meta["psi_switch"] = psi_switch_option(psi_deg)
-    est.fit(trials, turning=_load(turning, fmt, t_start, t_end) if turning else None)
+    est.fit(trials, turning=_load(turning, fmt, t_start, t_end) if turning else None,
+            psi_switch=psi_switch)
     res = est.result_
     summary: dict[str, Any] = {
         "model_file": str(out) if out is not None else None,
         **res.summary(),
         "data": res.data,
     }
-    held_res = None
+    held_res, held = None, []
     if validate:
         held = _load(validate, fmt, t_start, t_end)
-        held_res = validate_model(est.model_, held, psi_switch=psi_switch_option(psi_deg))
-        rows = held_res.to_dict()["validation"]
-        # the rows of `usvid validate`, plus the windowed fit metrics ("metrics", labelled by
-        # their window_s) and the former zig-zag check ("zigzag") kept for compatibility
-        for row, old in zip(rows, validation_table(est, held), strict=True):
-            row.update({k: v for k, v in old.items() if k not in row})
-        summary["validation"] = rows
+        held_res = validate_model(est.model_, held, psi_switch=psi_switch,
+                                  window_s=est.window_s)
+        summary["validation"] = held_res.to_dict()["validation"]
     if report is not None:
         from usvid.report.validation_run import write_identify_report
 
-        training = validate_model(est.model_, trials, psi_switch=psi_switch_option(psi_deg))
+        training = validate_model(est.model_, trials, psi_switch=psi_switch,
+                                  window_s=est.window_s)
         summary["report"] = str(write_identify_report(
-            report, est, training, trials, held_res, held if validate else [],
+            report, est, training, trials, held_res, held,
             model_file=str(out) if out is not None else None))
     if out is not None:
         from usvid.files import to_json
@@ -198,18 +235,20 @@ def register(app: typer.Typer) -> None:
 
     @app.command("identify")
     def identify_cmd(logs: LogsArg, model: ModelOpt, out: OutOpt, fmt: FormatOpt = "auto",
-                     method: MethodOpt = "ls", validate: ValidateOpt = None,
+                     method: MethodOpt = None, validate: ValidateOpt = None,
                      json_out: JsonOpt = False, window_s: WindowOpt = 20.0,
                      overlap: OverlapOpt = 0.0, lam: LamOpt = 1.0,
                      norrbin: NorrbinOpt = "joint", turning: TurningOpt = None,
                      x_l: XlOpt = None, vessel: VesselOpt = None,
                      t_start: TStartOpt = None, t_end: TEndOpt = None,
-                     psi_deg: PsiOpt = None, report: ReportOpt = None) -> None:
+                     psi_deg: PsiOpt = None, report: ReportOpt = None,
+                     accept_failed_checks: AcceptOpt = False) -> None:
         """Identify a manoeuvring model from trial logs and write the model file."""
         s = identify_logs(logs, fmt, model, method, validate=validate, out=out,
                           window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin,
                           turning=turning, x_l=x_l, vessel=vessel, t_start=t_start,
-                          t_end=t_end, psi_deg=psi_deg, report=report)
+                          t_end=t_end, psi_deg=psi_deg, report=report,
+                          accept_failed_checks=accept_failed_checks)
         if json_out:
             emit_json(s)
         else:

@@ -7,7 +7,13 @@ the keys are those of ``usvid simulate``: ``overshoot_deg`` (list, first first),
 ``tactical_diameter_m``, ``steady_diameter_m``, ``steady_yaw_rate_rad_s``, ``steady_speed_m_s`` for
 a turning circle. JSON: ``file``, ``format``, ``rejected`` (per reason), ``count`` and
 ``manoeuvres`` (one object each: kind, times, command, delta_amp_deg, psi_switch_deg, and the
-metric keys); when the log holds exactly one manoeuvre its keys are also at the top level.
+metric keys); when the log holds exactly one manoeuvre its keys are also at the top level. A
+turning circle also has ``current`` (the current measured from positions 360 deg of heading
+apart, IMO MSC/Circ.1053 3.4.2.5: ``speed_m_s``, ``dir_deg`` towards, ``spread_m_s``, ...) and
+``corrected`` (its metrics with the current's drift removed, the same keys as the raw ones),
+both null for a turn of less than 540 deg. ``findings``: what the detection left out and why
+(``turn_not_under_way``: a turn of the heading while the vessel was not under way is no turning
+circle), as the audit's findings.
 """
 
 from __future__ import annotations
@@ -18,8 +24,9 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.commands.audit import FormatOpt, JsonOpt, LogArg, load_log
-from usvid.errors import UsvidError
+from usvid.commands._common import FormatOpt, JsonOpt, say_format
+
+LogArg = Annotated[Path, typer.Argument(help="Log file to measure.", show_default=False)]
 
 PsiOpt = Annotated[float | None, typer.Option(
     "--psi-deg", help="Zig-zag switching angle [deg] when known (default: from the heading at "
@@ -32,24 +39,25 @@ TurnOpt = Annotated[float, typer.Option(
 def metrics_log(log: Path, fmt: str, psi_deg: float | None = None,
                 min_turn_deg: float = 180.0) -> dict[str, Any]:
     """The JSON object of ``usvid metrics`` for one log."""
-    from usvid.manoeuvres import measured_metrics
+    from usvid.commands._common import check_number, check_psi_deg
+    from usvid.manoeuvres import manoeuvre_findings, measured_metrics
+    from usvid.prep import as_prepared
+    from usvid.prep.logs import read_log
 
-    if psi_deg is not None and not (math.isfinite(psi_deg) and psi_deg > 0):
-        raise UsvidError(f"--psi-deg must be > 0 deg (got {psi_deg!r})")
-    if not (math.isfinite(min_turn_deg) and min_turn_deg > 0):
-        raise UsvidError(f"--min-turn-deg must be > 0 deg (got {min_turn_deg!r})")
-    trial = load_log(log, fmt)
-    ms = measured_metrics(
-        trial,
-        psi_switch=math.radians(psi_deg) if psi_deg is not None else None,
-        min_turn_deg=min_turn_deg,
-    )
+    check_psi_deg(psi_deg)
+    check_number(min_turn_deg, "--min-turn-deg", lo=0.0, hi=3600.0, lo_open=True, unit="deg")
+    trial = as_prepared(read_log(log, fmt), derivatives=False)
+    say_format([trial], [log])
+    options = {"psi_switch": math.radians(psi_deg) if psi_deg is not None else None,
+               "min_turn_deg": min_turn_deg}
+    ms = measured_metrics(trial, **options)
     out: dict[str, Any] = {
         "file": str(log),
         "format": fmt,
         "rejected": dict(trial.rejected),
         "count": len(ms),
         "manoeuvres": ms,
+        "findings": [f.to_dict() for f in manoeuvre_findings(trial, **options)],
     }
     if len(ms) == 1:
         for k, v in ms[0].items():
@@ -84,6 +92,8 @@ def register(app: typer.Typer) -> None:
         from rich.table import Table
 
         con = Console()
+        for f in out["findings"]:
+            con.print(f"{log.name}: {f['message']}")
         if not out["manoeuvres"]:
             con.print(f"{log.name}: {out['message']}")
             return
@@ -100,4 +110,12 @@ def register(app: typer.Typer) -> None:
             for k in keys[m["kind"]]:
                 if k in m:
                     table.add_row(k, _fmt(m[k]))
+            cur, corr = m.get("current"), m.get("corrected")
+            if cur:  # IMO MSC/Circ.1053 3.4.2.5 (turns of 540 deg or more)
+                table.add_row("current_speed_m_s", _fmt(cur["speed_m_s"]))
+                table.add_row("current_dir_deg (towards)", _fmt(cur["dir_deg"]))
+                table.add_row("current_spread_m_s", _fmt(cur["spread_m_s"]))
+                for k in ("advance_m", "transfer_m", "tactical_diameter_m",
+                          "steady_diameter_m"):
+                    table.add_row(f"{k} (current-corrected)", _fmt(corr[k]))
             con.print(table)

@@ -2,13 +2,18 @@
 --runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] [--disturbance-deg SD]
 --out RESULTS.parquet [--scheduler ADDRESS] [--workers N] [--json]``.
 
-Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks on
-a Dask cluster (a local one by default, or the scheduler at ``--scheduler``), writes one row per
-run (sampled parameters [SI], ``success``, metrics) to a Parquet file atomically and prints the
-quantiles of each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``,
-``parameters``, ``uncertainty`` (where the joint draws come from), ``seed``,
-``disturbance_deg``, ``quantiles`` (per metric ``q05``, ``q50``, ``q95``, ``mean``, ``n``),
-``chunks``, ``workers``, ``wall_s``.
+Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks in
+this process on a small machine, else on a Dask cluster (a local one, or the scheduler at
+``--scheduler``; :func:`usvid.scale.montecarlo.use_dask`), writes one row per run (sampled
+parameters [SI], ``success``, metrics) to a Parquet file atomically and prints the quantiles of
+each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``, ``parameters``,
+``uncertainty`` (where the joint draws come from), ``seed``, ``disturbance_deg``, ``quantiles``
+(per metric ``q05``, ``q50``, ``q95``, ``mean``, ``n``), ``chunks``, ``chunk`` (runs per task),
+``redrawn`` (runs whose first draw was outside the parameter bounds, drawn again),
+``failed_draws`` (runs with no valid draw; their rows have ``success`` false), ``diverged``,
+``workers`` (processes, or the kernel's threads in process), ``backend`` (``in-process`` |
+``dask``), ``wall_s``. Every option is checked before any work; the output may not be the model
+file (nor a device node).
 """
 
 from __future__ import annotations
@@ -29,24 +34,30 @@ ManoeuvreOpt = Annotated[str, typer.Option(
     "--manoeuvre", help="zigzag, turning or course-keeping.")]
 
 
-def _uncertainty(model: dict[str, Any], path: Path) -> tuple[list[str], np.ndarray, np.ndarray,
-                                                             str]:
-    """(names, mean [SI], covariance, source) from the model file's identification record."""
-    ident = model.get("identification") or {}
-    params = model.get("parameters", {})
-    cov = ident.get("covariance")
-    if cov and cov.get("names"):
-        names = list(cov["names"])
-        return (names, np.array([float(params[n]) for n in names]),
-                np.asarray(cov["matrix"], float), "covariance")
-    se = {k: v for k, v in (ident.get("std_errors") or {}).items()
-          if v is not None and k in params and np.isfinite(v)}
-    if not se:
-        raise UsvidError(f"{path}: --from-uncertainty needs identification.covariance or "
-                         "identification.std_errors in the model file (an identified model)")
-    names = list(se)
-    return (names, np.array([float(params[n]) for n in names]),
-            np.diag(np.square([float(se[n]) for n in names])), "std_errors")
+def check_options(manoeuvre: str, options: dict[str, Any]) -> None:
+    """The manoeuvre options of ``usvid montecarlo`` at the edge, each error naming its
+    option (the ranges of ``usvid simulate``)."""
+    from usvid.commands._common import (
+        check_disturbance_deg,
+        check_dt,
+        check_gain,
+        check_psi_deg,
+        check_rudder_deg,
+        check_speed,
+        check_t_end,
+        check_target_deg,
+    )
+
+    o = options
+    check_rudder_deg(o.get("delta_deg"), signed=manoeuvre == "turning")
+    check_psi_deg(o.get("psi_deg"))
+    check_target_deg(o.get("target_deg"))
+    for k in ("kp", "ki", "kd"):
+        check_gain(o.get(k), f"--{k}")
+    check_t_end(o.get("t_end"))
+    check_dt(o.get("dt", 0.02))
+    check_speed(o.get("speed"))
+    check_disturbance_deg(o.get("disturbance_deg"), "--disturbance-deg")
 
 
 def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
@@ -55,50 +66,95 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
                workers: int | None = None, chunk: int = 4096, client: Any = None,
                progress: bool = True) -> dict[str, Any]:
     """Everything ``usvid montecarlo`` does; returns its JSON object (and writes ``out``).
-    ``client``: an existing Dask client (else one from ``scheduler``/``workers``)."""
-    import json
+    ``client``: an existing Dask client; else the runs stay in this process on a small machine
+    (:func:`usvid.scale.montecarlo.use_dask`) or go to a cluster from ``scheduler``/``workers``.
+    """
+    from usvid.commands._common import check_steps
+    from usvid.commands._physics import check_physics
+    from usvid.files import check_outputs
+    from usvid.io.modelfile import load_model, model_to_dict
+    from usvid.models.uncertainty import Uncertainty
+    from usvid.scale.cluster import check_scheduler_address, check_workers, connect, cores
+    from usvid.scale.montecarlo import (
+        MonteCarlo,
+        check_size,
+        parse_vary,
+        quantiles,
+        run_montecarlo,
+        run_timing,
+        use_dask,
+    )
 
-    from usvid.scale.cluster import connect
-    from usvid.scale.montecarlo import MonteCarlo, parse_vary, quantiles, run_montecarlo
-
-    try:
-        model = json.loads(Path(model_path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise UsvidError(f"{model_path}: cannot read the model file ({exc})") from None
+    check_outputs([out], [model_path])  # before any work: never over the model file
+    options = dict(options or {})
+    check_options(manoeuvre, options)
+    if scheduler:
+        check_scheduler_address(scheduler)
+    check_workers(workers)
+    vm = load_model(model_path)  # validated (the uncertainty blocks too), errors naming the file
+    model = model_to_dict(vm)
     names: list[str] = []
     mean, cov, source = np.zeros(0), np.zeros((0, 0)), "none"
     if from_uncertainty:
-        names, mean, cov, source = _uncertainty(model, model_path)
+        unc = Uncertainty.from_model(vm, source=Path(model_path).name)
+        if not unc.names:
+            raise UsvidError(f"{model_path}: --from-uncertainty needs identification.covariance "
+                             "or identification.std_errors in the model file (an identified "
+                             "model)")
+        names, mean, cov, source = list(unc.names), unc.mean, unc.cov, unc.source
     varies = tuple(parse_vary(v) for v in vary or [])
     if not names and not varies:
         raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
-    mc = MonteCarlo(model, manoeuvre, dict(options or {}), tuple(names), mean, cov, varies,
-                    int(seed))
+    mc = MonteCarlo(model, manoeuvre, options, tuple(names), mean, cov, varies, int(seed))
+    u0, dt, run = run_timing(mc, vm)
+    check_steps(run, dt, "--t-end" if "t_end" in options else f"the run ({run:g} s, from the "
+                "model; --t-end)")
+    # the model file itself within its kind's physics (its draws may stray: their metrics are
+    # then NaN, counted out of the quantiles' n)
+    check_physics(vm, model_path, u0, dt, duration=run)
+    chunk = check_size(mc, runs, chunk)
     t0 = time.perf_counter()
+    backend = "dask"
     if client is not None:
         df = run_montecarlo(mc, runs, chunk=chunk, client=client, progress=progress)
         nworkers = len(client.scheduler_info().get("workers", {}))
+    elif not use_dask(scheduler, workers, cores()):
+        nworkers = workers or cores()
+        backend = "in-process"
+        df = run_montecarlo(mc, runs, chunk=chunk, threads=nworkers)
     else:
         with connect(scheduler, workers) as cl:
             df = run_montecarlo(mc, runs, chunk=chunk, client=cl, progress=progress)
             nworkers = len(cl.scheduler_info().get("workers", {}))
+    q = quantiles(df, mc.metrics)
+    if not any(v["n"] for v in q.values()):
+        ok = int(df["success"].sum())
+        rudder = "" if manoeuvre == "course-keeping" else " or a larger --delta-deg"
+        raise UsvidError(f"montecarlo: no run gave a {manoeuvre} metric ({ok} of {runs} ran to "
+                         f"the end of {run:g} s without diverging; the manoeuvre did not "
+                         f"complete): give a longer --t-end{rudder}, or check the model and "
+                         "--speed")
     buf = io.BytesIO()
     df.to_parquet(buf, index=False)
-    write_atomic(out, buf.getvalue())
+    write_atomic(out, buf.getvalue(), inputs=[model_path])
+    valid = df["valid_draw"].to_numpy(bool)
     return {"out": str(out), "runs": int(runs), "failed": int((~df["success"]).sum()),
+            "redrawn": int(((df["redraws"].to_numpy() > 0) & valid).sum()),
+            "failed_draws": int((~valid).sum()),
+            "diverged": int((valid & ~df["success"].to_numpy(bool)).sum()),
             "manoeuvre": manoeuvre, "parameters": list(mc.parameters), "uncertainty": source,
             "seed": int(seed), "disturbance_deg": float(mc.options.get("disturbance_deg", 0.0)),
-            "quantiles": quantiles(df, mc.metrics),
-            "chunks": -(-runs // chunk), "workers": nworkers,
-            "wall_s": round(time.perf_counter() - t0, 3)}
+            "quantiles": q, "chunks": -(-runs // chunk), "chunk": int(chunk), "workers": nworkers,
+            "backend": backend, "wall_s": round(time.perf_counter() - t0, 3)}
 
 
 def _print(s: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"montecarlo {s['manoeuvre']}: {s['runs']} runs ({s['failed']} "
-                        f"diverged) -> {s['out']}")
+    table = Table(title=f"montecarlo {s['manoeuvre']}: {s['runs']} runs ({s['diverged']} "
+                        f"diverged, {s['redrawn']} draws redrawn within the parameter bounds, "
+                        f"{s['failed_draws']} failed) -> {s['out']}")
     for col in ("metric", "q05", "q50", "q95", "mean", "n"):
         table.add_column(col, justify="left" if col == "metric" else "right")
     for m, q in s["quantiles"].items():
@@ -146,8 +202,6 @@ def register(app: typer.Typer) -> None:
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
     ) -> None:
         """Monte-Carlo simulation of a manoeuvre over parameter uncertainty (Dask)."""
-        if not (0 < dt <= 1.0):
-            raise UsvidError(f"--dt must be in (0, 1] s (got {dt!r})")
         check_seed(seed)
         opts = {k: v for k, v in dict(delta_deg=delta_deg, psi_deg=psi_deg,
                                       target_deg=target_deg, kp=kp, ki=ki, kd=kd, t_end=t_end,

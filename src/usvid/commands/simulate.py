@@ -24,7 +24,20 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._common import Controller, check_seed
+from usvid.commands._common import (
+    Controller,
+    check_disturbance_deg,
+    check_dt,
+    check_gain,
+    check_psi_deg,
+    check_rps,
+    check_rudder_deg,
+    check_seed,
+    check_speed,
+    check_steps,
+    check_t_end,
+    check_target_deg,
+)
 from usvid.errors import SimulationError, UsvidError
 
 
@@ -51,25 +64,24 @@ def _load(path: Path) -> Any:
 
 
 def _speed(model: Any, speed: float | None, path: Path) -> float:
-    u0 = speed if speed is not None else getattr(model.vessel, "speed", None)
-    if u0 is None:
-        raise UsvidError(f"{path.name}: vessel.speed is not given; pass --speed [m/s]")
-    if not (math.isfinite(u0) and u0 > 0):
-        raise UsvidError(f"--speed must be > 0 m/s (got {u0!r})")
+    """The approach speed [m/s] (:func:`usvid.sim.simulate.approach_speed`: ``--speed``, else
+    the model's vessel.speed, else its kind's straight-line speed), checked."""
+    from usvid.sim.simulate import approach_speed
+
+    if speed is not None:
+        return float(check_speed(speed))
+    try:
+        u0 = approach_speed(model, None)
+    except SimulationError:
+        raise UsvidError(f"{path.name}: vessel.speed is not given; pass --speed [m/s]") from None
+    check_speed(u0, f"{path.name}: vessel.speed (or --speed)")
     return float(u0)
 
 
-def _check_dt(dt: float) -> None:
-    if not (math.isfinite(dt) and 0 < dt <= 1.0):
-        raise SimulationError(f"--dt must be in (0, 1] s (got {dt!r})")
-
-
 def _with_rps(model: Any, rps: float | None, path: Path) -> Any:
-    """The model with its nominal shaft speed ``n`` set to ``--rps`` [rps]."""
+    """The model with its nominal shaft speed ``n`` set to ``--rps`` [rps] (checked already)."""
     if rps is None:
         return model
-    if not (math.isfinite(rps) and rps > 0):
-        raise UsvidError(f"--rps must be > 0 (got {rps!r})")
     if "n" not in {p.name for p in model.dynamics.param_specs()}:
         raise UsvidError(f"--rps: {path.name} is a {model.kind} model, which has no shaft speed "
                          "input (kinds with one: mmg, threedof)")
@@ -84,16 +96,34 @@ def _rps_of(model: Any) -> float | None:
 
 
 def _setup(model_path: Path, dt: float, speed: float | None, *, t_end: float | None = None,
-           rps: float | None = None) -> tuple[Any, float]:
-    """Check ``--dt`` (and a given ``--t-end``), load the model file and set its shaft speed
-    to ``--rps``; returns (model, u0 [m/s])."""
-    from usvid.sim.runs import MAX_T_END
+           rps: float | None = None, delta_deg: float | None = None) -> tuple[Any, float]:
+    """Check ``--dt``, ``--speed`` (and a given ``--t-end``), load the model file, set its shaft
+    speed to ``--rps`` and check its physics (:func:`usvid.commands._physics.check_physics`,
+    probed at the manoeuvre's rudder angle ``delta_deg`` when it has one); returns
+    (model, u0 [m/s])."""
+    from usvid.commands._physics import check_physics
+    from usvid.sim.runs import default_t_end
 
-    _check_dt(dt)
-    if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= MAX_T_END):
-        raise SimulationError(f"--t-end must be in (0, {MAX_T_END:g}] s (got {t_end!r})")
+    check_dt(dt)
+    check_t_end(t_end)
+    check_speed(speed)
+    check_rps(rps)
     model = _with_rps(_load(model_path), rps, model_path)
-    return model, _speed(model, speed, model_path)
+    u0 = _speed(model, speed, model_path)
+    run = t_end if t_end is not None else default_t_end(model, u0)
+    check_steps(run, dt, "--t-end" if t_end is not None else f"the run ({run:g} s, from the "
+                "model; --t-end)")
+    check_physics(model, model_path, u0, dt, duration=run,
+                  setting=f"--rps {rps:g}" if rps is not None else "",
+                  angle=None if delta_deg is None else math.radians(abs(delta_deg)))
+    return model, u0
+
+
+def _no_metrics(model_path: Path, what: str, t_end: float | None, te: float) -> SimulationError:
+    """The error of a manoeuvre whose metrics cannot be computed from the run."""
+    fix = (f"give a longer --t-end (the run was {te:g} s)" if t_end is not None else
+           f"the run was extended to {te:g} s; check the model and --speed")
+    return SimulationError(f"{model_path.name}: {what}; {fix}")
 
 
 def _output(out: dict[str, Any], as_json: bool, title: str, rows: list[tuple[str, Any, str]],
@@ -166,14 +196,17 @@ def zigzag_cmd(
     from usvid.manoeuvres.imo import imo_zigzag_check, zigzag_kind
     from usvid.sim.runs import run_zigzag
 
+    check_rudder_deg(delta_deg)
+    check_psi_deg(psi_deg)
     psi_deg = delta_deg if psi_deg is None else psi_deg
-    if not 0 < delta_deg <= 90:
-        raise SimulationError(f"--delta-deg must be in (0, 90] (got {delta_deg!r})")
-    if not 0 < psi_deg <= 180:
-        raise SimulationError(f"--psi-deg must be in (0, 180] (got {psi_deg!r})")
-    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps)
-    _, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
-                      t_end=t_end, dt=dt, u0=u0)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps, delta_deg=delta_deg)
+    res, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
+                        t_end=t_end, dt=dt, u0=u0)
+    if not m.overshoot_deg:
+        n = len(m.reversal_times_s or [])
+        raise _no_metrics(model_path, f"no overshoot within the run: the zig-zag made {n} "
+                          f"rudder reversal(s), the first overshoot needs one and the heading's "
+                          "turn back", t_end, float(res.t[-1]))
     out: dict[str, Any] = m.to_dict()
     kind = zigzag_kind(delta_deg, psi_deg)
     L = model.vessel.length
@@ -206,10 +239,16 @@ def turning_cmd(
     from usvid.manoeuvres.imo import imo_turning_applies, imo_turning_check
     from usvid.sim.runs import run_turning
 
-    if not 0 < abs(delta_deg) <= 90:
-        raise SimulationError(f"--delta-deg must be non-zero and within +-90 (got {delta_deg!r})")
-    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps)
-    _, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
+    check_rudder_deg(delta_deg, signed=True)
+    model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps, delta_deg=delta_deg)
+    res, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
+    missing = [k for k in ("advance_m", "transfer_m", "tactical_diameter_m")
+               if not math.isfinite(getattr(m, k))]
+    if missing:
+        psi = res["psi"][0]
+        turn = abs(math.degrees(float(psi[-1] - psi[0])))
+        raise _no_metrics(model_path, f"no turning circle: the heading changed {turn:.3g} deg "
+                          f"({', '.join(missing)} need 90 and 180 deg)", t_end, float(res.t[-1]))
     out: dict[str, Any] = m.to_dict()
     L = model.vessel.length
     applies = imo_turning_applies(math.radians(delta_deg), float(model.servo.max_angle))
@@ -250,8 +289,10 @@ def course_cmd(
     from usvid.sim.runs import default_ki, run_course
 
     check_seed(seed)
-    if not (math.isfinite(noise) and noise >= 0):
-        raise UsvidError(f"--noise must be >= 0 deg (got {noise!r})")
+    check_disturbance_deg(noise, "--noise")
+    check_target_deg(target_deg)
+    for opt, v in (("--kp", kp), ("--ki", ki), ("--kd", kd)):
+        check_gain(v, opt)
     model, u0 = _setup(model_path, dt, speed, t_end=t_end)
     _, m = run_course(model, controller=controller.value, kp=kp, ki=ki, kd=kd,
                       target_deg=target_deg, noise_deg=noise, seed=seed, t_end=t_end, dt=dt,

@@ -12,75 +12,50 @@ those of ``usvid metrics``. ``identify --validate LOG`` gives the same rows.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._logs import TEndOpt, TStartOpt
+from usvid.commands._common import (
+    FormatOpt,
+    JsonOpt,
+    PsiOpt,
+    ReportOpt,
+    TEndOpt,
+    TStartOpt,
+    print_validation,
+    psi_switch_option,
+    report_files,
+)
 
 ModelArg = Annotated[Path, typer.Argument(help="Model file (JSON) to validate.",
                                           show_default=False)]
 LogsArg = Annotated[list[str], typer.Argument(
     help="Log file(s) to validate on; LOG:T0:T1 uses the part T0..T1 [s] of a log.",
     show_default=False)]
-FormatOpt = Annotated[str, typer.Option(
-    "--format", "-f", help="Trial format spec: a YAML path, a shipped spec name, or auto.")]
-JsonOpt = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
-PsiOpt = Annotated[float | None, typer.Option(
-    "--psi-deg", help="Zig-zag switching angle [deg] when known (default: detected).")]
-ReportOpt = Annotated[Path | None, typer.Option(
-    "--report", help="Write run.json and report.html into this directory.")]
-
-
-def psi_switch_option(psi_deg: float | None) -> float | None:
-    """``--psi-deg`` [deg] -> radians, checked."""
-    from usvid.errors import UsvidError
-
-    if psi_deg is None:
-        return None
-    if not (math.isfinite(psi_deg) and 0 < psi_deg <= 180):
-        raise UsvidError(f"--psi-deg must be in (0, 180] deg (got {psi_deg!r})")
-    return math.radians(psi_deg)
 
 
 def validate_logs(model_path: Path, logs: list[str], fmt: str = "auto", *,
                   psi_deg: float | None = None, t_start: float | None = None,
                   t_end: float | None = None) -> tuple[dict[str, Any], Any]:
     """Everything ``usvid validate`` does; returns its JSON object and
-    ``(ValidationResult, trials, model)`` for the report."""
-    from usvid.commands._logs import load_trimmed
+    ``(ValidationResult, trials, model)`` for the report. Each log is read and prepared once
+    (:func:`usvid.prep.logs.prepare_logs`); the validation and the report use that trial."""
+    from usvid.commands._common import say_format
     from usvid.errors import UsvidError
     from usvid.identify.validation import validate_model
     from usvid.io.modelfile import load_model
+    from usvid.prep.logs import prepare_logs
 
     if not logs:
         raise UsvidError("validate: give at least one LOG")
+    psi_switch_option(psi_deg)
     model = load_model(model_path)
-    trials = [load_trimmed(p, fmt, t_start, t_end) for p in logs]
+    trials = prepare_logs(logs, fmt, t_start, t_end)
+    say_format(trials, logs)
     res = validate_model(model, trials, psi_switch=psi_switch_option(psi_deg))
     return {"model_file": str(model_path), **res.to_dict()}, (res, trials, model)
-
-
-def print_validation(rows: list[dict[str, Any]]) -> None:
-    """The human-readable table of validation rows (measured, predicted, error)."""
-    from rich.console import Console
-    from rich.table import Table
-
-    from usvid.identify.validation import short_value as f
-
-    con = Console()
-    for r in rows:
-        table = Table("metric", "measured", "predicted", "error",
-                      title=f"{Path(str(r.get('file') or r['trial'])).name}: {r['manoeuvre']}")
-        for k in r.get("error", {}):
-            table.add_row(k, f(r["measured"].get(k)), f(r["predicted"].get(k)), f(r["error"][k]))
-        for k, v in r.get("replay", {}).items():
-            table.add_row(f"free-run replay {k}", f(v), "", "")
-        con.print(table)
-        for m in r.get("messages", []):
-            con.print(f"  note: {m}")
 
 
 def register(app: typer.Typer) -> None:
@@ -93,7 +68,14 @@ def register(app: typer.Typer) -> None:
                      report: ReportOpt = None) -> None:
         """Validate a model file on logs: predicted vs measured manoeuvres, free-run replay."""
         from usvid.commands._common import emit_json
+        from usvid.files import check_outputs
+        from usvid.prep.logs import input_paths
 
+        # before any work: the report's files never overwrite an input (a run.json given as
+        # the model file or a log, LOG:T0:T1 trims resolved to their files)
+        spec = [Path(fmt)] if Path(fmt).is_file() else []
+        check_outputs(report_files(report),
+                      [model_path, *input_paths(logs, t_start, t_end), *spec])
         out, res = validate_logs(model_path, logs, fmt, psi_deg=psi_deg, t_start=t_start,
                                  t_end=t_end)
         if report is not None:

@@ -14,7 +14,9 @@ Steps (each timed, each recorded in ``run.json`` with its status):
 6. ``course_keeping``  PD vs PID course change 0 -> 100 deg under the Mu et al. 2018 disturbance,
                   ITAE (Mu et al. 2018 section 6.1, Table 3);
 7. ``turning_diameter``  the Ma et al. relative turning-diameter model fitted by the chaotic GA;
-8. ``write``      model files (``OUT/models/*.json``), ``run.json`` and ``report.html``.
+8. ``papers``     the papers' headline numbers on the shipped example models
+                  (:mod:`usvid.demo.papers`, the rows of docs/papers.md it covers);
+9. ``write``      model files (``OUT/models/*.json``), ``run.json`` and ``report.html``.
 
 A step whose input is missing because an earlier step failed is recorded as ``skipped``; an
 exception inside a step is recorded as ``failed`` with its message. Nothing is faked. Every
@@ -45,6 +47,7 @@ from usvid import __version__
 from usvid.control.design import design_autopilot
 from usvid.demo.analysis import course_keeping, turning_diameter_fit, validate_against
 from usvid.demo.campaign import generate_campaign, read_campaign_trial
+from usvid.demo.papers import papers_entry
 from usvid.errors import UsvidError, raised_by_interrupt
 from usvid.files import claim_output_dir, move_into, to_json, write_atomic
 from usvid.identify.estimator import identify
@@ -345,7 +348,13 @@ class DemoPipeline:
         self.run["turning_diameter"] = td
         return f"RMS {td['rms']:.4g} (published eq. 3: {td.get('rms_published', float('nan')):.4g})"
 
-    # -- 8. write ------------------------------------------------------------------------------
+    # -- 8. papers ------------------------------------------------------------------------------
+    def step_papers(self) -> str:
+        entry = papers_entry()
+        self.run["papers"] = entry
+        return f"{len(entry['rows'])} headline numbers"
+
+    # -- 9. write ------------------------------------------------------------------------------
     def write_models(self) -> list[Path]:
         paths = []
         for kind, model in sorted(self.state.get("model_files", {}).items()):
@@ -368,6 +377,7 @@ class DemoPipeline:
                       self.step_course_keeping)
             self.step("turning_diameter", "Turning-diameter fit (Ma et al., CGA)",
                       self.step_turning_diameter)
+            self.step("papers", "The papers' headline numbers", self.step_papers)
         self.run["timing"] = {"total_s": round(time.perf_counter() - t_start, 3)}
         self.run["acceptance"] = acceptance(self.run)
         self.run["summary_text"] = _summary_text(self.run)

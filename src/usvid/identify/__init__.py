@@ -1,49 +1,70 @@
 """usvid.identify: estimators of every model kind (equation error, RLS, output error, zig-zag
 replay), servo identification, discrete-to-continuous conversion, the chaotic GA and the
-turning-diameter fit, validation."""
+turning-diameter fit, validation.
 
-from usvid.identify.cga import CGAResult, cga
-from usvid.identify.equation_error import EquationErrorFit, fit_equation_error
-from usvid.identify.estimator import (
-    IdentifiedModel,
-    ModelEstimator,
-    compare_kinds,
-    fit,
-    identify,
-)
-from usvid.identify.ls import (
-    LeastSquares,
-    NotFittedError,
-    arx_regressors,
-    arx_transfer_function,
-    check_regression_data,
-)
-from usvid.identify.metrics import FitMetrics, fit_metrics, max_error, nrmse, r_squared, rmse
-from usvid.identify.output_error import OEResult, refine_output_error
-from usvid.identify.rls import RecursiveLeastSquares
-from usvid.identify.series import IdentificationWarning, Series, trial_series
-from usvid.identify.servo import ServoIdentification, identify_second_order_servo
-from usvid.identify.turning_diameter import (
-    TurningDiameterFit,
-    fit_turning_diameter,
-    leave_one_out_rmse,
-    load_turning_table,
-)
-from usvid.identify.validate import (
-    cross_validate,
-    validation_table,
-    zigzag_check,
-    zigzag_response,
-)
-from usvid.models.d2c import ContinuousTF, d2c, d2c_ss, split_delay
+Public names load their module on first use (PEP 562): importing a light module of the package
+(``usvid.identify.defaults``, read by ``usvid identify --help``) does not load the estimators.
+"""
 
-__all__ = [
-    "CGAResult", "ContinuousTF", "EquationErrorFit", "FitMetrics", "IdentificationWarning",
-    "IdentifiedModel", "LeastSquares", "ModelEstimator", "NotFittedError", "OEResult",
-    "RecursiveLeastSquares", "Series", "ServoIdentification", "TurningDiameterFit",
-    "arx_regressors", "arx_transfer_function", "cga", "check_regression_data", "compare_kinds",
-    "cross_validate", "d2c", "d2c_ss", "fit", "fit_equation_error", "fit_metrics",
-    "fit_turning_diameter", "identify", "identify_second_order_servo", "leave_one_out_rmse",
-    "load_turning_table", "max_error", "nrmse", "r_squared", "refine_output_error", "rmse",
-    "split_delay", "trial_series", "validation_table", "zigzag_check", "zigzag_response",
-]
+import importlib
+from typing import Any
+
+#: Public name -> the module that defines it.
+_WHERE = {
+    "CGAResult": "usvid.identify.cga",
+    "ContinuousTF": "usvid.models.d2c",
+    "EquationErrorFit": "usvid.identify.equation_error",
+    "FitMetrics": "usvid.identify.metrics",
+    "IdentificationWarning": "usvid.identify.series",
+    "IdentifiedModel": "usvid.identify.estimator",
+    "LeastSquares": "usvid.identify.ls",
+    "ModelEstimator": "usvid.identify.estimator",
+    "NotFittedError": "usvid.identify.ls",
+    "OEResult": "usvid.identify.output_error",
+    "RecursiveLeastSquares": "usvid.identify.rls",
+    "Series": "usvid.identify.series",
+    "ServoIdentification": "usvid.identify.servo",
+    "TrialValidation": "usvid.identify.validation",
+    "TurningDiameterFit": "usvid.identify.turning_diameter",
+    "ValidationResult": "usvid.identify.validation",
+    "arx_regressors": "usvid.identify.ls",
+    "arx_transfer_function": "usvid.identify.ls",
+    "cga": "usvid.identify.cga",
+    "check_regression_data": "usvid.identify.ls",
+    "compare_kinds": "usvid.identify.estimator",
+    "cross_validate": "usvid.identify.validate",
+    "d2c": "usvid.models.d2c",
+    "d2c_ss": "usvid.models.d2c",
+    "fit": "usvid.identify.estimator",
+    "fit_equation_error": "usvid.identify.equation_error",
+    "fit_metrics": "usvid.identify.metrics",
+    "fit_turning_diameter": "usvid.identify.turning_diameter",
+    "identify": "usvid.identify.estimator",
+    "identify_second_order_servo": "usvid.identify.servo",
+    "leave_one_out_rmse": "usvid.identify.turning_diameter",
+    "load_turning_table": "usvid.identify.turning_diameter",
+    "max_error": "usvid.identify.metrics",
+    "nrmse": "usvid.identify.metrics",
+    "r_squared": "usvid.identify.metrics",
+    "refine_output_error": "usvid.identify.output_error",
+    "rmse": "usvid.identify.metrics",
+    "split_delay": "usvid.models.d2c",
+    "trial_series": "usvid.identify.series",
+    "validate_model": "usvid.identify.validation",
+    "validate_trial": "usvid.identify.validation",
+    "zigzag_response": "usvid.identify.validate",
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'usvid.identify' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_WHERE))

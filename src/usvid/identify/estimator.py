@@ -36,6 +36,7 @@ clusters and Student-t intervals with (windows - 1) degrees of freedom.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import html
 import math
@@ -49,26 +50,46 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
+from usvid.identify.checks import (
+    ChecksFailed,
+    check_data,
+    check_model,
+    failed,
+    refusal,
+    trial_speed,
+)
+from usvid.identify.defaults import DEFAULT_METHODS
 from usvid.identify.equation_error import fit_equation_error, two_step_norrbin
 from usvid.identify.ls import FittedAttributes, interval95, quantile975, standard_errors
-from usvid.identify.metrics import fit_metrics
+from usvid.identify.metrics import replay_metrics
 from usvid.identify.output_error import OEResult, refine_output_error
 from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import helm_from_zigzags, identify_second_order_servo
 from usvid.io.modelfile import model_to_dict
-from usvid.manoeuvres import find_manoeuvres, measured_metrics, rudder_rate
+from usvid.manoeuvres import find_manoeuvres, measured_metrics
+from usvid.manoeuvres.detect import approach
 from usvid.models.kind import ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
 from usvid.models.registry import names as kind_names
 from usvid.models.servo import IdealServo
-from usvid.prep import prepare, resample
+from usvid.prep import PreparedTrial, as_prepared, prepare
 from usvid.prep.segments import MIN_SEGMENT_S, split_at_breaks, time_breaks
 from usvid.sim.replay import Windows, make_windows, replay_windows
 from usvid.trial import Trial, Vessel
 
 METHODS = ("ls", "rls", "oe", "oe-zigzag")
+def default_methods(kind: str) -> tuple[str, ...]:
+    """The methods of ``kind`` in the order they predict held-out data
+    (:data:`usvid.identify.defaults.DEFAULT_METHODS`; "ls" for a kind not measured)."""
+    return tuple(DEFAULT_METHODS.get(kind, ("ls",)))
+
+
+def default_method(kind: str) -> str:
+    """The default identification method of ``kind``: the one that predicts best."""
+    return default_methods(kind)[0]
+
 MIN_DELTA_STD = math.radians(0.2)  # [rad] rudder scatter below which there is no excitation
 REL_WEAK = 0.5  # 95 % half-width / |parameter| above which fit() warns "poorly determined"
 #: Default step [s] of output error, ARX regressions and replays (or the log step if coarser).
@@ -96,23 +117,10 @@ def _as_list(trials: Any) -> list[Trial]:
     return out
 
 
-def _is_turning(tr: Trial) -> bool:
+def _is_turning(tr: Trial, psi_switch: float | None = None) -> bool:
     """A turning test: a turning circle and no zig-zag found in it (``find_manoeuvres``)."""
-    kinds = {g.kind for g in find_manoeuvres(tr)}
+    kinds = {g.kind for g in find_manoeuvres(tr, psi_switch=psi_switch)}
     return "turning" in kinds and "zigzag" not in kinds
-
-
-def pwm_commands(tr: Trial) -> Trial:
-    """Thruster commands ``n_port``/``n_stbd`` from logged PWM pulse widths ``pwm_port``/
-    ``pwm_stbd`` [us] where the log has no other commands: the kinds' thrust map then reads the
-    pulse width (``twin_thrust`` with ``command: pwm``, the catamaran's particulars)."""
-    if tr.has("pwm_port") and tr.has("pwm_stbd") and not (tr.has("n_port")
-                                                          or tr.has("n_stbd")):
-        data = tr.data.copy()
-        data["n_port"] = data["pwm_port"]
-        data["n_stbd"] = data["pwm_stbd"]
-        tr = tr.with_data(data, meta={**tr.meta, "commands_from": "pwm"})
-    return tr
 
 
 def split_discontinuities(trials: Sequence[Trial]) -> list[Trial]:
@@ -142,34 +150,31 @@ def split_discontinuities(trials: Sequence[Trial]) -> list[Trial]:
     return out
 
 
-def one_grid(trials: Sequence[Trial]) -> list[Trial]:
-    """Trials on uniform grids of one step: multi-rate or jittered logs are prepared
-    (:func:`usvid.prep.prepare`), logs of different rates resampled to the coarsest one
+def repair_warnings(trial: PreparedTrial, stacklevel: int = 3) -> None:
+    """Say what :func:`usvid.prep.prepare` repaired in ``trial`` before identification sees
+    it: a log resampled onto a uniform grid, the gaps of a single-rate log interpolated."""
+    if trial.resampled_hz is not None:
+        warnings.warn(f"trial {trial.name or '?'}: not on a uniform time grid; resampled to "
+                      f"{trial.resampled_hz:.4g} Hz with usvid.prep.prepare",
+                      IdentificationWarning, stacklevel=stacklevel)
+    for ch, k in trial.filled.items():
+        warnings.warn(f"trial {trial.name or '?'}: channel '{ch}' has {k} NaN samples; "
+                      "interpolated linearly (usvid.prep.prepare)", IdentificationWarning,
+                      stacklevel=stacklevel)
+
+
+def one_grid(trials: Sequence[Trial]) -> list[PreparedTrial]:
+    """Prepared trials (:func:`usvid.prep.as_prepared`: a prepared one is used as it is) on
+    uniform grids of one step: logs of different rates are resampled to the coarsest one
     (never upsampled), with a warning saying so."""
-    out = []
-    for tr in trials:
-        tr = pwm_commands(tr)
-        if not tr.is_uniform or tr.data.isna().any().any():
-            uniform, before = tr.is_uniform, tr.data.isna().sum()
-            if not uniform:  # a multi-rate or jittered log (NMEA, virtual sensors)
-                warnings.warn(f"trial {tr.name or '?'}: not on a uniform time grid; resampled "
-                              "with usvid.prep.prepare", IdentificationWarning, stacklevel=3)
-            tr = prepare(tr, derivatives=False)
-            after = tr.data.isna().sum()
-            for ch, n in before.items():  # gaps of a single-rate log: say what was repaired
-                k = int(n - after.get(ch, 0))
-                if uniform and k > 0:
-                    warnings.warn(f"trial {tr.name}: channel '{ch}' has {k} NaN samples; "
-                                  "interpolated linearly (usvid.prep.prepare)",
-                                  IdentificationWarning, stacklevel=3)
-        out.append(tr)
+    out = [as_prepared(tr, derivatives=False) for tr in trials]
     rates = [tr.sample_rate for tr in out]
     if len({round(r, 6) for r in rates}) > 1:
         target = min(rates)
         warnings.warn(f"trials have different sample rates ({', '.join(f'{r:.4g}' for r in rates)}"
                       f" Hz); resampled to {target:.4g} Hz", IdentificationWarning, stacklevel=3)
         out = [tr if abs(tr.sample_rate - target) < 1e-6 * target else
-               resample(tr, rate_hz=target) for tr in out]
+               prepare(tr, rate_hz=target, derivatives=False) for tr in out]
     return out
 
 
@@ -192,24 +197,22 @@ def _vessel(trials: Sequence[Trial]) -> Vessel:
                 Vessel())
 
 
-def _approach_speed(trials: Sequence[Trial], vessel: Vessel) -> float | None:
-    """The vessel's nominal speed [m/s], else the median measured speed over the first 5 s of
-    the training trials (the approach of a manoeuvre)."""
-    if vessel.speed is not None:
-        return float(vessel.speed)
+def training_speed(trials: Sequence[Trial], psi_switch: float | None = None) -> float | None:
+    """The approach speed [m/s] of the training trials: the median over their manoeuvres of
+    the approach speed (:func:`usvid.manoeuvres.detect.approach`, the one definition), a trial
+    without a manoeuvre counting with its first :data:`~usvid.manoeuvres.detect.APPROACH_S`;
+    None when no trial logs a speed."""
     vals = []
     for tr in trials:
-        t = tr.t
-        sel = t <= t[0] + 5.0
-        for ch in ("U", "u"):
-            if tr.has(ch):
-                vals.append(np.nanmedian(tr[ch][sel]))
-                break
-    vals = [v for v in vals if np.isfinite(v) and v > 0]
+        segs = [g for g in find_manoeuvres(tr, psi_switch=psi_switch)
+                if g.approach is not None] if tr.has("psi") else []
+        aps = [g.approach for g in segs] or [approach(tr, float(tr.t[0]))]
+        vals += [a.speed for a in aps if a.speed is not None]
+    vals = [v for v in vals if math.isfinite(v) and v > 0]
     return float(np.median(vals)) if vals else None
 
 
-def _reversal_windows(trials: Sequence[Trial], rate: float
+def _reversal_windows(trials: Sequence[Trial], rate: float, psi_switch: float | None = None
                       ) -> list[tuple[np.ndarray, np.ndarray, float]]:
     """The rudder records around the measured zig-zag reversals of ``trials`` (for
     :func:`usvid.identify.servo.helm_from_zigzags`): from 0.5 s before each heading crossing
@@ -219,7 +222,7 @@ def _reversal_windows(trials: Sequence[Trial], rate: float
         if not (tr.has("delta") and tr.has("psi")):
             continue
         t, d = tr.t, tr["delta"]
-        for m in measured_metrics(tr):
+        for m in measured_metrics(tr, psi_switch=psi_switch):
             if m["kind"] != "zigzag":
                 continue
             tc = list(m.get("reversal_times_s") or [])
@@ -253,6 +256,7 @@ class IdentifiedModel:
     data: list[dict[str, Any]] = field(default_factory=list)
     options: dict[str, Any] = field(default_factory=dict)
     diagnostics: dict[str, Any] = field(default_factory=dict)
+    checks: list[dict[str, Any]] = field(default_factory=list)
 
     def identification(self) -> dict[str, Any]:
         """The ``identification`` entry of the model file."""
@@ -267,6 +271,7 @@ class IdentifiedModel:
             "fit": self.fit,
             "options": self.options,
             "diagnostics": self.diagnostics,
+            "checks": list(self.checks),
         }
 
     def _covariance(self) -> dict[str, Any]:
@@ -316,7 +321,9 @@ class ModelEstimator(FittedAttributes):
     ----------
     kind : str
         A registered kind (:func:`usvid.models.registry.names`).
-    method : {"ls", "rls", "oe", "oe-zigzag"}
+    method : {"ls", "rls", "oe", "oe-zigzag"}, optional
+        Default: the kind's method that predicts best
+        (:data:`usvid.identify.defaults.DEFAULT_METHODS`).
     form : str
         Regression form of the equation-error step (the kind's forms, e.g. ``"continuous"``
         or ``"arx"`` for nomoto1; nomoto2 is always ARX + d2c).
@@ -355,21 +362,34 @@ class ModelEstimator(FittedAttributes):
         ``{"x_l": 3.5}`` for threedof; see the kind's module).
     x_l, thrust : optional
         Shortcuts for ``particulars["x_l"]`` [m] and a thrust law object.
+    checks : {"error", "record"}
+        What to do with a model that fails its checks (:mod:`usvid.identify.checks`: a standard
+        manoeuvre inside the training envelope diverges or turns the wrong way, the training
+        free run diverges, the model explains too little of the heading): "error" (default)
+        raises :class:`IdentificationError` with the reason and what to do; "record" returns
+        it with a warning, the failures in ``identification["checks"]`` (``checks_``).
     """
 
     _fit_call = "fit(trials)"
 
-    def __init__(self, kind: str, method: str = "ls", *, form: str = "continuous",
+    def __init__(self, kind: str, method: str | None = None, *, form: str = "continuous",
                  norrbin: str = "joint", smooth_s: float = 1.0, window_s: float = 20.0,
                  overlap: float = 0.0, step: float | None = None, lam: float = 1.0,
                  cond_max: float = 1e8, servo: Any = "auto",
                  oe_channels: tuple[str, ...] | None = None,
                  particulars: dict[str, Any] | None = None, x_l: float | None = None,
                  thrust: Any = None, arx_step: float | None = None,
-                 oe_step: float | None = None, states: str = "auto") -> None:
+                 oe_step: float | None = None, states: str = "auto",
+                 checks: str = "error") -> None:
         if kind not in kind_names():
             raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
         k = get_kind(kind)
+        self._auto = method is None
+        if method is None:
+            method = default_method(kind)
+        if checks not in ("error", "record"):
+            raise UsvidError(f"`checks` must be 'error' or 'record' (got {checks!r})")
+        self.checks = checks
         if method not in METHODS:
             raise UsvidError(f"`method` must be one of {', '.join(METHODS)} (got {method!r})")
         if k.regression is None:
@@ -462,15 +482,76 @@ class ModelEstimator(FittedAttributes):
                                           "the yaw equation cannot be identified")
 
     # -- fitting ---------------------------------------------------------------------------------
-    def fit(self, trials: Any, *, turning: Any = None) -> ModelEstimator:
-        """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list); returns
-        self. ``turning``: extra turning trials for the two-step Norrbin fit."""
-        kind = self.kind_
-        trials = one_grid(split_discontinuities(_as_list(trials)))
+    def fit(self, trials: Any, *, turning: Any = None,
+            psi_switch: float | None = None) -> ModelEstimator:
+        """Identify the model from ``trials`` (one :class:`usvid.Trial` or a list, each
+        prepared once: :func:`usvid.prep.as_prepared`); returns self. ``turning``: extra
+        turning trials for the two-step Norrbin fit; ``psi_switch`` [rad]: the zig-zag
+        switching angle of the trials when known (default: detected).
+
+        Without a ``method`` the kind's methods are tried in the order they predict held-out
+        data (:data:`usvid.identify.defaults.DEFAULT_METHODS`, least squares last):
+        ``oe-zigzag`` only when the trials hold zig-zags, the next one when a method cannot
+        fit the data or its model fails its checks (with a warning saying so); the data are
+        refused before any fit when they cannot be identified from
+        (:func:`usvid.identify.checks.check_data`)."""
+        given = [as_prepared(tr, derivatives=False) for tr in _as_list(trials)]
+        turning = [as_prepared(tr, derivatives=False) for tr in _as_list(turning)]
+        for tr in (*given, *turning):
+            repair_warnings(tr)
+        trials = one_grid(split_discontinuities(given))
         if not trials:
             raise IdentificationError("no trials given")
-        turning = (one_grid(split_discontinuities(_as_list(turning))) if turning is not None
-                   else [])
+        turning = one_grid(split_discontinuities(turning)) if turning else []
+        check_data([*trials, *turning], self.kind)  # under way, a heading that responds
+        # a refusal of the model says when the logs could not show the vessel under way
+        self._no_speed = [tr.name or "?" for tr in trials if trial_speed(tr)[0] is None]
+        if not self._auto:
+            return self._fit(trials, turning, psi_switch)
+        zigzags = any(g.kind == "zigzag" for tr in trials
+                      for g in (find_manoeuvres(tr, psi_switch=psi_switch)
+                                if tr.has("psi") else []))
+        candidates = [m for m in default_methods(self.kind) if m != "oe-zigzag" or zigzags]
+        if "ls" not in candidates:
+            candidates.append("ls")  # the last resort: the equation-error fit itself
+        wanted, failures = self.checks, []
+        for m in candidates:
+            self.method, self.checks = m, "error"
+            try:
+                self._fit(trials, turning, psi_switch)
+            except IdentificationError as exc:  # this method cannot: the next one
+                failures.append((m, exc))
+                continue
+            finally:
+                self.checks = wanted
+            if failures:
+                why = "; ".join(f"{f}: {getattr(e, 'reason', e)}" for f, e in failures)
+                warnings.warn(f"{self.kind}: {why}; identified with {m}, the next method by "
+                              "held-out prediction", IdentificationWarning, stacklevel=2)
+            return self
+        checked = [m for m, e in failures if isinstance(e, ChecksFailed)]
+        if wanted == "record" and checked:  # no model passes: the best one, failures kept
+            self.method = checked[0]
+            return self._fit(trials, turning, psi_switch)
+        # the models that failed their checks say most: first
+        failures.sort(key=lambda f: not isinstance(f[1], ChecksFailed))
+        why = "; ".join(f"{m}: {getattr(e, 'reason', e)}" for m, e in failures)
+        if checked:
+            text = (f"no method identifies a {self.kind} model from these data that passes its "
+                    f"checks ({why}). Nothing is written: try another --model, more or richer "
+                    "training data (turns to both sides, the angles you will simulate), or "
+                    "--accept-failed-checks to write the best one anyway")
+        else:
+            text = f"no method identifies a {self.kind} model from these data ({why})"
+        text += self._speed_note()
+        if isinstance(failures[0][1], ChecksFailed):
+            raise ChecksFailed(text, failures[0][1].reason)
+        raise IdentificationError(text)
+
+    def _fit(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
+             psi_switch: float | None) -> ModelEstimator:
+        """One fit by ``self.method`` of prepared, checked trials (see :meth:`fit`)."""
+        kind = self.kind_
         fixed = self._fixed(trials)
         series = self._series(trials, fixed)
         tseries = self._series(turning, fixed) if turning else []
@@ -481,7 +562,7 @@ class ModelEstimator(FittedAttributes):
         diag: dict[str, Any] = {}
         fit_series = series
         if self.kind == "norrbin" and self.norrbin == "two_step":
-            turn = [_is_turning(tr) for tr in trials]
+            turn = [_is_turning(tr, psi_switch) for tr in trials]
             zz = [s for s, tu in zip(series, turn, strict=True) if not tu]
             tt = list(tseries) + [s for s, tu in zip(series, turn, strict=True) if tu]
             params, cov, diag = two_step_norrbin(get_kind("nomoto1"), zz, tt, h=h,
@@ -515,7 +596,7 @@ class ModelEstimator(FittedAttributes):
             zz_trials = [t for t, s in zip(trials, series, strict=True)
                          if any(s is f for f in fit_series)]
             m = self._decimation(series[0])
-            runs = zigzag_runs(zz_trials, fit_series, kind, step=h * m)
+            runs = zigzag_runs(zz_trials, fit_series, kind, step=h * m, psi_switch=psi_switch)
             oe = refine_zigzag_oe(kind, params, fixed, runs)
             zz_rate = float(np.median([r.rate for r in runs]))
             diag["oe_zigzag"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
@@ -534,7 +615,9 @@ class ModelEstimator(FittedAttributes):
         self.ci95_ = dict(zip(names, interval95([self.params_[n] for n in names], se,
                                                 q).tolist(), strict=True))
         diag["ci95_quantile"] = q
-        self._warn_weak(names, se, q)
+        weak = self._warn_weak(names, se, q)
+        if weak:
+            diag["warnings"] = [weak]
         try:
             dyn = kind.dynamics(**{**fixed, **self.params_})
         except UsvidError as exc:
@@ -544,13 +627,10 @@ class ModelEstimator(FittedAttributes):
             raise IdentificationError(f"identified {self.kind} parameters are not a valid "
                                       f"model: {exc}{hint}") from exc
         vessel = _vessel(trials)
-        speed = _approach_speed(trials, vessel)
-        if speed is not None and vessel.speed is None:
-            vessel = Vessel(**{**{k: getattr(vessel, k) for k in ("length", "beam", "draft",
-                                                                 "mass", "displacement",
-                                                                 "block_coefficient")},
-                               "speed": speed}, extra=dict(vessel.extra))
-        servo, servo_diag = self._servo(trials, zz_rate, vessel)
+        speed = training_speed(trials, psi_switch) if vessel.speed is None else None
+        if speed is not None:
+            vessel = dataclasses.replace(vessel, extra=dict(vessel.extra), speed=speed)
+        servo, servo_diag = self._servo(trials, zz_rate, vessel, psi_switch)
         if servo_diag:
             diag["servo"] = servo_diag
         self.series_ = series
@@ -573,14 +653,34 @@ class ModelEstimator(FittedAttributes):
             kind=self.kind, method=self.method, params=self.params_,
             std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_, model=None,
             data=self.data_, options=opts, diagnostics=diag)
+        # the model identification returns: checked (usvid.identify.checks)
+        self.checks_ = check_model(model, trials, self.fit_)
+        result.checks = [c.to_dict() for c in self.checks_]
         model.identification = result.identification()
         self.model_ = model
         result.model = model
         self.result_ = result
+        if failed(self.checks_):
+            if self.checks == "error":
+                raise ChecksFailed(refusal(self.kind, self.method, self.checks_)
+                                   + self._speed_note(),
+                                   "; ".join(c.message for c in failed(self.checks_)))
+            warnings.warn(refusal(self.kind, self.method, self.checks_).split(". It is not")[0]
+                          + "; written anyway (identification.checks)", IdentificationWarning,
+                          stacklevel=2)
         return self
 
-    def _servo(self, trials: Sequence[Trial], zz_rate: float | None, vessel: Vessel
-               ) -> tuple[Any, dict[str, Any]]:
+    def _speed_note(self) -> str:
+        """What a refusal adds when some training logs hold no speed at all."""
+        names = getattr(self, "_no_speed", [])
+        if not names:
+            return ""
+        return (f" (no speed (u, U, sog) and no positions in {', '.join(names[:3])}"
+                f"{', ...' if len(names) > 3 else ''}: usvid cannot tell that the vessel was "
+                "under way; at the dock or on the bench nothing can be identified)")
+
+    def _servo(self, trials: Sequence[Trial], zz_rate: float | None, vessel: Vessel,
+               psi_switch: float | None = None) -> tuple[Any, dict[str, Any]]:
         if self.servo not in (None, "auto"):
             return self.servo, {}
         both = [tr for tr in trials if tr.has("delta_cmd") and tr.has("delta")]
@@ -609,18 +709,15 @@ class ModelEstimator(FittedAttributes):
         if errors:
             warnings.warn(f"servo not identified ({'; '.join(errors)}); an ideal servo is used",
                           IdentificationWarning, stacklevel=3)
-        rate = zz_rate if zz_rate is not None else helm_rate(vessel)
-        source = "zig-zag replay fit" if zz_rate is not None else "vessel.extra.helm_rate_deg_s"
-        if rate is None:  # measured on the rudder ramps of the training trials
-            rates = [rudder_rate(tr.t, tr["delta"]) for tr in trials
-                     if tr.has("delta") and np.ptp(tr["delta"]) > 2 * MIN_DELTA_STD]
-            rates = [r for r in rates if math.isfinite(r)]
-            rate = float(np.median(rates)) if rates else None
-            source = "measured rudder ramps"
+        if zz_rate is not None:
+            rate, source = zz_rate, "zig-zag replay fit"
+        else:
+            rate, source = helm_rate(vessel, [(tr.t, tr["delta"]) for tr in trials
+                                              if tr.has("delta")])
         if rate is None:
             return IdealServo(), {}
         if self.kind_.state_estimation and zz_rate is None:
-            helm = helm_from_zigzags(_reversal_windows(trials, rate), rate)
+            helm = helm_from_zigzags(_reversal_windows(trials, rate, psi_switch), rate)
             if helm is not None:
                 s = helm.servo
                 return s, {"kind": "second_order", "max_rate_deg_s": math.degrees(rate),
@@ -651,10 +748,11 @@ class ModelEstimator(FittedAttributes):
         return ("; " + "; ".join(bad) + "; it is not returned: give more excitation (turns to "
                 "both sides, speed changes) or fix the particulars")
 
-    def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> None:
+    def _warn_weak(self, names: Sequence[str], se: np.ndarray, q: float) -> str | None:
         """Warn when a parameter's 95 % half-width ``q se`` exceeds half its magnitude
         (REL_WEAK): nearly collinear regressors or too little excitation leave it
-        undetermined. The offset ``delta0`` and the sign ``n1`` are not checked."""
+        undetermined. The offset ``delta0`` and the sign ``n1`` are not checked. Returns the
+        warning's text (kept in the diagnostics for the report), None when there is none."""
         weak = []
         for n, e in zip(names, se, strict=True):
             v = self.params_[n]
@@ -663,11 +761,13 @@ class ModelEstimator(FittedAttributes):
             if q * e > REL_WEAK * abs(v):
                 weak.append(f"{n} = {v:.4g} +- {q * e:.3g}")
         if weak:
-            warnings.warn(
-                f"{self.kind}: poorly determined parameter(s) {'; '.join(weak)} (95 %): the "
-                "data do not separate their effects (nearly collinear regressors or too little "
-                "excitation); use sharper rudder changes (zig-zags) or a simpler model",
-                IdentificationWarning, stacklevel=3)
+            text = (f"{self.kind}: poorly determined parameter(s) {'; '.join(weak)} (95 %): the "
+                    "data do not separate their effects (nearly collinear regressors or too "
+                    "little excitation); use sharper rudder changes (zig-zags) or a simpler "
+                    "model")
+            warnings.warn(text, IdentificationWarning, stacklevel=3)
+            return text
+        return None
 
     # -- use -------------------------------------------------------------------------------------
     def _metrics(self, model: VesselModel, series: Sequence[Series]) -> dict[str, Any]:
@@ -744,21 +844,13 @@ def _servo_fit(u: np.ndarray, y: np.ndarray, dt: float) -> Any:
 
 
 def _replay_metrics(model: VesselModel, win: Windows) -> dict[str, Any]:
-    """RMSE, NRMSE, R^2, max error per output of ``model`` replaying ``win`` (from each
-    window's second sample on; samples past a record's end are left out). A replay that
-    diverged gives infinite errors."""
-    sim = replay_windows(model, win)
-    out = {}
-    for ch, s in sim.items():
-        y = win.outputs[ch][:, 1:].ravel()
-        yh = s[:, 1:].ravel()
-        keep = np.isfinite(y)
-        yh = np.where(np.isfinite(yh), yh, np.inf)
-        out[ch] = fit_metrics(y[keep], yh[keep]).to_dict()
-    return out
+    """RMSE, NRMSE, R^2, max error per output of ``model`` replaying ``win``
+    (:func:`usvid.identify.metrics.replay_metrics`: a replay that diverged gives infinite
+    errors)."""
+    return replay_metrics(replay_windows(model, win), win.outputs)
 
 
-def identify(trials: Any, kind: str, method: str = "ls", *, turning: Any = None,
+def identify(trials: Any, kind: str, method: str | None = None, *, turning: Any = None,
              **options: Any) -> IdentifiedModel:
     """Functional form: ``ModelEstimator(kind, method, **options).fit(trials).result_``."""
     return ModelEstimator(kind, method, **options).fit(trials, turning=turning).result_

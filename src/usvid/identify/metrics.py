@@ -6,6 +6,7 @@ R^2). Inputs are 1-D arrays or arrays with a leading batch axis; metrics reduce 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -76,3 +77,35 @@ def fit_metrics(y: np.ndarray, y_hat: np.ndarray) -> FitMetrics:
     y, y_hat = _pair(y, y_hat)
     return FitMetrics(rmse=rmse(y, y_hat), nrmse=nrmse(y, y_hat), r2=r_squared(y, y_hat),
                       max_error=max_error(y, y_hat), n=int(y.size))
+
+
+def replay_metrics(sim: Mapping[str, np.ndarray], outputs: Mapping[str, np.ndarray]
+                   ) -> dict[str, dict[str, float | int]]:
+    """Fit metrics per output channel of replays against measurements: the one definition used
+    for the estimator's fit metrics (windowed and free run) and the validation's free-run
+    replay.
+
+    ``sim`` and ``outputs``: name -> (B, W) simulated and measured values of B windows (a free
+    run is one window per record). Compared from each window's second sample on (the first is
+    the measured initial state); samples where the measurement is missing (past the end of a
+    shorter record) are left out. A simulated sample that is not finite where the measurement
+    is (the replay diverged) is an infinite error: a replay that diverged has an infinite RMSE
+    and max error (never the RMS of the samples before the divergence) and R^2 = -inf.
+    """
+    out: dict[str, dict[str, float | int]] = {}
+    for ch, s in sim.items():
+        y = np.asarray(outputs[ch], dtype=float)[:, 1:].ravel()
+        yh = np.asarray(s, dtype=float)[:, 1:].ravel()
+        keep = np.isfinite(y)
+        yh = np.where(np.isfinite(yh), yh, np.inf)
+        with np.errstate(invalid="ignore", over="ignore"):
+            out[ch] = fit_metrics(y[keep], yh[keep]).to_dict()
+    return out
+
+
+def diverged_at(t: np.ndarray, sim: np.ndarray, measured: np.ndarray) -> float | None:
+    """Time [s] of ``t`` (the replay's grid) of the first simulated sample of the one-window
+    replay ``sim`` that is not finite where ``measured`` is: where the replay diverged; None
+    when it did not."""
+    bad = ~np.isfinite(np.asarray(sim, dtype=float)) & np.isfinite(np.asarray(measured, float))
+    return float(t[int(np.argmax(bad))]) if bad.any() else None

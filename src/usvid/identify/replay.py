@@ -145,21 +145,37 @@ class ZigZagRun:
     inputs: dict[str, np.ndarray] | None = None
 
 
-def helm_rate(vessel: Any) -> float | None:
-    """The vessel's helm (steering gear) rate [rad/s] from ``vessel.extra["helm_rate_deg_s"]``
-    (or ``rudder_rate_deg_s``), None when not given."""
+def helm_rate(vessel: Any, records: Sequence[tuple[Any, Any]] = ()) -> tuple[float | None, str]:
+    """The helm (steering gear) rate [rad/s] and where it comes from: the vessel's
+    ``extra["helm_rate_deg_s"]`` (or ``rudder_rate_deg_s``; source "vessel.extra.helm_rate_deg_s"),
+    else the median rudder rate measured on the ramps of the ``records`` (``(t [s],
+    delta [rad])`` pairs, :func:`usvid.manoeuvres.rudder_rate`; "measured rudder ramps"), else
+    ``(None, "")``. The one place the helm rate is chosen: the identified model's servo carries
+    it, and every simulation of the model (validation, ``usvid simulate``) uses that servo."""
     extra = getattr(vessel, "extra", None) or {}
     for key in ("helm_rate_deg_s", "rudder_rate_deg_s"):
         v = extra.get(key)
         if isinstance(v, (int, float)) and math.isfinite(v) and v > 0:
-            return math.radians(float(v))
-    return None
+            return math.radians(float(v)), "vessel.extra.helm_rate_deg_s"
+    rates = []
+    for t, d in records:
+        d = np.asarray(d, dtype=float)
+        if np.isfinite(d).sum() > 2 and np.nanmax(d) - np.nanmin(d) > 2 * MIN_RUDDER_STD:
+            rates.append(rudder_rate(t, d))
+    rates = [r for r in rates if math.isfinite(r) and r > 0]
+    if rates:
+        return float(np.median(rates)), "measured rudder ramps"
+    return None, ""
+
+
+#: Rudder scatter [rad] below which a record has no ramps to measure the helm rate on.
+MIN_RUDDER_STD = math.radians(0.2)
 
 
 def zigzag_runs(trials: Sequence[Any], series: Sequence[Series], kind: ModelKind, *,
                 rate: float | None = None, step: float = 0.1,
-                horizon: str | float = DEFAULT_HORIZON, lead_s: float = DEFAULT_LEAD_S
-                ) -> list[ZigZagRun]:
+                horizon: str | float = DEFAULT_HORIZON, lead_s: float = DEFAULT_LEAD_S,
+                psi_switch: float | None = None) -> list[ZigZagRun]:
     """The replays of the zig-zags of ``trials`` (found by ``find_manoeuvres``).
 
     ``series`` are the trials' identification series (smoothed states); ``rate`` [rad/s] the
@@ -167,13 +183,14 @@ def zigzag_runs(trials: Sequence[Any], series: Sequence[Series], kind: ModelKind
     residual step (the simulation runs at the log step). ``horizon``: ``"run"`` one replay from
     the execute to the end of each zig-zag; an integer n: one replay from the execute and one
     from ``lead_s`` before every measured reversal, each to the n-th next reversal (or the end
-    of the record). Raises IdentificationError when a trial holds no zig-zag.
+    of the record); ``psi_switch`` [rad] the switching angle when known (default: detected).
+    Raises IdentificationError when a trial holds no zig-zag.
     """
     nrev = None if horizon == "run" else (2 if horizon == "cycle" else int(horizon))
     runs = []
     for tr, s in zip(trials, series, strict=True):
-        # a switching angle given by the user (meta["psi_switch"] [rad]) overrides detection
-        segs = [g for g in find_manoeuvres(tr, psi_switch=tr.meta.get("psi_switch"))
+        # a switching angle given by the user (``psi_switch`` [rad]) overrides detection
+        segs = [g for g in find_manoeuvres(tr, psi_switch=psi_switch)
                 if g.kind == "zigzag"]
         if not segs:
             raise IdentificationError(
@@ -186,9 +203,11 @@ def zigzag_runs(trials: Sequence[Any], series: Sequence[Series], kind: ModelKind
             i1 = int(np.searchsorted(t, g.t_end, side="right"))
             if i1 - i0 < 10:
                 continue
-            rr = rate if rate is not None else helm_rate(tr.vessel)
+            rr = rate if rate is not None else helm_rate(
+                tr.vessel, [(t[i0:i1], s["delta"][i0:i1])])[0]
             if rr is None:
-                rr = rudder_rate(t[i0:i1], s["delta"][i0:i1])
+                raise IdentificationError(f"trial {tr.name or '?'}: no helm rate (no rudder "
+                                          "ramp in the zig-zag and no vessel helm_rate_deg_s)")
             side = int(g.side)
             sw = float(g.psi_switch)
             dev = s["psi"] - s["psi_s"][i0]

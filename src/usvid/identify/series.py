@@ -1,12 +1,14 @@
 """A trial as the arrays identification needs: one uniform grid, smoothed states, derivatives.
 
-:func:`trial_series` takes a :class:`usvid.Trial` (SI channels) and returns a :class:`Series`
-with the measured channels the model kind needs (its inputs and outputs), the Savitzky-Golay
-smoothed states ``<name>_s`` and derivatives ``<name>dot_s`` (cubic, window ``smooth_s``), the
-unwrapped heading, and the kind's own regressors (e.g. forces from the thrust law:
-``ModelKind.series``). Missing samples are interpolated linearly with a warning; more than 20 %
-missing, or a channel the kind needs absent, is an :class:`IdentificationError` naming the trial
-and the channel.
+:func:`trial_series` takes a :class:`usvid.Trial` (SI channels; prepared first when it is not,
+:func:`usvid.prep.as_prepared`) and returns a :class:`Series` with the measured channels the
+model kind needs (its inputs and outputs), the Savitzky-Golay smoothed states ``<name>_s`` and
+derivatives ``<name>dot_s`` (cubic, window ``smooth_s``), the unwrapped heading, and the kind's
+own regressors (e.g. forces from the thrust law: ``ModelKind.series``). Missing samples are
+interpolated linearly with a warning; more than 20 % missing, or a channel the kind needs
+absent, is an :class:`IdentificationError` naming the trial and the channel. The series of a
+prepared trial is built once per kind and smoothing (remembered by the trial: the estimator,
+the validation and the report share it); the kind's regressors are added to a copy per call.
 
 Why the rudder is smoothed too: the regression sees both sides of each equation through one
 linear filter (smoothing r alone biases T by about +3 % on a noise-free zig-zag).
@@ -14,7 +16,6 @@ linear filter (smoothing r alone biases T by about +3 % on a noise-free zig-zag)
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -25,7 +26,8 @@ import numpy as np
 from usvid.errors import IdentificationError
 from usvid.models.kind import ModelKind
 from usvid.prep.filters import savgol_derivative, unwrap_angle, window_samples
-from usvid.prep.state_estimation import estimate_states
+from usvid.prep.prepare import PreparedTrial, as_prepared
+from usvid.prep.state_estimation import MEASUREMENT_CHANNELS, estimate_states
 from usvid.sim.layout import STATE_CHANNELS
 
 #: Fewest samples of a trial for identification.
@@ -64,7 +66,7 @@ class Series:
         return Series(self.name, self.h * m, {k: v[::m] for k, v in self.data.items()})
 
 
-def _channel(trial: Any, ch: str, name: str, t: np.ndarray, tg: np.ndarray) -> np.ndarray:
+def _channel(trial: Any, ch: str, name: str, t: np.ndarray) -> np.ndarray:
     x = trial[ch]
     bad = ~np.isfinite(x)
     nbad = int(bad.sum())
@@ -77,8 +79,6 @@ def _channel(trial: Any, ch: str, name: str, t: np.ndarray, tg: np.ndarray) -> n
         warnings.warn(f"trial {name}: channel '{ch}' has {nbad} NaN/inf samples; interpolated "
                       "linearly", IdentificationWarning, stacklevel=4)
         x = np.interp(t, t[~bad], x[~bad])
-    if tg is not t:
-        x = np.interp(tg, t, x)
     return x
 
 
@@ -99,6 +99,20 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
     """
     if states not in ("auto", "smooth", "ekf"):
         raise IdentificationError(f"`states` must be 'auto', 'smooth' or 'ekf' (got {states!r})")
+    prepared = as_prepared(trial, derivatives=False)
+    key = ("series", kind.name, float(smooth_s), states)
+    base = prepared.remember(key, lambda: build_series(prepared, kind, smooth_s=smooth_s,
+                                                        states=states))
+    d = dict(base.data)
+    if kind.series is not None:
+        kind.series(d, fixed or {})
+    return Series(name=base.name, h=base.h, data=d)
+
+
+def build_series(trial: PreparedTrial, kind: ModelKind, *, smooth_s: float = 1.0,
+                 states: str = "auto") -> Series:
+    """The series of ``kind`` from a prepared trial, without the kind's own regressors: what
+    :func:`trial_series` builds once per prepared trial (call :func:`trial_series`)."""
     name = trial.name or (trial.sources[0] if trial.sources else "?")
     if len(trial) < MIN_SAMPLES:
         raise IdentificationError(f"trial {name}: too short for identification ({len(trial)} "
@@ -106,19 +120,13 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
     t = np.asarray(trial.t, dtype=float)
     if not np.all(np.diff(t) > 0):
         raise IdentificationError(f"trial {name}: time stamps must be strictly increasing")
-    dt = np.diff(t)
-    h = float(np.median(dt))
-    tg = t
-    if np.max(np.abs(dt - h)) > 0.01 * h:
-        warnings.warn(f"trial {name}: time grid not uniform; resampled linearly to "
-                      f"{1 / h:.3g} Hz", IdentificationWarning, stacklevel=3)
-        tg = t[0] + h * np.arange(int(math.floor((t[-1] - t[0]) / h)) + 1)
+    h = float(np.median(np.diff(t)))
     win = window_samples(smooth_s, h)
-    if tg[-1] - tg[0] < 3 * smooth_s or len(tg) < 2 * win:
+    if t[-1] - t[0] < 3 * smooth_s or len(t) < 2 * win:
         raise IdentificationError(
-            f"trial {name}: too short for identification ({tg[-1] - tg[0]:.1f} s; need at "
+            f"trial {name}: too short for identification ({t[-1] - t[0]:.1f} s; need at "
             f"least {max(3 * smooth_s, 2 * win * h):.1f} s with smoothing window {smooth_s} s)")
-    d: dict[str, np.ndarray] = {"t": tg}
+    d: dict[str, np.ndarray] = {"t": t}
 
     def need(ch: str) -> np.ndarray:
         if ch in trial.channels and not trial.has(ch):
@@ -129,7 +137,7 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
             raise IdentificationError(
                 f"trial {name}: model '{kind.name}' needs channel '{ch}' (present: "
                 f"{', '.join(trial.channels) or 'none'})")
-        return _channel(trial, ch, name, t, tg)
+        return _channel(trial, ch, name, t)
 
     def sg(x: np.ndarray, deriv: int = 0) -> np.ndarray:
         return savgol_derivative(x, h, smooth_s, 3, deriv=deriv)
@@ -141,16 +149,20 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
                                   and _has_positions(trial))
     for ch in ("delta", "n", "n_port", "n_stbd", "u", "v", "thrust", "tau_u", "tau_r",
                "T_port", "T_stbd"):
-        if use_ekf and ch in ("u", "v") and not trial.has(ch):
-            continue  # from the state estimate
+        if use_ekf and ch in ("u", "v") and (not trial.has(ch) or ch in trial.derived):
+            continue  # from the state estimate (not differentiated positions)
         if ch in needs or (ch in kind.inputs and trial.has(ch)) or (
                 ch in ("thrust", "tau_u", "tau_r", "T_port", "T_stbd") and trial.has(ch)):
             d[ch] = need(ch)
     if "delta" in d:
         d["delta_s"] = sg(d["delta"])
+    if "psi" in trial.channels and not trial.has("psi"):
+        raise IdentificationError(
+            f"trial {name}: channel 'psi' has no finite sample (all {len(trial)} NaN/inf): "
+            "no heading to identify from; check its column in the format spec")
     if trial.has("psi"):
         d["psi"] = unwrap_angle(need("psi"))
-    if trial.has("r"):
+    if trial.has("r") and "r" not in trial.derived:
         d["r"] = need("r")
     elif "psi" in d:
         d["r"] = sg(d["psi"], 1)
@@ -163,7 +175,7 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
     d["rdot_s"] = sg(d["r"], 1)
     d["psi_s"] = sg(d["psi"])
     if use_ekf:
-        _ekf_states(trial, name, tg, d)
+        _ekf_states(trial, name, t, d)
     for ch in ("u", "v"):
         if ch in d and ch + "_s" not in d:
             d[ch + "_s"] = sg(d[ch])
@@ -178,8 +190,6 @@ def trial_series(trial: Any, kind: ModelKind, *, smooth_s: float = 1.0,
                 d[ch] = need(ch)
             d[ch + "_s"] = sg(d[ch])
             d[ch + "dot_s"] = sg(d[ch], 1)
-    if kind.series is not None:
-        kind.series(d, fixed or {})
     return Series(name=name, h=h, data=d)
 
 
@@ -189,7 +199,11 @@ def _ekf_states(trial: Any, name: str, tg: np.ndarray, d: dict[str, np.ndarray])
     if not _has_positions(trial):
         raise IdentificationError(f"trial {name}: state estimation needs positions (x, y or "
                                   "lat, lon) and heading psi")
-    est = estimate_states(trial)
+    # the measurements only: channels prepare() derived (U from u, v; u, v from the positions)
+    # would count the positions twice
+    derived = getattr(trial, "derived", ())
+    est = estimate_states(trial, exclude=[c for c in MEASUREMENT_CHANNELS
+                                          if c in derived and c not in ("x", "y", "psi")])
     t = np.asarray(est.t, float)
     for ch in ("u", "v", "r"):
         d[ch + "_s"] = np.interp(tg, t, est[ch])

@@ -8,18 +8,31 @@ trials' manoeuvres and comparing them with the measured ones):
   :func:`usvid.manoeuvres.find_manoeuvres` ("other" when there is none); **measured**: its
   metrics by :func:`usvid.manoeuvres.manoeuvre_metrics` (the keys of ``usvid metrics``).
 * **predicted**: the same manoeuvre simulated on the model in closed loop, as ``usvid simulate``
-  runs it (:func:`usvid.sim.run_zigzag` / :func:`usvid.sim.run_turning`), with the detected
-  rudder amplitude, switching angle and first side, from the measured approach speed (mean
-  ``U`` over the :data:`~usvid.manoeuvres.detect.APPROACH_S` before the execute) and, for a
-  model with a shaft speed ``n``, the measured mean shaft speed there. ``settings`` holds these
-  values, so ``usvid simulate zigzag MODEL --delta-deg A --psi-deg S --speed U --t-end D``
-  reproduces the prediction (a zig-zag is simulated over the measured one's duration D).
+  runs it (:func:`usvid.sim.run_zigzag` / :func:`usvid.sim.run_turning`; the model's own servo,
+  which carries the helm rate identification chose), with the detected rudder amplitude (the
+  commanded level), switching angle and first side, from the segment's measured approach
+  (:func:`usvid.manoeuvres.detect.approach`: mean ``U`` over the
+  :data:`~usvid.manoeuvres.detect.APPROACH_S` before the execute) and, for a model with a shaft
+  speed ``n``, the measured mean shaft speed there. ``settings`` holds these values, so
+  ``usvid simulate zigzag MODEL --delta-deg A --psi-deg S --speed U --t-end D`` reproduces the
+  prediction (a zig-zag is simulated over the measured one's duration D). A log without a
+  speed is predicted at the model's approach speed, and the row's ``messages`` say so.
 * **error**: predicted minus measured, key by key (lists element by element, as long as both).
 * **replay**: the measured rudder (and shaft speed / thruster commands) replayed on the model
   as one free run from the measured initial state (:mod:`usvid.sim.replay`, servo bypassed):
-  RMS of the heading error [deg], yaw-rate error [deg/s], speed error [m/s] and the RMS and
+  RMS of the heading error [deg], yaw-rate error [deg/s], speed error [m/s] (the free-run fit
+  metrics of :func:`usvid.identify.metrics.replay_metrics`, the estimator's own definition: a
+  replay that diverged has an infinite RMS and ``diverged_at_s`` says when) and the RMS and
   largest distance between the measured and the replayed track [m]
   (e_track = sqrt((x - x_hat)^2 + (y - y_hat)^2)).
+* **metrics**: the windowed fit metrics of the replay (multiple shooting over ``window_s``, the
+  model's identification window; per output channel rmse, nrmse, r2, max_error in SI units),
+  as the estimator reports them for its training data.
+
+One :class:`TrialValidation` per trial; its :meth:`~TrialValidation.to_dict` is the JSON row of
+``usvid validate``, ``usvid identify --validate``, ``usvid batch`` and the report. The trial is
+prepared once (:func:`usvid.prep.as_prepared`); its segments and series are the ones the
+estimator used.
 
 Units: SI and radians inside; the dictionaries carry degrees in their key names.
 """
@@ -36,15 +49,17 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.identify.estimator import DEFAULT_STEP, pwm_commands
+from usvid.identify.metrics import diverged_at, replay_metrics
 from usvid.identify.series import trial_series
 from usvid.manoeuvres import find_manoeuvres, manoeuvre_metrics
-from usvid.manoeuvres.detect import APPROACH_S, Segment
+from usvid.manoeuvres.detect import Segment, approach
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
-from usvid.prep.prepare import prepare
-from usvid.sim.replay import Windows, make_windows, window_lanes
+from usvid.models.uncertainty import Uncertainty
+from usvid.prep.prepare import PreparedTrial, as_prepared
+from usvid.sim.replay import Windows, make_windows, replay_windows, window_lanes
 from usvid.sim.runs import run_turning, run_zigzag
+from usvid.sim.simulate import approach_speed
 from usvid.trial import Trial
 
 __all__ = ["TrialValidation", "ValidationResult", "validate_model", "validate_trial",
@@ -54,6 +69,8 @@ __all__ = ["TrialValidation", "ValidationResult", "validate_model", "validate_tr
 ZIGZAG_KEYS = ("overshoot_deg", "period_s", "initial_turning_time_s", "time_to_check_yaw_s")
 TURNING_KEYS = ("advance_m", "transfer_m", "tactical_diameter_m", "steady_diameter_m",
                 "steady_yaw_rate_rad_s", "steady_speed_m_s")
+#: Step [s] of the replays (the log step when coarser): the estimator's output-error step.
+REPLAY_STEP = 0.1
 
 
 @dataclass
@@ -72,12 +89,16 @@ class TrialValidation:
     settings: dict[str, Any] = field(default_factory=dict)
     file: str | None = None
     messages: list[str] = field(default_factory=list)
+    metrics: dict[str, Any] = field(default_factory=dict)
     series: dict[str, Any] = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON row: ``trial``, ``file``, ``manoeuvre``, ``measured``, ``predicted``,
-        ``error``, ``replay``, ``settings``, ``messages``."""
+        ``error``, ``replay``, ``settings``, ``messages`` and, when a window is known,
+        ``metrics`` (the windowed fit metrics, labelled by their ``window_s``)."""
         d = {k: v for k, v in dataclasses.asdict(self).items() if k != "series"}
+        if not d["metrics"]:
+            del d["metrics"]
         return d
 
 
@@ -139,18 +160,6 @@ def metric_error(predicted: dict[str, Any], measured: dict[str, Any],
     return out
 
 
-def _approach_mean(trial: Trial, ch: str, t_execute: float) -> float | None:
-    if not trial.has(ch):
-        return None
-    t = trial.t
-    sel = (t >= t_execute - APPROACH_S) & (t <= t_execute)
-    if not sel.any():
-        sel = t <= t[min(len(t) - 1, int(np.searchsorted(t, t_execute)))]
-    v = trial[ch][sel]
-    v = v[np.isfinite(v)]
-    return float(np.mean(v)) if v.size else None
-
-
 def _with_inputs(model: VesselModel, n: float | None) -> VesselModel:
     """``model`` with its nominal shaft speed ``n`` [rps] replaced by the measured one."""
     dyn = model.dynamics
@@ -160,19 +169,24 @@ def _with_inputs(model: VesselModel, n: float | None) -> VesselModel:
                        vessel=model.vessel)
 
 
-def _predict(model: VesselModel, trial: Trial, seg: Segment, out: TrialValidation) -> None:
-    u0 = _approach_mean(trial, "U", seg.t_execute)
-    if u0 is None or not u0 > 0:
-        u0 = model.vessel.speed if model.vessel is not None else None
-    n = _approach_mean(trial, "n", seg.t_execute)
+def _predict(model: VesselModel, seg: Segment, out: TrialValidation) -> None:
+    ap = seg.approach
+    u0 = ap.speed if ap is not None and ap.speed is not None and ap.speed > 0 else None
+    if u0 is None:
+        u0 = float(approach_speed(model, None))
+        out.messages.append(f"no speed logged before the execute: predicted at the model's "
+                            f"approach speed {u0:.4g} m/s")
+    n = ap.shaft_speed if ap is not None else None
     m = _with_inputs(model, n)
     rudder = seg.command.startswith("delta") and seg.level is not None
     if not rudder:
         out.messages.append("no rudder command: the manoeuvre is not predicted")
         return
     amp_deg = math.degrees(float(seg.level))
+    rate = float(model.servo.max_rate)
     out.settings = {"delta_deg": amp_deg, "first": seg.side, "speed_m_s": u0,
-                    "shaft_speed_rps": n if m is not model else None}
+                    "shaft_speed_rps": n if m is not model else None,
+                    "rudder_rate_deg_s": math.degrees(rate) if math.isfinite(rate) else None}
     if seg.kind == "zigzag":
         psi_deg = math.degrees(float(seg.psi_switch))
         # over the measured manoeuvre's duration, so both show the same cycles (a mean period
@@ -194,129 +208,162 @@ def _predict(model: VesselModel, trial: Trial, seg: Segment, out: TrialValidatio
     out.error = metric_error(out.predicted, out.measured, keys)
 
 
-def _free_run(model: VesselModel, trial: Trial) -> tuple[Any, dict[str, np.ndarray], Windows,
-                                                         float]:
-    """The kind, the decimated series, the one free-run window of ``trial`` and the speed
-    [m/s] a constant-speed kind is packed with."""
+@dataclass
+class _FreeRun:
+    """A trial's replay material: the kind, the decimated series, its windows (one free run,
+    or ``window_s`` windows) and the speed [m/s] a constant-speed kind is packed with."""
+
+    kind: Any
+    dec: dict[str, np.ndarray]
+    h: float
+    speed: float
+
+
+def _free_run(model: VesselModel, trial: PreparedTrial) -> _FreeRun:
     kind = kind_of(model.dynamics)
     fixed = {p.name: getattr(model.dynamics, p.name)
              for p in type(model.dynamics).param_specs() if not p.fit}
     s = trial_series(trial, kind, fixed=fixed)
-    step = max(int(round(DEFAULT_STEP / s.h)), 1)
+    step = max(int(round(REPLAY_STEP / s.h)), 1)
     dec = s.decimated(step).data
-    win = make_windows([dec], s.h * step, None)
-    speed = win.init.get("u") if kind.constant_speed else None
-    if kind.constant_speed and speed is None:
-        u = _approach_mean(trial, "U", float(trial.t[0]) + APPROACH_S)
-        speed = u if u is not None else model.vessel.speed
-    return kind, dec, win, float(np.mean(speed)) if speed is not None else 1.0
+    speed = None
+    if kind.constant_speed:  # the measured speed carries the track (psi, r do not need it)
+        speed = float(dec["u_s"][0]) if "u_s" in dec else None
+        if speed is None or not math.isfinite(speed):
+            ap = approach(trial, float(trial.t[0]))
+            speed = ap.speed if ap.speed is not None and ap.speed > 0 else None
+    if speed is None:  # the model's own (its inputs set the speed of the other kinds)
+        speed = float(approach_speed(model, None))
+    return _FreeRun(kind, dec, s.h * step, float(speed))
 
 
-def replay_band(model: VesselModel, trial: Trial, names: Sequence[str], cov: Any, *,
-                draws: int = 40, seed: int = 0, level: float = 0.95) -> dict[str, np.ndarray]:
+def _windows(fr: _FreeRun, window_s: float | None) -> Windows:
+    return make_windows([fr.dec], fr.h, window_s)
+
+
+def replay_band(model: VesselModel, trial: Trial, uncertainty: Uncertainty, *,
+                draws: int = 40, seed: int = 0, level: float = 0.95) -> dict[str, Any]:
     """Prediction band of the free-run replay from the parameter uncertainty.
 
-    Parameters ``names`` (attributes of the model's dynamics) are drawn ``draws`` times from
-    N(theta_hat, ``cov``) (seeded by ``seed``; draws that are not a valid model, e.g. T <= 0,
-    are left out), each draw replays the measured inputs from the measured initial state (one
-    batch of the integration core), and the band is the (1 - level)/2 .. (1 + level)/2
-    quantile at each instant. Returns ``psi_lo``, ``psi_hi`` [rad], ``r_lo``, ``r_hi``
-    [rad/s] on the replay grid (empty when no draw is valid)."""
-    kind, dec, win, speed = _free_run(model, trial)
-    names = [n for n in names if hasattr(model.dynamics, n)]
-    c = np.asarray(cov, dtype=float)[:len(names), :len(names)]
-    theta = np.array([float(getattr(model.dynamics, n)) for n in names])
-    rng = np.random.default_rng(seed)
-    cols = []
-    for th in rng.multivariate_normal(theta, c, size=draws, method="eigh"):
-        try:
-            dyn = dataclasses.replace(model.dynamics, **dict(zip(names, th.tolist(),
-                                                               strict=True)))
-        except (UsvidError, ValueError, TypeError):
-            continue
-        cols.append(np.asarray(kind.pack(dyn, speed), dtype=float).reshape(-1, 1))
-    if not cols:
+    ``draws`` parameter sets from ``uncertainty`` (:meth:`usvid.models.uncertainty.Uncertainty.
+    sample`, seeded by ``seed``; a draw outside the parameters' bounds is drawn again, one
+    still outside after that is left out and counted), each replaying the measured inputs from
+    the measured initial state (one batch of the integration core); the band is the
+    (1 - level)/2 .. (1 + level)/2 quantile at each instant. Returns ``psi_lo``, ``psi_hi``
+    [rad], ``r_lo``, ``r_hi`` [rad/s] on the replay grid, ``draws``, ``redrawn`` and
+    ``failed`` (empty when no draw is valid)."""
+    trial = as_prepared(trial, derivatives=False)
+    fr = _free_run(model, trial)
+    win = _windows(fr, None)
+    sample = uncertainty.sample(0, draws, seed)
+    ok = ~sample.failed
+    if not ok.any():
         return {}
-    B = len(cols)
+    params = {n: v[ok] for n, v in sample.values.items()}
+    try:
+        dyn = dataclasses.replace(model.dynamics, **params)
+    except (UsvidError, ValueError, TypeError):
+        return {}
+    B = int(ok.sum())
+    P = np.asarray(fr.kind.pack(dyn, fr.speed), dtype=float)
     rep = Windows(h=win.h, inputs={k: np.repeat(v, B, 0) for k, v in win.inputs.items()},
                   outputs={k: np.repeat(v, B, 0) for k, v in win.outputs.items()},
                   init={k: np.repeat(v, B) for k, v in win.init.items()},
                   trial_index=np.zeros(B, dtype=int), start=np.zeros(B, dtype=int))
-    sim = window_lanes(kind, np.hstack(cols), model.dynamics, rep,
-                       channels=("psi", "r")).run().channels
+    sim = window_lanes(fr.kind, P, model.dynamics, rep, channels=("psi", "r")).run().channels
     q = [100 * (1 - level) / 2, 100 * (1 + level) / 2]
-    out = {}
-    for ch in ("psi", "r"):
-        lo, hi = np.nanpercentile(sim[ch], q, axis=0)
-        out[f"{ch}_lo"], out[f"{ch}_hi"] = lo, hi
+    out: dict[str, Any] = {"draws": int(draws), "redrawn": sample.redrawn,
+                           "failed": sample.n_failed}
+    with np.errstate(invalid="ignore"):
+        for ch in ("psi", "r"):
+            lo, hi = np.nanpercentile(sim[ch], q, axis=0)
+            out[f"{ch}_lo"], out[f"{ch}_hi"] = lo, hi
     return out
 
 
-def _replay(model: VesselModel, trial: Trial, out: TrialValidation) -> None:
-    kind, dec, win, speed = _free_run(model, trial)
+def _replay(model: VesselModel, trial: PreparedTrial, out: TrialValidation,
+            window_s: float | None) -> None:
+    fr = _free_run(model, trial)
+    win = _windows(fr, None)
     chans = ["psi", "r", "x", "y"] + [c for c in ("u", "v") if c in win.outputs]
-    P = kind.pack(model.dynamics, speed)
-    sim = window_lanes(kind, P, model.dynamics, win, channels=chans).run().channels
-    t = dec["t"]
+    P = fr.kind.pack(model.dynamics, fr.speed)
+    sim = window_lanes(fr.kind, P, model.dynamics, win, channels=chans).run().channels
+    t = fr.dec["t"]
+    fit = replay_metrics({c: sim[c] for c in win.outputs if c in sim}, win.outputs)
     rep: dict[str, Any] = {"duration_s": float(t[-1] - t[0])}
-
-    def rms(a: np.ndarray) -> float:
-        a = a[np.isfinite(a)] if np.isfinite(a).any() else np.array([math.inf])
-        return float(np.sqrt(np.mean(a * a)))
-
-    rep["psi_rms_deg"] = math.degrees(rms(sim["psi"][0] - dec["psi"]))
-    rep["r_rms_deg_s"] = math.degrees(rms(sim["r"][0] - dec["r"]))
-    meas_u = dec.get("u")
-    if "u" in sim and meas_u is not None:
-        rep["u_rms_m_s"] = rms(sim["u"][0] - meas_u)
+    rep["psi_rms_deg"] = math.degrees(fit["psi"]["rmse"])
+    rep["r_rms_deg_s"] = math.degrees(fit["r"]["rmse"])
+    if "u" in fit:
+        rep["u_rms_m_s"] = fit["u"]["rmse"]
+    gone = diverged_at(t, sim["psi"][0], win.outputs["psi"][0])
+    if gone is not None:
+        rep["diverged_at_s"] = gone - float(t[0])
+        out.messages.append(f"replay: the free run diverged {gone - float(t[0]):.1f} s into the "
+                            f"{rep['duration_s']:.1f} s record (its errors are infinite)")
     if trial.has("x") and trial.has("y"):
         ok = np.isfinite(trial["x"]) & np.isfinite(trial["y"])
         tx = trial.t[ok]
         xm = np.interp(t, tx, trial["x"][ok])
         ym = np.interp(t, tx, trial["y"][ok])
         e = np.hypot(sim["x"][0] + xm[0] - xm, sim["y"][0] + ym[0] - ym)
-        rep["track_rms_m"] = rms(e)
-        rep["track_max_m"] = float(np.nanmax(e)) if np.isfinite(e).any() else math.inf
+        e = np.where(np.isfinite(e), e, np.inf)
+        rep["track_rms_m"] = float(np.sqrt(np.mean(e * e)))
+        rep["track_max_m"] = float(np.max(e))
         out.series.update(x=xm, y=ym, x_replay=sim["x"][0] + xm[0], y_replay=sim["y"][0] + ym[0])
     out.replay = rep
-    out.series.update(t=t, psi=dec["psi"], r=dec["r"], psi_replay=sim["psi"][0],
-                      r_replay=sim["r"][0], delta=dec.get("delta"))
+    out.series.update(t=t, psi=fr.dec["psi"], r=fr.dec["r"], psi_replay=sim["psi"][0],
+                      r_replay=sim["r"][0], delta=fr.dec.get("delta"))
+    if window_s is not None:  # as the estimator scores its training data
+        wwin = _windows(fr, window_s)
+        out.metrics = {"window_s": float(window_s),
+                       **replay_metrics(replay_windows(model, wwin), wwin.outputs)}
+
+
+def model_window(model: VesselModel) -> float | None:
+    """The output-error window [s] the model was identified with (its identification
+    ``options.window_s``), None when the model file does not say."""
+    opts = (getattr(model, "identification", None) or {}).get("options") or {}
+    w = opts.get("window_s") if isinstance(opts, dict) else None
+    return float(w) if isinstance(w, int | float) and math.isfinite(w) and w > 0 else None
 
 
 def validate_trial(model: VesselModel, trial: Trial, *, psi_switch: float | None = None,
-                   replay: bool = True) -> TrialValidation:
+                   replay: bool = True, window_s: float | None = None) -> TrialValidation:
     """Validate ``model`` on one trial (module docstring); ``psi_switch`` [rad] overrides the
-    detected zig-zag switching angle. A step that cannot be done (no manoeuvre, a channel the
-    model needs is missing) leaves its part empty and says why in ``messages``."""
+    detected zig-zag switching angle; ``window_s`` [s] the window of the windowed fit metrics
+    (default: the model's identification window, none when unknown). A step that cannot be
+    done (no manoeuvre, a channel the model needs is missing) leaves its part empty and says
+    why in ``messages``."""
     name = trial.name or (trial.sources[0] if trial.sources else "?")
-    trial = pwm_commands(trial)  # PWM-commanded thrusters: the commands the model replays
-    if not trial.is_uniform or (trial.has("lat") and not trial.has("x")) or not trial.has("U"):
-        trial = prepare(trial, derivatives=False)
+    trial = as_prepared(trial, derivatives=False)
     out = TrialValidation(trial=name, manoeuvre="other",
                           file=str(trial.sources[0]) if trial.sources else None)
     segs = [s for s in find_manoeuvres(trial, psi_switch=psi_switch)
-            if s.kind in ("zigzag", "turning") and s.execute_from == "command"]
+            if s.kind in ("zigzag", "turning") and s.execute_from == "command"] \
+        if trial.has("psi") else []
     if segs:
         seg = segs[0]
         out.manoeuvre = seg.kind
         out.measured = manoeuvre_metrics(trial, seg)
         try:
-            _predict(model, trial, seg, out)
+            _predict(model, seg, out)
         except UsvidError as exc:
             out.messages.append(f"prediction: {exc}")
     else:
         out.messages.append("no zig-zag or turning circle found: replay only")
     if replay:
         try:
-            _replay(model, trial, out)
+            _replay(model, trial, out, window_s if window_s is not None else model_window(model))
         except UsvidError as exc:
             out.messages.append(f"replay: {exc}")
     return out
 
 
 def validate_model(model: VesselModel, trials: Sequence[Trial], *,
-                   psi_switch: float | None = None) -> ValidationResult:
-    """Validate ``model`` on each of ``trials`` (each prepared onto its own uniform grid when
-    it is not on one); see :func:`validate_trial`."""
-    rows = [validate_trial(model, tr, psi_switch=psi_switch) for tr in trials]
+                   psi_switch: float | None = None,
+                   window_s: float | None = None) -> ValidationResult:
+    """Validate ``model`` on each of ``trials`` (each prepared once,
+    :func:`usvid.prep.as_prepared`); see :func:`validate_trial`."""
+    rows = [validate_trial(model, tr, psi_switch=psi_switch, window_s=window_s)
+            for tr in trials]
     return ValidationResult(rows, model_kind=kind_of(model.dynamics).name)

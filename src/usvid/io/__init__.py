@@ -9,14 +9,17 @@ from __future__ import annotations
 from pathlib import Path
 
 from usvid.errors import FormatSpecError, LogReadError
+from usvid.files import check_input
 from usvid.io._assemble import read_log_bytes
 from usvid.io.ardupilot import (
     is_dataflash_bin,
     is_dataflash_text,
     is_tlog,
+    log_info,
     read_dataflash,
     read_tlog,
-    servo1_function,
+    servo1_function,  # noqa: F401 - public helper (usvid.io.servo1_function)
+    servo_outputs,
 )
 from usvid.io.n2k import (
     detect_n2k_format,
@@ -103,20 +106,65 @@ def detect_message_log(path: str | Path) -> str | None:
 def auto_spec(path: str | Path, reader: str) -> tuple[FormatSpec, str]:
     """The shipped preset for a message log of ``reader`` and a sentence saying what was detected
     and chosen: ``ros2_usv`` (ROS bags), ``px4_boat`` (ULog), ``ardupilot_rover`` or
-    ``ardupilot_skid_steer`` (DataFlash / tlog: skid steering when the log's parameters say
-    SERVO1_FUNCTION = 73, left throttle)."""
+    ``ardupilot_skid_steer`` (DataFlash / tlog: skid steering when a servo output of the log's
+    parameters has function 73 or 74, left / right throttle). For ArduPilot the servo
+    outputs are read from the log's ``SERVOn_FUNCTION`` parameters (:func:`servo_preset`): the
+    rudder is the output with function 26 (ground steering), the thrusters those with 73 / 74,
+    wherever they are wired."""
     name = {"rosbag": "ros2_usv", "ulog": "px4_boat"}.get(reader)
     why = ""
     if name is None:
-        f = servo1_function(Path(path), reader)
-        skid = f in (73, 74)
+        info = log_info(Path(path), reader)
+        outs = servo_outputs(info["params"])
+        skid = bool({73, 74} & set(outs.values()))
         name = "ardupilot_skid_steer" if skid else "ardupilot_rover"
-        why = (f", SERVO1_FUNCTION {f:g}" if f is not None else
-               ", no SERVO1_FUNCTION parameter: rudder steering assumed")
+        used = {k: f for k, f in sorted(outs.items()) if f in (26, 70, 73, 74)}
+        why = (", " + ", ".join(f"SERVO{k}_FUNCTION {f}" for k, f in used.items()) if used
+               else ", no SERVOn_FUNCTION parameter of steering or throttle: rudder steering "
+               "assumed")
+        spec = shipped_spec(name)
+        if reader in spec.variants:
+            spec = spec.variants[reader]
+        spec, more = servo_preset(spec, reader, outs)
+        return spec, f"detected {LOG_KINDS[reader]}{why}; format {name}{more}"
     spec = shipped_spec(name)
     if reader in spec.variants:
         spec = spec.variants[reader]
     return spec, f"detected {LOG_KINDS[reader]}{why}; format {name}"
+
+
+def servo_preset(spec: FormatSpec, reader: str, outs: dict[int, int]
+                 ) -> tuple[FormatSpec, str]:
+    """An ArduPilot preset with its servo-output columns moved to the outputs whose function
+    the log's parameters give (``outs``: output number -> SERVOn_FUNCTION): ``delta`` of the
+    tlog (``SERVO_OUTPUT_RAW.servoN_raw``) to the ground-steering output (26), ``n_port`` /
+    ``n_stbd`` (``RCOU.CN`` / ``servoN_raw``) to the left / right throttle outputs (73 / 74). A
+    column whose function no output has is dropped (a rudder column on an RC pass-through
+    output would read the wrong servo). Returns the spec and a note of what changed."""
+    from dataclasses import replace
+
+    want = {"n_port": 73, "n_stbd": 74}
+    if reader == "tlog":
+        want["delta"] = 26
+    cols = dict(spec.columns)
+    notes = []
+    by_fn = {}
+    for k, f in sorted(outs.items()):
+        by_fn.setdefault(f, k)
+    for ch, fn in want.items():
+        c = cols.get(ch)
+        if c is None or c.topic not in ("RCOU", "SERVO_OUTPUT_RAW") or not outs:
+            continue
+        out = by_fn.get(fn)
+        if out is None:
+            del cols[ch]
+            notes.append(f"no servo output has function {fn}: no '{ch}'")
+            continue
+        field = f"C{out}" if c.topic == "RCOU" else f"servo{out}_raw"
+        if field != c.col:
+            cols[ch] = replace(c, col=field)
+            notes.append(f"'{ch}' from {c.topic}.{field}")
+    return replace(spec, columns=cols), ("; " + ", ".join(notes)) if notes else ""
 
 
 def detect_reader(path: str | Path) -> str:
@@ -171,8 +219,8 @@ def read_trial(path: str | Path, spec: str | Path | FormatSpec | dict | None = N
     """
     fs = None if isinstance(spec, str) and spec == "auto" else coerce_spec(spec)
     p = Path(path)
-    if not p.exists():
-        raise LogReadError(f"{p}: no such file")
+    # a regular file or a folder (a ROS 2 bag): a FIFO or a device is refused before it is opened
+    check_input(p, "log", folder=True, error=LogReadError)
     kind = detect_message_log(p)
     if p.is_dir() and kind is None:
         raise LogReadError(f"{p}: is a folder, not a log file (nor a ROS 2 bag with "

@@ -9,9 +9,21 @@ Shared by every reader, so that all of them treat bad records the same way:
   (stable) and a warning finding ``non_monotonic_time`` counts the records that were out of order;
   with ``non_monotonic: reject`` every record earlier than the latest time seen before it is
   dropped and counted as ``rejected["non_monotonic"]``;
-- records with the same time are merged into one row (per channel the last finite value wins).
-  For tables that is counted as ``rejected["duplicate_time"]`` (one row per time is expected);
-  for multi-rate logs (NMEA) it is the normal union of time stamps and not counted.
+- records that share a time stamp are kept in log order and merged into one row
+  (:func:`usvid.trial.merge_shared_stamps`, the one rule of usvid, also used by
+  :func:`usvid.prep.prepare`): per channel the last finite value in log order wins. For tables
+  the merged rows are counted as ``rejected["duplicate_time"]`` (one row per time is expected);
+  for multi-rate logs (NMEA, message logs) merging different channels is the normal union of
+  time stamps, but a sample superseded by a later one *of the same channel with another value*
+  is lost: such samples are counted per channel (``meta["superseded"]``) and named in a
+  ``shared_time_stamp`` finding (a warning when a channel loses 10 % of its samples or more: a
+  gateway stamping in bursts, a clock coarser than the data);
+- positions that are no fix are dropped and counted as ``rejected["no_fix"]`` (a
+  ``no_fix`` finding says why): ``lat = lon = 0`` (a receiver without a fix reports "null
+  island"), and where the reader delivers the receiver's fix type (internal channel
+  ``_fix_type``, the last report holding until the next: 0 no GNSS, 1 no fix, 2 2-D, 3 3-D) or
+  HDOP (``_hdop``), a fix type below 2 or an HDOP above :data:`MAX_HDOP` (the speed and course
+  of such a record go too).
 """
 
 from __future__ import annotations
@@ -24,8 +36,8 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import LogReadError
-from usvid.io.spec import FormatSpec
-from usvid.trial import Finding, Trial, Vessel
+from usvid.io.spec import FormatSpec, column_mapping, shipped_name
+from usvid.trial import Finding, Trial, Vessel, merge_shared_stamps
 
 #: Largest time stamp accepted [s]: epoch seconds up to the year 5138 (a larger prefix or stamp
 #: is no time, and would overflow a date).
@@ -153,6 +165,116 @@ def ignored_finding(path: Path, code: str, what: str, ignored: dict, *,
                    count=n, data=dict(data or {}))
 
 
+#: Direction channels and the interval every reader delivers them in (the Trial contract):
+#: the apparent and the true wind angle from the bow in (-pi, pi], the true wind direction
+#: from north in [0, 2 pi) [rad].
+DIRECTION_CHANNELS = {"wind_angle": "pm_pi", "wind_angle_true": "pm_pi",
+                      "wind_dir_true": "two_pi"}
+
+
+def wrap_directions(chans: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``chans`` with the direction channels of :data:`DIRECTION_CHANNELS` wrapped into their
+    interval (a wind angle logged in [0, 2 pi), as many anemometers write it, becomes
+    (-pi, pi]); other channels as they are."""
+    out = dict(chans)
+    for k, kind in DIRECTION_CHANNELS.items():
+        if k in out:
+            a = np.asarray(out[k], dtype=float)
+            if kind == "two_pi":
+                out[k] = np.remainder(a, 2.0 * np.pi)
+            else:  # (-pi, pi]: the mirror of [-pi, pi)
+                out[k] = -(np.remainder(np.pi - a, 2.0 * np.pi) - np.pi)
+    return out
+
+
+#: Largest HDOP of a usable fix (receivers report 50-99.99 without a fix; a good fix is
+#: below 2, a poor one below 20).
+MAX_HDOP = 50.0
+#: HDOP values that mean "unknown" rather than a measurement (MAVLink GPS_RAW_INT.eph = 65535,
+#: read with scale 0.01): at or above this the HDOP is ignored.
+HDOP_UNKNOWN = 655.0
+
+
+def _drop_no_fix(path: Path, chans: dict[str, np.ndarray], keep: np.ndarray,
+                 rejected: dict[str, int], findings: list[Finding]
+                 ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Positions that are no fix set missing (see the module docstring); the internal
+    ``_fix_type`` / ``_hdop`` channels removed. Returns the channels and the records left
+    without any value by it."""
+    chans = dict(chans)
+    fix = chans.pop("_fix_type", None)
+    hdop = chans.pop("_hdop", None)
+    lat, lon = chans.get("lat"), chans.get("lon")
+    n = len(keep)
+    emptied = np.zeros(n, dtype=bool)
+    if lat is None or lon is None:
+        return chans, emptied
+    has_pos = np.isfinite(lat) & np.isfinite(lon) & keep
+    null = has_pos & (lat == 0.0) & (lon == 0.0)
+    nofix = np.zeros(n, dtype=bool)
+    badh = np.zeros(n, dtype=bool)
+    if fix is not None:  # the last fix type reported holds until the next (log order)
+        idx = np.where(np.isfinite(fix), np.arange(n), -1)
+        np.maximum.accumulate(idx, out=idx)
+        held = np.where(idx >= 0, fix[np.maximum(idx, 0)], np.nan)
+        nofix = held < 2  # (NaN: unknown, kept)
+    if hdop is not None:
+        idx = np.where(np.isfinite(hdop), np.arange(n), -1)
+        np.maximum.accumulate(idx, out=idx)
+        held = np.where(idx >= 0, hdop[np.maximum(idx, 0)], np.nan)
+        badh = (held > MAX_HDOP) & (held < HDOP_UNKNOWN)
+    drop_pos = has_pos & (null | nofix | badh)
+    if not drop_pos.any():
+        return chans, emptied
+    before = np.zeros(n, dtype=bool)
+    for k, v in chans.items():
+        if not k.startswith("_"):
+            before |= np.isfinite(v)
+    for k in ("lat", "lon"):
+        chans[k] = np.where(drop_pos, np.nan, chans[k])
+    for k in ("sog", "cog"):  # the speed and course of a record without a fix
+        if k in chans:
+            chans[k] = np.where(keep & (nofix | badh), np.nan, chans[k])
+    after = np.zeros(n, dtype=bool)
+    for k, v in chans.items():
+        if not k.startswith("_"):
+            after |= np.isfinite(v)
+    emptied = before & ~after
+    nd = int(drop_pos.sum())
+    _add(rejected, "no_fix", nd)
+    n_pos = int(has_pos.sum())
+    why = [f"{int(k.sum())} {w}" for k, w in (
+        (drop_pos & null, "at lat = lon = 0 (\"null island\": the receiver had no fix yet)"),
+        (drop_pos & nofix & ~null, "with the receiver's fix type 'no fix'"),
+        (drop_pos & badh & ~null & ~nofix, f"with HDOP above {MAX_HDOP:g}")) if k.any()]
+    i0 = int(np.flatnonzero(drop_pos)[0])
+    findings.append(Finding(
+        "warning" if nd == n_pos else "info", "no_fix",
+        f"{path.name}: {nd} of {n_pos} position(s) are no fix and were dropped: "
+        + "; ".join(why) + (" - the log holds no valid position" if nd == n_pos else ""),
+        count=nd, channel="lat", data={"first_record": i0}))
+    return chans, emptied
+
+
+def shared_stamp_finding(name: str, superseded: dict[str, int],
+                         merged: dict[str, np.ndarray]) -> Finding:
+    """The finding of samples lost to shared time stamps (:func:`merge_shared_stamps`):
+    a warning when a channel lost 10 % of its samples or more."""
+    frac = {k: n / (n + int(np.isfinite(merged[k]).sum())) for k, n in superseded.items()}
+    worst = max(frac, key=lambda k: frac[k])
+    total = sum(superseded.values())
+    parts = ", ".join(f"{k} {n} of {n + int(np.isfinite(merged[k]).sum())}"
+                      for k, n in sorted(superseded.items(), key=lambda kv: -kv[1])[:6])
+    return Finding(
+        "warning" if frac[worst] >= 0.1 else "info", "shared_time_stamp",
+        f"{name}: {total} sample(s) share a time stamp with a later sample of the same channel "
+        f"and another value ({parts}); the time stamps do not resolve the records (a gateway "
+        "stamping in bursts, or a clock coarser than the data): the last sample of each stamp "
+        "is kept", count=total, channel=worst,
+        data={"superseded": dict(superseded), "fraction": {k: round(v, 4)
+                                                           for k, v in frac.items()}})
+
+
 def _add(rejected: dict[str, int], reason: str, n: int) -> None:
     if n:
         rejected[reason] = rejected.get(reason, 0) + int(n)
@@ -169,26 +291,37 @@ def assemble(
     count_duplicates: bool = True,
     meta: dict | None = None,
     non_monotonic: str | None = None,
+    streams: np.ndarray | None = None,
 ) -> Trial:
     """Build a Trial from records ``t`` [s] and ``channels`` (arrays of the same length, SI).
 
-    Raises :class:`LogReadError` when no usable record remains.
+    ``streams``: the message stream of each record (a code per sentence type and talker, PGN
+    and source address, ...): a sample superseded at a shared stamp is counted as lost only
+    when the sample that wins is of the same stream (two sentences of one fix that round a
+    position differently report one instant twice; one heading sender stamped in bursts loses
+    samples). Raises :class:`LogReadError` when no usable record remains.
     """
     path = Path(path)
     rejected = dict(rejected or {})
     findings = list(findings or [])
     t = np.asarray(t, dtype=float)
-    chans = {k: np.asarray(v, dtype=float) for k, v in channels.items()}
+    chans = wrap_directions({k: np.asarray(v, dtype=float) for k, v in channels.items()})
+    if streams is not None:  # carried along as an internal channel, taken out for the merge
+        chans["_stream"] = np.asarray(streams, dtype=float)
     nm = non_monotonic or (spec.non_monotonic if spec is not None else "sort")
 
     with np.errstate(invalid="ignore"):  # beyond MAX_ABS_TIME_S differences overflow: no time
         keep = np.isfinite(t) & (np.abs(t) <= MAX_ABS_TIME_S)
     _add(rejected, "nan_time", int((~keep).sum()))
+    emptied = np.zeros(len(t), dtype=bool)
+    if "lat" in chans or "lon" in chans or "_fix_type" in chans or "_hdop" in chans:
+        chans, emptied = _drop_no_fix(path, chans, keep, rejected, findings)
     if chans:
         anyval = np.zeros(len(t), dtype=bool)
-        for v in chans.values():
-            anyval |= np.isfinite(v)
-        bad = keep & ~anyval
+        for k, v in chans.items():
+            if k != "_stream":
+                anyval |= np.isfinite(v)
+        bad = keep & ~anyval & ~emptied  # (a record emptied by a dropped fix is counted there)
         _add(rejected, "nan_row", int(bad.sum()))
         keep &= anyval
     if not keep.all():  # (no copy of a clean log)
@@ -231,19 +364,16 @@ def assemble(
                 )
             )
 
-    # identical times -> one row (t is in time order here: a duplicate follows its twin)
-    if len(t) > 1 and (t[1:] == t[:-1]).any():
-        uniq, inv = np.unique(t, return_inverse=True)
-        if count_duplicates:
-            _add(rejected, "duplicate_time", len(t) - len(uniq))
-        merged = {}
-        for k, v in chans.items():
-            out = np.full(len(uniq), np.nan)
-            m = np.isfinite(v)
-            out[inv[m]] = v[m]
-            merged[k] = out
-        chans = merged
-        t = uniq
+    # records sharing a time stamp -> one row (t is in time order here, stably sorted: the
+    # records of one stamp are in log order)
+    n_rows = len(t)
+    stream = chans.pop("_stream", None)
+    t, chans, superseded = merge_shared_stamps(t, chans, stream)
+    if count_duplicates and len(t) < n_rows:
+        _add(rejected, "duplicate_time", n_rows - len(t))
+    if superseded and not count_duplicates:
+        findings.append(shared_stamp_finding(path.name, superseded, chans))
+        meta = {**(meta or {}), "superseded": dict(superseded)}
 
     data = channel_frame({"t": t, **chans})
     vessel = spec.vessel if spec is not None else Vessel()
@@ -255,6 +385,9 @@ def assemble(
         findings=findings,
         name=path.stem,
         meta={"reader": spec.reader if spec else None, "spec": spec.source if spec else None,
+              **({"spec_columns": {c.name: column_mapping(c, spec.reader)
+                                   for c in spec.columns.values()},
+                  "spec_shipped": shipped_name(spec.source)} if spec else {}),
               **(meta or {})},
     )
 
@@ -347,7 +480,9 @@ def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
     step after the last record before the reset; forward jumps kept as they are. Every reset
     and jump is returned as a time break ``{"t", "t_before", "kind", "step_s", "record"}``
     (``t`` [s]: the first time of the new segment, after the repair; ``t_before`` [s]: the last
-    time before the break) and named in a warning finding.
+    time before the break) and named in a warning finding. A clock reset after which the
+    records repeat earlier ones exactly (:func:`_repeated_block`: a log holding a copy of
+    itself) is no break: the copy is dropped and counted as ``rejected["repeated_records"]``.
     """
     if len(t) < 3:
         return t, chans, []
@@ -377,9 +512,17 @@ def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
     t = t.copy()
     breaks = []
     repaired = []
+    repeated = np.zeros(len(t), dtype=bool)
     for j in jumps:
+        if repeated[j + 1]:
+            continue  # inside a dropped copy
         step = float(t[j + 1] - t[j])  # after earlier repairs
         kind = "clock_reset" if step < 0 else "forward_jump"
+        if step < 0:
+            m = _repeated_block(t, chans, j)
+            if m:  # the log holds a copy of its own earlier records: the copy is dropped
+                repeated[j + 1:j + 1 + m] = True
+                continue
         if step < 0:
             t[j + 1:] += (t[j] + med) - t[j + 1]
             if _continuous(chans, j):  # only the clock jumped: the repair is exact
@@ -387,6 +530,19 @@ def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
                 continue
         breaks.append({"t": float(t[j + 1]), "t_before": float(t[j]), "kind": kind,
                        "step_s": step, "record": int(rec[j + 1])})
+    if repeated.any():
+        n_rep = int(repeated.sum())
+        i0 = int(np.flatnonzero(repeated)[0])
+        findings.append(Finding(
+            "warning", "log_repeated",
+            f"{path.name}: {n_rep} record(s) from record {int(rec[i0])} on repeat earlier "
+            "records exactly (time stamps and values: the log holds a second copy of a part of "
+            "itself, e.g. two captures joined); the copy is dropped",
+            count=n_rep, data={"first_record": int(rec[i0])}))
+        rejected["repeated_records"] = rejected.get("repeated_records", 0) + n_rep
+        t = t[~repeated]
+        rec = rec[~repeated]
+        chans = {k: v[~repeated] for k, v in chans.items()}
     if repaired:
         desc = "; ".join(f"{r['step_s']:+.3f} s at record {r['record']}" for r in repaired[:3])
         more = ", ..." if len(repaired) > 3 else ""
@@ -409,13 +565,36 @@ def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
     return t, chans, breaks
 
 
+def _repeated_block(t: np.ndarray, chans: dict[str, np.ndarray], j: int) -> int:
+    """Records after a clock reset between records ``j`` and ``j + 1`` that repeat, stamp for
+    stamp and value for value, the records that start at the same stamp earlier in the log (a
+    log that holds a copy of itself): how many (0: not a copy). At least 10 records, or all
+    that follow, must match."""
+    after = j + 1
+    starts = np.flatnonzero(t[:after] == t[after])
+    if not len(starts):
+        return 0
+    i0 = int(starts[0])
+    m = min(len(t) - after, after - i0)
+    if m < min(10, len(t) - after):
+        return 0
+    if not np.array_equal(t[i0:i0 + m], t[after:after + m]):
+        return 0
+    for v in chans.values():
+        if not np.array_equal(v[i0:i0 + m], v[after:after + m], equal_nan=True):
+            return 0
+    return m
+
+
 def _continuous(chans: dict[str, np.ndarray], j: int, n: int = 3, factor: float = 4.0) -> bool:
     """True when every channel with samples on both sides of the step between records ``j``
     and ``j + 1`` changes across it by at most ``factor`` times its largest change between the
     ``n`` samples on either side (a clock that jumped, no data lost). At least one channel
     must show it."""
     seen = False
-    for v in chans.values():
+    for k, v in chans.items():
+        if k.startswith("_"):
+            continue
         before = v[max(0, j - 4 * n):j + 1]
         after = v[j + 1:j + 1 + 4 * n]
         before = before[np.isfinite(before)][-n:]
@@ -430,26 +609,34 @@ def _continuous(chans: dict[str, np.ndarray], j: int, n: int = 3, factor: float 
     return seen
 
 
-def apply_renames(chans: dict[str, np.ndarray], spec: FormatSpec | None) -> dict[str, np.ndarray]:
+def apply_renames(chans: dict[str, np.ndarray], spec: FormatSpec | None,
+                  sourced: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """For the NMEA readers: apply ``columns`` entries (rename / sign / offset / scale).
 
     An entry ``name: {col: decoded, sign: -1}`` produces channel ``name`` from decoded channel
     ``decoded``; the decoded channel is dropped when renamed. A missing decoded channel is an error
-    unless the entry is ``optional``.
+    unless the entry is ``optional``. ``sourced``: the samples of the entries that name a
+    ``source`` (entry name -> samples of that source, :func:`usvid.io.sources.select_sources`).
     """
     if spec is None or not spec.columns:
         return chans
+    sourced = sourced or {}
     out = dict(chans)
     for c in spec.columns.values():
         src = str(c.col)
-        if src not in chans:
-            if c.optional:
-                continue
+        if c.name in sourced:
+            raw = sourced[c.name]
+        elif src in chans:
+            raw = chans[src]
+        elif c.optional:
+            continue
+        else:
+            decoded = ", ".join(sorted(k for k in chans if not k.startswith("_"))) or "none"
             raise LogReadError(
                 f"{spec.source}: columns.{c.name}.col: the log has no decoded channel '{src}' "
-                f"(decoded: {', '.join(sorted(chans)) or 'none'})"
+                f"(decoded: {decoded})"
             )
-        if src != c.name and src in out:
-            del out[src]
-        out[c.name] = c.sign * (c.scale * chans[src] + c.offset)
+        if c.name not in sourced and src != c.name and src in out:
+            del out[src]  # renamed (a column naming a source is a copy: the channel stays)
+        out[c.name] = c.sign * (c.scale * raw + c.offset)
     return out

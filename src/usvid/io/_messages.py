@@ -26,7 +26,7 @@ import numpy as np
 
 from usvid.errors import LogReadError, UsvidError
 from usvid.io._assemble import assemble
-from usvid.io.spec import ColumnSpec, FormatSpec
+from usvid.io.spec import QUATERNION_CONVERTS, ColumnSpec, FormatSpec
 from usvid.trial import Finding, Trial
 
 #: reader -> (extra, import name, distribution name)
@@ -74,7 +74,7 @@ def get_path(obj: Any, steps: list[str | int]) -> Any:
 def raw_of(obj: Any, conversion: str | None) -> tuple[float, ...] | float:
     """The raw value(s) of a message field for a conversion: a quaternion object -> (w, x, y, z),
     a vector -> (x, y), anything else -> float."""
-    if conversion == "yaw":
+    if conversion in QUATERNION_CONVERTS:
         return (float(obj.w), float(obj.x), float(obj.y), float(obj.z))
     if conversion in ("speed", "course"):
         return (float(obj.x), float(obj.y))
@@ -83,7 +83,8 @@ def raw_of(obj: Any, conversion: str | None) -> tuple[float, ...] | float:
 
 def width(col: ColumnSpec) -> int:
     """Raw values per sample of ``col``: 4 (quaternion), 2 (vector) or 1."""
-    return {"yaw": 4, "speed": 2, "course": 2}.get(col.conversion or "", 1)
+    return {"yaw": 4, "roll": 4, "pitch": 4, "speed": 2, "course": 2}.get(col.conversion or "",
+                                                                           1)
 
 
 @dataclass
@@ -116,6 +117,40 @@ def yaw_ned(q: np.ndarray, frame: str) -> np.ndarray:
     return yaw
 
 
+def roll_pitch(q: np.ndarray, frame: str) -> tuple[np.ndarray, np.ndarray]:
+    """Roll ``phi`` [rad, positive starboard down] and pitch ``theta`` [rad, bow up] from
+    quaternions ``q`` (N, 4) = (w, x, y, z) (Hamilton, body to earth; ZYX Euler angles: roll
+    ``atan2(2 (w x + y z), 1 - 2 (x^2 + y^2))``, pitch ``asin(2 (w y - z x))``). Body FRD
+    (``frame="ned"``: PX4, ArduPilot) as they are; body FLU (``frame="enu"``, ROS REP 103) the
+    same roll (a positive rotation about x forward lowers the starboard side in both) and the
+    pitch negated (about y to port a positive rotation lowers the bow). NaN for a zero
+    quaternion."""
+    q = np.asarray(q, dtype=float)
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    n2 = w * w + x * x + y * y + z * z
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w, x, y, z = (c / np.sqrt(n2) for c in (w, x, y, z))  # (a quaternion not quite unit)
+    roll = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2.0 * (w * y - z * x), -1.0, 1.0))
+    if frame == "enu":
+        pitch = -pitch
+    bad = n2 < 1e-12
+    roll[bad] = np.nan
+    pitch[bad] = np.nan
+    return roll, pitch
+
+
+def quaternion_zyx(yaw: np.ndarray, pitch: np.ndarray, roll: np.ndarray) -> np.ndarray:
+    """Quaternions (N, 4) = (w, x, y, z) of ZYX Euler angles [rad] (yaw about z, then pitch
+    about y, then roll about x; body to earth), the inverse of :func:`yaw_ned` and
+    :func:`roll_pitch` in the same frame."""
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    return np.column_stack([cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+                            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy])
+
+
 def pwm_command(pwm: np.ndarray, lo: float, trim: float, hi: float) -> np.ndarray:
     """Normalised command in [-1, 1] from servo pulse widths [us]: ``(pwm - trim) / (hi - trim)``
     above trim, ``(pwm - trim) / (trim - lo)`` below; 0 (no output) is NaN."""
@@ -131,6 +166,8 @@ def convert_raw(col: ColumnSpec, raw: np.ndarray) -> np.ndarray:
     c = col.conversion
     if c == "yaw":
         v = yaw_ned(raw.reshape(-1, 4), col.frame)
+    elif c in ("roll", "pitch"):
+        v = roll_pitch(raw.reshape(-1, 4), col.frame)[0 if c == "roll" else 1]
     elif c == "pwm":
         v = pwm_command(raw, *col.pwm)
     elif c == "speed":

@@ -42,6 +42,7 @@ import struct
 import sys
 import tempfile
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -60,7 +61,9 @@ from usvid.io._messages import (
     path_steps,
     require,
 )
-from usvid.io.spec import ColumnSpec, FormatSpec
+from usvid.io.sources import Sources, select_sources
+from usvid.io.spec import QUATERNION_CONVERTS, ColumnSpec, FormatSpec
+from usvid.io.vehicles import mav_type_kind, vehicle_finding
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
@@ -328,21 +331,51 @@ def _read_df_binary(path: Path, spec: FormatSpec) -> Trial:
                     continue
                 raise missing_topic(path, spec, col, [n for n, i in dfr.name_to_id.items()
                                                       if dfr.offsets[i]], what="message")
-            series.append(_series(path, spec, col, d))
-        epoch = None
-        gps = decode("GPS")
-        if gps is not None and {"GWk", "GMS", "TimeUS"} <= set(gps):
-            epoch = _gps_epoch_ns(gps["TimeUS"], gps["GWk"], gps["GMS"])
+            try:
+                series.append(_series(path, spec, col, d))
+            except LogReadError:
+                if not col.optional:  # (an optional column whose field is missing: left out)
+                    raise
+        epoch = _df_epoch(decode("GPS"))
+        vehicle = vehicle_of(_df_info(dfr))
     finally:
         buf = None
         with contextlib.suppress(Exception):
             dfr.filehandle.close()
+    _name_vehicle(path, state, vehicle)
     return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
+
+
+def _df_epoch(gps: Mapping[str, np.ndarray] | None) -> int | None:
+    """The epoch [ns] of the boot clock from a decoded GPS message: ``GWk``/``GMS`` with
+    ``TimeUS``, or in older logs ``Week``/``TimeMS`` (GPS time of week) with ``T`` [ms]."""
+    if gps is None:
+        return None
+    if {"GWk", "GMS", "TimeUS"} <= set(gps):
+        return _gps_epoch_ns(gps["TimeUS"], gps["GWk"], gps["GMS"])
+    if {"Week", "TimeMS", "T"} <= set(gps):
+        boot_us = np.asarray(gps["T"], dtype=np.int64) * 1000
+        return _gps_epoch_ns(boot_us, gps["Week"], gps["TimeMS"])
+    return None
+
+
+def _name_vehicle(path: Path, state: ReadState, vehicle: dict | None) -> None:
+    """The vehicle's kind in ``meta["vehicle"]`` and a finding (:mod:`usvid.io.vehicles`)."""
+    if vehicle is None:
+        return
+    state.meta["vehicle"] = dict(vehicle)
+    f = vehicle_finding(path, vehicle)
+    if f is not None:
+        state.findings.append(f)
 
 
 def _time_ns(path: Path, col: ColumnSpec, d: Mapping[str, np.ndarray]) -> np.ndarray:
     if "TimeUS" in d:
         return np.asarray(d["TimeUS"], dtype=np.int64) * 1000
+    if "Week" in d and "T" in d:
+        # older GPS messages (ArduPilot 3.2): TimeMS is the GPS time of week, T the time since
+        # boot [ms] of the other messages
+        return np.asarray(d["T"], dtype=np.int64) * 1_000_000
     if "TimeMS" in d:
         return np.asarray(d["TimeMS"], dtype=np.int64) * 1_000_000
     raise LogReadError(f"{path}: message {col.topic} has no TimeUS / TimeMS column")
@@ -354,17 +387,23 @@ def _series(path: Path, spec: FormatSpec, col: ColumnSpec, d: Mapping[str, np.nd
     keep = np.ones(len(t), dtype=bool)
     if col.instance is not None:
         icol = next((c for c in ("I", "Instance", "C", "Id") if c in d), None)
-        if icol is None:
+        if icol is None and col.instance != 0:
             raise LogReadError(f"{path}: {spec.source}: columns.{col.name}.instance: message "
                                f"{col.topic} has no instance column (I / Instance)")
-        keep = np.asarray(d[icol]) == col.instance
+        # (older logs, e.g. ArduPilot 3.2, have one GPS without an instance column: it is
+        # instance 0)
+        keep = (np.asarray(d[icol]) == col.instance if icol is not None
+                else np.ones(len(t), dtype=bool))
     f = str(col.col)
     if col.conversion in ("speed", "course"):
         names = [f"{f}X", f"{f}Y"] if f"{f}X" in d else [f"{f}[0]", f"{f}[1]"]
-    elif col.conversion == "yaw":
+    elif col.conversion in QUATERNION_CONVERTS:
         names = [f"{f}{i}" for i in range(1, 5)]
     else:
         names = [f]
+        m = re.fullmatch(r"C(\d+)", f)
+        if m and f not in d and f"Chan{m.group(1)}" in d:  # RCOU/RCIN of older logs
+            names = [f"Chan{m.group(1)}"]
     if any(n not in d for n in names):
         raise missing_field(path, spec, col, "DataFlash message", sorted(d))
     if col.instance is None and len(names) == 1:  # (the same values without the masking)
@@ -415,11 +454,12 @@ def _read_df_text(path: Path, spec: FormatSpec) -> Trial:
             if col.optional:
                 continue
             raise missing_topic(path, spec, col, list(dfr.name_to_id), what="message")
-        series.append(_series(path, spec, col, d))
-    epoch = None
-    gps = decoded.get("GPS")
-    if gps is not None and {"GWk", "GMS", "TimeUS"} <= set(gps):
-        epoch = _gps_epoch_ns(gps["TimeUS"], gps["GWk"], gps["GMS"])
+        try:
+            series.append(_series(path, spec, col, d))
+        except LogReadError:
+            if not col.optional:
+                raise
+    epoch = _df_epoch(decoded.get("GPS"))
     return build_trial(path, spec, series, state, reader="dataflash", clock_epoch_ns=epoch)
 
 
@@ -435,25 +475,29 @@ def _df_text_messages(dfr: Any, n: int):
 
 
 def servo1_function(path: Path, reader: str) -> float | None:
-    """The log's SERVO1_FUNCTION parameter (26 ground steering, 73 left throttle...) from the
-    DataFlash ``PARM`` messages or the tlog's ``PARAM_VALUE`` (first 20000 messages), or None."""
+    """The log's SERVO1_FUNCTION parameter (26 ground steering, 73 left throttle...) or None
+    (:func:`log_info`)."""
+    return log_info(Path(path), reader)["params"].get("SERVO1_FUNCTION")
+
+
+#: Messages read for :func:`log_info` before giving up (a tlog's parameters come early).
+INFO_MESSAGES = 20000
+
+
+def log_info(path: Path, reader: str) -> dict[str, Any]:
+    """What an ArduPilot log says about itself, for choosing and completing a preset:
+    ``params`` (name -> value: the DataFlash ``PARM`` messages, the tlog's ``PARAM_VALUE``
+    among its first :data:`INFO_MESSAGES` messages), ``firmware`` (the first ``MSG`` text
+    naming the firmware, e.g. ``"ArduCopter V3.2.1 (36b405fb)"``; DataFlash) and ``mav_type``
+    (the MAVLink HEARTBEAT type of the autopilot, e.g. 11 surface boat; tlog)."""
     require(reader)
+    out: dict[str, Any] = {"params": {}, "firmware": None, "mav_type": None}
     with open(path, "rb") as fh:
         head = fh.read(3)
     if reader == "dataflash" and is_dataflash_bin(head):
         dfr, _ = _df_index(Path(path))
         try:
-            tid = dfr.name_to_id.get("PARM")
-            if tid is None:
-                return None
-            with _quiet():
-                dfr._rewind()
-                while True:
-                    m = dfr.recv_match(type="PARM")
-                    if m is None:
-                        return None
-                    if m.Name == "SERVO1_FUNCTION":
-                        return float(m.Value)
+            return _df_info(dfr)
         finally:
             with contextlib.suppress(Exception):
                 dfr.filehandle.close()
@@ -465,8 +509,7 @@ def servo1_function(path: Path, reader: str) -> float | None:
     with _quiet():
         if reader == "dataflash":
             mlog = DFReader.DFReader_text(str(path))
-            messages = _df_text_messages(mlog, 20000)
-            want, key, val = "PARM", "Name", "Value"
+            messages = _df_text_messages(mlog, INFO_MESSAGES)
         else:
             mlog = mavutil.mavlogfile(str(path), notimestamps=False, robust_parsing=True)
             stream = _TlogStream(mlog, mlog.f.read())
@@ -474,20 +517,105 @@ def servo1_function(path: Path, reader: str) -> float | None:
                 stream.index()
             except Exception:  # noqa: BLE001 - damaged first packets: read_tlog says so
                 mlog.close()
-                return None
-            messages = itertools.islice(stream.messages(), 20000)
-            want, key, val = "PARAM_VALUE", "param_id", "param_value"
+                return out
+            messages = itertools.islice(stream.messages(), INFO_MESSAGES)
         try:
             for m in messages:
                 if m is None:
-                    return None
+                    break
                 if m is _FAILED:
                     continue
-                if m.get_type() == want and getattr(m, key, "") == "SERVO1_FUNCTION":
-                    return float(getattr(m, val))
+                typ = m.get_type()
+                try:
+                    if typ == "PARM":
+                        out["params"].setdefault(str(m.Name), float(m.Value))
+                    elif typ == "PARAM_VALUE":
+                        out["params"].setdefault(str(m.param_id), float(m.param_value))
+                    elif typ == "MSG" and out["firmware"] is None and _FIRMWARE.search(
+                            str(m.Message)):
+                        out["firmware"] = str(m.Message).strip()
+                    elif (typ == "HEARTBEAT" and out["mav_type"] is None
+                          and getattr(m, "autopilot", 8) != 8):  # 8: a GCS, a companion
+                        out["mav_type"] = int(m.type)
+                except (AttributeError, TypeError, ValueError):  # a damaged message: skipped
+                    continue
         finally:
             with contextlib.suppress(Exception):
                 mlog.close()
+    return out
+
+
+def _df_info(dfr: Any) -> dict[str, Any]:
+    """:func:`log_info` of an indexed binary DataFlash log (pymavlink's reader jumps from one
+    message of a type to the next through its index)."""
+    out: dict[str, Any] = {"params": {}, "firmware": None, "mav_type": None}
+    with _quiet():
+        for typ in ("PARM", "MSG"):
+            if dfr.name_to_id.get(typ) is None:
+                continue
+            dfr._rewind()
+            while True:
+                try:
+                    m = dfr.recv_match(type=typ)
+                except Exception:  # noqa: BLE001 - a damaged message: the rest is not needed
+                    break
+                if m is None:
+                    break
+                try:
+                    if typ == "PARM":
+                        out["params"].setdefault(str(m.Name), float(m.Value))
+                    elif out["firmware"] is None and _FIRMWARE.search(str(m.Message)):
+                        out["firmware"] = str(m.Message).strip()
+                        break
+                except (AttributeError, TypeError, ValueError):  # a damaged message: skipped
+                    continue
+    return out
+
+
+_FIRMWARE = re.compile(r"\b(ArduCopter|ArduPlane|ArduRover|APMrover2|ArduSub|Rover|Blimp|"
+                       r"AntennaTracker)\b", re.IGNORECASE)
+#: ArduPilot servo output functions (SERVOn_FUNCTION) of the presets: the rudder, the
+#: throttle and the two throttles of a skid-steer boat.
+SERVO_STEERING, SERVO_THROTTLE, SERVO_LEFT, SERVO_RIGHT = 26, 70, 73, 74
+
+
+def servo_outputs(params: Mapping[str, float]) -> dict[int, int]:
+    """Servo output number -> its function (SERVOn_FUNCTION) from a log's parameters."""
+    out = {}
+    for k, v in params.items():
+        m = re.fullmatch(r"SERVO(\d+)_FUNCTION", k)
+        if m and math.isfinite(v):
+            out[int(m.group(1))] = int(v)
+    return out
+
+
+def vehicle_of(info: Mapping[str, Any]) -> dict[str, Any] | None:
+    """The kind of vehicle of an ArduPilot log (:func:`usvid.io.vehicles.vehicle_kind`) from
+    its HEARTBEAT type, firmware text and FRAME_CLASS / SYSID_SW_TYPE parameters; None when
+    the log does not say."""
+    params = info.get("params", {})
+    if info.get("mav_type") is not None:
+        return mav_type_kind(int(info["mav_type"]), "MAVLink HEARTBEAT type")
+    fw = info.get("firmware") or ""
+    fc = params.get("FRAME_CLASS")
+    sw = params.get("SYSID_SW_TYPE")
+    fwl = fw.lower()
+    if "copter" in fwl or sw == 10:
+        return {"kind": "multicopter", "surface_vessel": False,
+                "detail": fw or "SYSID_SW_TYPE 10 (ArduCopter)"}
+    if "plane" in fwl or sw == 0:
+        return {"kind": "fixed-wing aircraft", "surface_vessel": False,
+                "detail": fw or "SYSID_SW_TYPE 0 (ArduPlane)"}
+    if "sub" in fwl:
+        return {"kind": "submarine", "surface_vessel": False, "detail": fw}
+    if "rover" in fwl or sw == 20 or fc is not None:
+        if fc == 2:
+            return {"kind": "surface boat", "surface_vessel": True,
+                    "detail": f"{fw + ', ' if fw else ''}FRAME_CLASS 2 (boat)"}
+        if fc is not None:
+            return {"kind": "ground rover", "surface_vessel": False,
+                    "detail": f"{fw + ', ' if fw else ''}FRAME_CLASS {fc:g} (not 2, boat)"}
+        return {"kind": "rover or boat", "surface_vessel": None, "detail": fw or "Rover"}
     return None
 
 
@@ -514,7 +642,9 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
     for col in spec.columns.values():
         by_type.setdefault(col.topic, []).append((col, path_steps(str(col.col))))
     stamps: dict[str, list[int]] = {k: [] for k in by_type}
+    senders: dict[str, list[int]] = {k: [] for k in by_type}  # system * 256 + component
     values: dict[str, list] = {c.name: [] for c in spec.columns.values()}
+    info: dict[str, Any] = {"params": {}, "firmware": None, "mav_type": None}
     # per message type: (list of the column's values, its value getter) for each column
     fetch = {typ: [(values[col.name], _mav_getter(st, col.conversion)) for col, st in getters]
              for typ, getters in by_type.items()}
@@ -543,6 +673,12 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                     continue
                 getters = by_type.get(typ)
                 if getters is None:
+                    with contextlib.suppress(AttributeError, TypeError, ValueError):
+                        if (typ == "HEARTBEAT" and info["mav_type"] is None
+                                and getattr(m, "autopilot", 8) != 8):  # 8: a GCS, a companion
+                            info["mav_type"] = int(m.type)
+                        elif typ == "PARAM_VALUE":
+                            info["params"].setdefault(str(m.param_id), float(m.param_value))
                     continue
                 if typ not in checked:
                     _check_mav(path, spec, m, getters)
@@ -552,6 +688,7 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                     state.reject("bad_data")
                     continue
                 stamps[typ].append(int(round(ts * 1e6)) * 1000)
+                senders[typ].append(m.get_srcSystem() * 256 + m.get_srcComponent())
                 for vals, get in fetch[typ]:
                     vals.append(get(m))
             left = conn.mav.buf_len() if hasattr(conn.mav, "buf_len") else 0
@@ -563,6 +700,8 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
     series = []
     for typ, getters in by_type.items():
         t = np.asarray(stamps[typ], dtype=np.int64)
+        mine = _one_sender(path, spec, typ, getters, np.asarray(senders[typ], dtype=np.int64),
+                           state)
         for col, _ in getters:
             if not len(t):
                 if col.optional:
@@ -570,8 +709,35 @@ def read_tlog(path: str | Path, spec: FormatSpec) -> Trial:
                 raise missing_topic(path, spec, col, [k for k in seen if k != "BAD_DATA"],
                                     what="message")
             raw = np.asarray(values[col.name], dtype=float)
-            series.append(Series(col, t, raw))
+            series.append(Series(col, t[mine], raw[mine]))
+    _name_vehicle(path, state, vehicle_of(info))
     return build_trial(path, spec, series, state, reader="tlog", clock_epoch_ns=0)
+
+
+def _one_sender(path: Path, spec: FormatSpec, typ: str, getters: list, senders: np.ndarray,
+                state: ReadState) -> np.ndarray:
+    """Mask of the messages of type ``typ`` from one MAVLink system/component: the one a column
+    of the spec names (``source: "1/1"`` or a system id), else the one that sent the most;
+    the others are reported (``several_sources``), never interleaved
+    (:mod:`usvid.io.sources`)."""
+    codes = np.unique(senders)
+    if len(codes) <= 1:
+        return np.ones(len(senders), dtype=bool)
+    labels = {int(c): f"{int(c) >> 8}/{int(c) & 255}" for c in codes}
+    src = Sources(senders, labels, dict(labels), "system/component", "systems/components")
+    named = next((c for c, _ in getters if c.source is not None), None)
+    sub = FormatSpec(reader="tlog", source=spec.source,
+                     columns={typ: replace(named, name=typ, col=typ)} if named else {})
+    _, _, found, _ = select_sources(path, np.zeros(len(senders)), {typ: np.ones(len(senders))},
+                                    src, sub, reader="tlog")
+    chosen = src.code_of(named.source) if named else None
+    if chosen is None:
+        n = {int(c): int((senders == c).sum()) for c in codes}
+        chosen = max(n, key=lambda c: (n[c], -int(np.flatnonzero(senders == c)[0])))
+    for f in found:
+        f.message = f.message.replace(f"'{typ}'", f"message {typ}")
+        state.findings.append(f)
+    return senders == chosen
 
 
 #: What :meth:`_TlogStream.messages` yields where pymavlink raised on a damaged packet.
@@ -707,7 +873,7 @@ def _mav_raw(m: Any, steps: list, conversion: str | None) -> float | tuple[float
     for ``conversion`` ``yaw``); NaN when the path does not exist or is no number."""
     try:
         v = get_path(m, steps)
-        if conversion == "yaw":
+        if conversion in QUATERNION_CONVERTS:
             return tuple(float(x) for x in v)
         return float(v)
     except (AttributeError, IndexError, TypeError, ValueError):
@@ -717,7 +883,7 @@ def _mav_raw(m: Any, steps: list, conversion: str | None) -> float | tuple[float
 def _mav_getter(steps: list, conversion: str | None) -> Any:
     """``m -> _mav_raw(m, steps, conversion)``; for a plain field name the same steps
     (``float(getattr(m, name))``, NaN on the same errors) without the path walk."""
-    if conversion != "yaw" and len(steps) == 1 and isinstance(steps[0], str):
+    if conversion not in QUATERNION_CONVERTS and len(steps) == 1 and isinstance(steps[0], str):
         name = steps[0]
 
         def get(m: Any) -> float:
@@ -732,6 +898,8 @@ def _mav_getter(steps: list, conversion: str | None) -> Any:
 
 def _check_mav(path: Path, spec: FormatSpec, m: Any, getters: list) -> None:
     for col, steps in getters:
+        if col.optional:
+            continue  # (a missing field reads as NaN: no samples)
         try:
             get_path(m, steps)
         except (AttributeError, IndexError, TypeError):
@@ -773,7 +941,7 @@ def dataflash_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool
     t_us = np.round((trial.t + boot_offset_s) * 1e6).astype(np.int64)
     ch = {k: channel_or_none(trial, k) for k in
           ("lat", "lon", "sog", "cog", "psi", "r", "delta", "delta_cmd", "n", "n_port",
-           "n_stbd")}
+           "n_stbd", "phi", "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     nanv = np.full(n, np.nan)
@@ -798,8 +966,10 @@ def dataflash_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool
             "Lng": np.round(np.nan_to_num(col("lon")) * 1e7),
             "Spd": col("sog"), "GCrs": np.degrees(col("cog")) % 360.0}),
         "ATT": (fin("psi"), {"Yaw": np.round(np.degrees(np.nan_to_num(col("psi")) % (2 * np.pi))
-                                              * 100) % 36000}),
-        "IMU": (fin("r"), {"GyrZ": col("r"), "AccZ": -9.81}),
+                                              * 100) % 36000,
+                             "Roll": np.round(np.degrees(np.nan_to_num(col("phi"))) * 100),
+                             "Pitch": np.round(np.degrees(np.nan_to_num(col("theta"))) * 100)}),
+        "IMU": (fin("r"), {"GyrZ": col("r"), "GyrX": np.nan_to_num(col("p")), "AccZ": -9.81}),
     }
     steer_out = np.round(np.clip(np.nan_to_num(col("delta")) / full, -1, 1) * 4500)
     steer_in = np.round(np.clip(np.nan_to_num(col("delta_cmd")) / full, -1, 1) * 4500)
@@ -871,7 +1041,8 @@ def tlog_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool = Fa
     e0 = log_start_epoch(trial, t0_utc)
     mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
     ch = {k: channel_or_none(trial, k) for k in
-          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n", "n_port", "n_stbd")}
+          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n", "n_port", "n_stbd", "phi",
+           "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     full = math.radians(SERVO_FULL_DEG)
@@ -909,8 +1080,11 @@ def tlog_bytes(trial: Trial, *, t0_utc: str | None = None, skid_steer: bool = Fa
         if fin("psi", i) or fin("r", i):
             psi = ch["psi"][i] if fin("psi", i) else math.nan
             put(us, mavlink.MAVLink_attitude_message(
-                bm, 0.0, 0.0, math.remainder(psi, 2 * math.pi) if fin("psi", i) else math.nan,
-                0.0, 0.0, float(ch["r"][i]) if fin("r", i) else math.nan))
+                bm, float(ch["phi"][i]) if fin("phi", i) else 0.0,
+                float(ch["theta"][i]) if fin("theta", i) else 0.0,
+                math.remainder(psi, 2 * math.pi) if fin("psi", i) else math.nan,
+                float(ch["p"][i]) if fin("p", i) else 0.0, 0.0,
+                float(ch["r"][i]) if fin("r", i) else math.nan))
         servo = [1500] * 16
         if skid_steer and (fin("n_port", i) or fin("n_stbd", i)):
             servo[0] = pwm(ch["n_port"][i]) if fin("n_port", i) else 1500

@@ -19,8 +19,13 @@ Schema (``ARCHITECTURE.md``, "Model file")::
   block_coefficient, windage areas frontal_area and lateral_area [m^2, projected above the
   waterline], and ``extra`` (name -> number).
 * ``identification`` (optional): provenance written by :mod:`usvid.identify`; ``data`` (list of
-  source names), ``method``, ``std_errors`` and ``fit`` dictionaries, and any further keys
-  (free-form provenance is the one place unknown keys are accepted).
+  source names), ``method``, ``std_errors`` (parameter name -> standard error [SI], >= 0, or
+  null when not determined), ``covariance`` (``{"names": [...], "matrix": [[...]]}``: distinct
+  parameters of the kind, a square, symmetric, positive semi-definite matrix of finite numbers,
+  one row and column per name) and ``fit`` dictionaries, and any further keys (free-form
+  provenance is the one place unknown keys are accepted). The uncertainty blocks are read by
+  :class:`usvid.models.uncertainty.Uncertainty` (the one reader), which checks them when the
+  file is loaded.
 
 Model files are untrusted input: every field is validated (pydantic v2, strict types, no NaN or
 infinity, unknown keys rejected) and a failure raises :class:`usvid.errors.ModelFileError` whose
@@ -43,11 +48,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 from pydantic_core import PydanticCustomError
 
 from usvid.errors import ModelFileError, UsvidError
-from usvid.files import jsonable, load_json_text, write_atomic
+from usvid.files import jsonable, load_json_text, read_input_text, write_atomic
 from usvid.models import registry
 from usvid.models.model import VesselModel
 from usvid.models.servo import FirstOrderServo, IdealServo, SecondOrderServo
 from usvid.models.thrust import THRUST_LAWS
+from usvid.models.uncertainty import Uncertainty
 from usvid.trial import VESSEL_FIELDS, Vessel
 
 __all__ = [
@@ -121,11 +127,20 @@ class VesselSpec(BaseModel):
     extra: dict[str, float] = Field(default_factory=dict)
 
 
+class CovarianceSpec(BaseModel):
+    model_config = _STRICT
+    names: list[str]
+    matrix: list[list[float]]
+
+
 class IdentificationSpec(BaseModel):
     model_config = ConfigDict(extra="allow", strict=True, allow_inf_nan=True)
     data: list[str] = Field(default_factory=list)
     method: str = ""
-    std_errors: dict[str, float | None] = Field(default_factory=dict)
+    # a standard error is never negative (and was once used as its absolute value)
+    std_errors: dict[str, Annotated[float, Field(ge=0, allow_inf_nan=False)] | None] = Field(
+        default_factory=dict)
+    covariance: CovarianceSpec | None = None
     fit: dict[str, Any] = Field(default_factory=dict)
 
 
@@ -423,7 +438,15 @@ def model_from_dict(d: Any, source: str = "model") -> Any:
     v = spec.vessel
     vessel = Vessel(**{k: getattr(v, k) for k in VESSEL_FIELDS}, extra=dict(v.extra))
     ident = spec.identification.model_dump() if spec.identification is not None else None
-    return VesselModel(dynamics, servo=servo, vessel=vessel, identification=ident)
+    if ident is not None and ident.get("covariance") is None:
+        ident.pop("covariance", None)
+    model = VesselModel(dynamics, servo=servo, vessel=vessel, identification=ident)
+    if ident:
+        try:  # the uncertainty blocks as their one reader reads them (names, shape, symmetry)
+            Uncertainty.from_model(model, source=source)
+        except UsvidError as exc:
+            raise ModelFileError(str(exc)) from None
+    return model
 
 
 def _servo_to_dict(servo: Any) -> dict[str, Any]:
@@ -488,15 +511,8 @@ def load_model(path: str | Path) -> Any:
     """
     path = Path(path)
     source = path.name
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ModelFileError(f"{path}: model file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ModelFileError(f"{path}: cannot read model file ({exc})") from None
-    if len(text) > MAX_MODEL_CHARS:
-        raise ModelFileError(f"{source}: {len(text)} characters; a model file has at most "
-                             f"{MAX_MODEL_CHARS}")
+    # a regular file of at most MAX_MODEL_CHARS bytes, UTF-8 (a FIFO or /dev/zero is refused)
+    text = read_input_text(path, "model file", MAX_MODEL_CHARS, error=ModelFileError)
     try:
         # bounded nesting and integer size (usvid.files); NaN / Infinity literals are not JSON:
         # report them as a bad value of their field below

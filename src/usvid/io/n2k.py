@@ -13,12 +13,18 @@ from the file's content when omitted), one record per line or packet, and their 
 - ``can_frame_ascii_raw``: ``09F11203 00 39 30 FF 7F FF 7F FC``, no time;
 - ``pcdin`` (SeaSmart): ``$PCDIN,01F112,D1DDG03U,03,003930FF7FFF7FFC*4E``, UTC [2];
 - ``mxpgn`` (Shipmodul): ``$MXPGN,01F112,2803,FC7FFF7FFF303900*10``, no time;
-- ``pdgy`` (Digital Yacht): ``!PDGY,127250,2,3,255,100.000,ADkw/3//f/w=``, seconds [1];
+- ``pdgy`` (Digital Yacht): ``!PDGY,127250,2,3,255,100.000,ADkw/3//f/w=``, seconds [1] and
+  milliseconds written as an integer without zero padding (iKonvert: ``482.36`` is
+  482.036 s, between ``481.936`` and ``482.117``);
 - ``ebyte`` (binary): 13-byte TCP packets (type, CAN id big endian, data), no time;
 - ``waveshare`` (binary): 20-byte USB-CAN-A packets ``AA 55 ...`` with a checksum, no time;
 - ``bst_d0`` / ``bst_95`` (binary): Actisense BST D0 (reassembled PGN) / BST 95 (CAN frame) in
   BDTP framing, a millisecond counter [1];
-- ``python_can``: a python-can log file (``.blf``, ``.asc``, ``.trc``, ...), its stamps.
+- ``python_can``: a python-can log file (``.blf``, ``.asc``, ``.trc``, ...), its stamps;
+- ``ngt1`` (binary): the Actisense NGT-1 stream as ``actisense-serial`` records it: BST 93
+  ("NMEA 2000 message received": priority, PGN, destination, source, a millisecond counter,
+  the reassembled PGN) in BDTP framing, with a checksum; nmea2000 does not decode it, usvid
+  frames it itself [1].
 
 [1] a relative clock (seconds since the gateway started; the BST counters wrap at 2^32 ms and
 2^16 ms and are unwrapped); [2] 1/1024 s since 2010-01-01 (SeaSmart); [3] ``hhmmss.ddd`` (the
@@ -40,10 +46,16 @@ same canboat database (``nmea2000.backend.DATABASE.encode``, the function nmea20
 call) plus ``can_id_compose`` and ``fast_packet_fragment``; the framing of each format follows
 the package's encoders (``nmea2000.encoder_formats``), with real time stamps.
 
+Sources: every record keeps the source address of its sender; a channel that several
+devices give is taken from one of them (the spec's ``source:``, else the one with the most
+samples), the others are reported (:mod:`usvid.io.sources`), never interleaved.
+
 PGNs and the Trial channels they give (canboat field ids, SI):
 
-- 127250 Vessel Heading: ``heading`` -> ``psi`` [rad] (reference True; a magnetic heading plus
-  ``deviation`` and ``variation`` -> ``psi`` when no true heading is in the log);
+- 127250 Vessel Heading: ``heading`` -> ``psi`` [rad] (reference True); a magnetic heading plus
+  its ``deviation`` -> ``psi_mag``, which becomes ``psi`` (plus the magnetic variation of the
+  message, or of PGN 127258, their median; a warning when none is logged) when the log has no
+  true heading;
 - 127251 Rate of Turn: ``rate`` -> ``r`` [rad/s];
 - 127245 Rudder: ``position`` -> ``delta`` [rad] (instance 0; instance 1 -> ``delta_port``),
   ``angleOrder`` -> ``delta_cmd`` [rad];
@@ -51,7 +63,19 @@ PGNs and the Trial channels they give (canboat field ids, SI):
 - 129025 Position Rapid Update: ``latitude``/``longitude`` -> ``lat``/``lon`` [deg];
 - 129026 COG & SOG Rapid Update: ``cog`` -> ``cog`` [rad], ``sog`` -> ``sog`` [m/s];
 - 127488 Engine Parameters Rapid Update: ``speed`` [rev/s] -> ``n`` (instance 0, single engine),
-  ``n_port`` (instance 0) and ``n_stbd`` (instance 1) when both instances are present.
+  ``n_port`` (instance 0) and ``n_stbd`` (instance 1) when both instances are present;
+- 127257 Attitude: ``roll`` -> ``phi`` [rad, positive starboard down: list to starboard, as
+  Signal K reads it], ``pitch`` -> ``theta`` [rad, bow up], ``yaw`` -> ``psi`` [rad, taken as
+  true] when the log has no 127250 heading at all (a satellite compass);
+- 127258 Magnetic Variation: ``variation`` [rad, east positive] for a magnetic heading or wind;
+- 130306 Wind Data: ``windSpeed`` [m/s], ``windAngle`` [rad], by ``reference``: Apparent ->
+  ``wind_speed``, ``wind_angle`` (from the bow, clockwise, coming from); True (ground
+  referenced to North) -> ``wind_speed_true``, ``wind_dir_true`` (from north, coming from);
+  Magnetic (ground referenced to magnetic north) -> the same plus the variation when no true
+  reference is logged; True (boat referenced) and True (water referenced) -> ``wind_angle_true``
+  (the true wind angle from the bow, as NMEA 0183 MWV "T") and ``wind_speed_true`` when no
+  north-referenced true wind is logged, with ``wind_dir_true`` = ``wind_angle_true + psi``
+  (the heading interpolated at the wind's time, within 2 s; a finding says so).
 
 Rudder sign: NMEA 2000 defines a positive rudder angle as the vessel's bow turning to starboard,
 the Trial convention. Rejected records, counted per reason: ``garbage`` (not a record of the
@@ -86,11 +110,13 @@ from usvid.io._assemble import (
     read_log_bytes,
     utc_iso,
 )
+from usvid.io._derived import heading_from_magnetic, true_wind_direction, wind_from_magnetic
+from usvid.io.sources import Sources, select_sources
 from usvid.io.spec import N2K_FORMATS, FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
-PGNS = (127250, 127251, 127245, 128259, 129025, 129026, 127488)
+PGNS = (127250, 127251, 127245, 128259, 129025, 129026, 127488, 127257, 127258, 130306)
 #: System Time: the clock of a format without time stamps.
 SYSTEM_TIME_PGN = 126992
 _PGN_ID = {
@@ -101,8 +127,17 @@ _PGN_ID = {
     129025: "positionRapidUpdate",
     129026: "cogSogRapidUpdate",
     127488: "engineParametersRapidUpdate",
+    127257: "attitude",
+    127258: "magneticVariation",
+    130306: "windData",
     SYSTEM_TIME_PGN: "systemTime",
 }
+#: PGN 130306 wind references (canboat lookup WIND_REFERENCE) -> the (speed, angle) channels.
+WIND_REFERENCES = {0: ("wind_speed_true", "wind_dir_true"),  # True (ground referenced to North)
+                   1: ("_wind_speed_mag", "_wind_dir_mag"),  # Magnetic (ground, magnetic north)
+                   2: ("wind_speed", "wind_angle"),  # Apparent
+                   3: ("_wind_speed_boat", "wind_angle_true"),  # True (boat referenced)
+                   4: ("_wind_speed_water", "_wind_angle_water")}  # True (water referenced)
 #: SeaSmart ($PCDIN) timer origin: 2010-01-01T00:00:00Z [epoch s]; the timer counts 1/1024 s.
 PCDIN_EPOCH = 1262304000.0
 
@@ -134,6 +169,7 @@ FORMATS: dict[str, N2kFormat] = {
     "bst_d0": N2kFormat("rel", 2.0**32 / 1000.0, binary=True),
     "bst_95": N2kFormat("rel", 2.0**16 / 1000.0, binary=True),
     "python_can": N2kFormat("epoch", binary=True),
+    "ngt1": N2kFormat("rel", 2.0**32 / 1000.0, binary=True),
 }
 assert set(FORMATS) == set(N2K_FORMATS) - {"auto"}
 #: Suffixes of the python-can log files detected as ``n2k_format: python_can`` (any file
@@ -189,10 +225,23 @@ def _channels(msg) -> dict[str, float] | None:
         h = _val(f.get("heading"))
         if ref == 1:  # magnetic
             dev = _val(f.get("deviation"))
+            out = {"psi_mag": h + (0.0 if math.isnan(dev) else dev)}
             var = _val(f.get("variation"))
-            h = h + (0.0 if math.isnan(dev) else dev) + (0.0 if math.isnan(var) else var)
-            return {"psi_mag": h}
+            if not math.isnan(var):
+                out["_variation"] = var
+            return out
         return {"psi": h}
+    if pgn == 127257:
+        return {"_yaw": _val(f.get("yaw")), "theta": _val(f.get("pitch")),
+                "phi": _val(f.get("roll"))}
+    if pgn == 127258:
+        return {"_variation": _val(f.get("variation"))}
+    if pgn == 130306:
+        ref = _raw(f.get("reference"))
+        if ref not in WIND_REFERENCES:
+            return {}
+        sp, an = WIND_REFERENCES[ref]
+        return {sp: _val(f.get("windSpeed")), an: _val(f.get("windAngle"))}
     if pgn == 127251:
         return {"r": _val(f.get("rate"))}
     if pgn == 127245:
@@ -229,6 +278,9 @@ _FIELDS: dict[int, tuple[tuple[str, bool], ...]] = {
     129025: (("latitude", True), ("longitude", True)),
     129026: (("cog", False), ("sog", False)),
     127488: (("instance", False), ("speed", False)),
+    127257: (("yaw", True), ("pitch", True), ("roll", True)),
+    127258: (("variation", True),),
+    130306: (("windSpeed", False), ("windAngle", False), ("reference", False)),
     SYSTEM_TIME_PGN: (("date", False), ("time", False)),
 }
 _CODES = ("reference", "instance")
@@ -242,6 +294,15 @@ def _layout(pgn: int) -> tuple[tuple[str, int, int, float, bool], ...]:
     info = {f.id: f for f in DATABASE.pgn_info(_PGN_ID[pgn]).fields}
     return tuple((fid, int(info[fid].bit_offset), int(info[fid].bit_length),
                   float(info[fid].resolution or 1.0), signed) for fid, signed in _FIELDS[pgn])
+
+
+@functools.cache
+def _needed_bytes(pgn: int) -> int:
+    """Data bytes a record of ``pgn`` needs to hold every field read here (fewer: truncated);
+    8 for System Time and PGNs not decoded."""
+    if pgn not in _FIELDS or pgn == SYSTEM_TIME_PGN:
+        return 8
+    return max((off + ln + 7) // 8 for _, off, ln, _, _ in _layout(pgn))
 
 
 @functools.cache
@@ -315,8 +376,20 @@ def decode_payloads(pgn: np.ndarray, payload: np.ndarray
             put("psi", rows[~mag], val["heading"][~mag])
             if mag.any():
                 put("psi_mag", rows[mag], val["heading"][mag]
-                    + np.nan_to_num(val["deviation"][mag])
-                    + np.nan_to_num(val["variation"][mag]))
+                    + np.nan_to_num(val["deviation"][mag]))
+                var = val["variation"][mag]
+                put("_variation", rows[mag][np.isfinite(var)], var[np.isfinite(var)])
+        elif p == 127257:
+            put("_yaw", rows, val["yaw"])
+            put("theta", rows, val["pitch"])
+            put("phi", rows, val["roll"])
+        elif p == 127258:
+            put("_variation", rows, val["variation"])
+        elif p == 130306:
+            for ref, (sp, an) in WIND_REFERENCES.items():
+                k = raw["reference"] == ref
+                put(sp, rows[k], val["windSpeed"][k])
+                put(an, rows[k], val["windAngle"][k])
         elif p == 127251:
             put("r", rows, val["rate"])
         elif p == 127245:
@@ -371,13 +444,13 @@ _RE = {
     "candump1": re.compile(rf"^<0x({_H}{{1,8}})>\s+\[(\d+)\]{_BYTES}$"),
     "candump2": re.compile(rf"^[A-Za-z][A-Za-z0-9_-]*\s+({_H}{{8}})\s+\[(\d+)\]{_BYTES}$"),
     "n2k_ascii": re.compile(
-        rf"^A(\d\d)(\d\d)(\d\d(?:\.\d+)?)\s+{_H}{{5}}\s+({_H}{{5,6}})\s+({_H}*)$"),
-    "n2k_ascii_raw": re.compile(rf"^{_H}{{5}}\s+({_H}{{5,6}})\s+({_H}*)$"),
+        rf"^A(\d\d)(\d\d)(\d\d(?:\.\d+)?)\s+({_H}{{5}})\s+({_H}{{5,6}})\s+({_H}*)$"),
+    "n2k_ascii_raw": re.compile(rf"^({_H}{{5}})\s+({_H}{{5,6}})\s+({_H}*)$"),
     "can_frame_ascii": re.compile(
         rf"^(\d\d):(\d\d):(\d\d(?:\.\d+)?)\s+[RT]\s+({_H}{{8}}){_BYTES}$"),
     "can_frame_ascii_raw": re.compile(rf"^({_H}{{8}}){_BYTES}$"),
-    "pcdin": re.compile(rf"^\$PCDIN,({_H}{{6}}),([0-9A-Va-v]{{1,8}}),{_H}{{2}},({_H}*)$"),
-    "mxpgn": re.compile(rf"^\$MXPGN,({_H}{{6}}),({_H}{{2}}){_H}{{2}},({_H}*)$"),
+    "pcdin": re.compile(rf"^\$PCDIN,({_H}{{6}}),([0-9A-Va-v]{{1,8}}),({_H}{{2}}),({_H}*)$"),
+    "mxpgn": re.compile(rf"^\$MXPGN,({_H}{{6}}),({_H}{{2}})({_H}{{2}}),({_H}*)$"),
 }
 _BASIC_TIME = re.compile(r"^\d{4}-\d\d-\d\d[T-]\d\d:\d\d:\d\d(\.\d+)?Z?$")
 
@@ -434,11 +507,23 @@ def _basic_time(stamp: str) -> float:
         return math.nan
 
 
-def parse_text_record(fmt: str, line: str) -> tuple[float, int, bytes | None] | str | None:
-    """``(wire time [s] or NaN, PGN, payload)`` of one line of text format ``fmt`` (the payload
-    in wire order: a CAN frame's data, or the whole PGN of a reassembled format; None when its
-    data field is malformed); None when the line is not a record of the format, ``"checksum"``
-    when its sentence checksum is wrong."""
+def pdgy_time(stamp: str) -> float:
+    """Seconds [s] of a Digital Yacht PDGY stamp: whole seconds, a point, then the
+    milliseconds as an integer without zero padding (iKonvert writes 482.036 s as ``482.36``,
+    and 482.117 s as ``482.117``); NaN when it is not such a stamp."""
+    sec, dot, ms = stamp.partition(".")
+    if not sec.isdigit() or (dot and not (ms.isdigit() and len(ms) <= 3)):
+        return math.nan
+    return int(sec) + (int(ms) / 1000.0 if ms else 0.0)
+
+
+def parse_text_record(fmt: str, line: str
+                      ) -> tuple[float, int, bytes | None, int] | str | None:
+    """``(wire time [s] or NaN, PGN, payload, source address)`` of one line of text format
+    ``fmt`` (the payload in wire order: a CAN frame's data, or the whole PGN of a reassembled
+    format; None when its data field is malformed; the source -1 where the format gives none);
+    None when the line is not a record of the format, ``"checksum"`` when its sentence checksum
+    is wrong."""
     nan = math.nan
     if fmt == "basic_string":
         p = line.split(",")
@@ -450,16 +535,18 @@ def parse_text_record(fmt: str, line: str) -> tuple[float, int, bytes | None] | 
             data = bytes.fromhex("".join(p[6:]))
         except ValueError:
             return None
-        return _basic_time(p[0]), int(p[2]), data if len(data) >= int(p[5]) else None
+        return (_basic_time(p[0]), int(p[2]), data if len(data) >= int(p[5]) else None,
+                int(p[3]) & 0xFF)
     if fmt == "pdgy":
         if not line.startswith("!PDGY,"):
             return None
         p = line.split(",")
         try:
             if len(p) == 7:
-                return float(p[5]), int(p[1]), base64.b64decode(p[6], validate=True)
+                return (pdgy_time(p[5]), int(p[1]), base64.b64decode(p[6], validate=True),
+                        int(p[3]) & 0xFF)
             if len(p) == 4:
-                return nan, int(p[1]), base64.b64decode(p[3], validate=True)
+                return nan, int(p[1]), base64.b64decode(p[3], validate=True), -1
         except ValueError:
             return None
         return None
@@ -471,13 +558,14 @@ def parse_text_record(fmt: str, line: str) -> tuple[float, int, bytes | None] | 
         if ok is False:
             return "checksum"
         pgn = int(m.group(1), 16)
-        data = _hex(m.group(3))
+        data = _hex(m.group(4))
+        src = int(m.group(3), 16)
         if fmt == "pcdin":
-            return int(m.group(2), 32) / 1024 + PCDIN_EPOCH, pgn, data
+            return int(m.group(2), 32) / 1024 + PCDIN_EPOCH, pgn, data, src
         # Shipmodul: the data bytes in reverse order, their count in the attribute word
         if data is None or len(data) != int(m.group(2), 16) & 0x0F:
-            return nan, pgn, None
-        return nan, pgn, data[::-1]
+            return nan, pgn, None, src
+        return nan, pgn, data[::-1], src
     m = _RE[fmt].match(line)
     if m is None:
         return None
@@ -488,18 +576,24 @@ def parse_text_record(fmt: str, line: str) -> tuple[float, int, bytes | None] | 
         except ValueError:
             stamp = nan
         data = _hex(g[2])
-        return stamp, pgn_of_can_id(int(g[1], 16)), data if data is None or len(data) <= 8 else None
+        cid = int(g[1], 16)
+        return (stamp, pgn_of_can_id(cid), data if data is None or len(data) <= 8 else None,
+                cid & 0xFF)
     if fmt in ("candump1", "candump2"):
-        return nan, pgn_of_can_id(int(g[0], 16)), _spaced(g[2], int(g[1]))
-    if fmt == "n2k_ascii":
-        return int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), int(g[3], 16), _hex(g[4])
+        cid = int(g[0], 16)
+        return nan, pgn_of_can_id(cid), _spaced(g[2], int(g[1])), cid & 0xFF
+    if fmt == "n2k_ascii":  # the 5 hex digits: source (2), destination (2), priority (1)
+        return (int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), int(g[4], 16), _hex(g[5]),
+                int(g[3], 16) >> 12)
     if fmt == "n2k_ascii_raw":
-        return nan, int(g[0], 16), _hex(g[1])
+        return nan, int(g[1], 16), _hex(g[2]), int(g[0], 16) >> 12
     if fmt == "can_frame_ascii":
-        return (int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), pgn_of_can_id(int(g[3], 16)),
-                _spaced(g[4]))
+        cid = int(g[3], 16)
+        return (int(g[0]) * 3600 + int(g[1]) * 60 + float(g[2]), pgn_of_can_id(cid),
+                _spaced(g[4]), cid & 0xFF)
     # can_frame_ascii_raw
-    return nan, pgn_of_can_id(int(g[0], 16)), _spaced(g[1])
+    cid = int(g[0], 16)
+    return nan, pgn_of_can_id(cid), _spaced(g[1]), cid & 0xFF
 
 
 _DLE, _STX, _ETX = 0x10, 0x02, 0x03
@@ -539,9 +633,10 @@ def bdtp_frames(blob: bytes) -> Iterator[tuple[int, int, bytes | None]]:
         i = blob.find(b"\x10\x02", nxt)
 
 
-def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, bytes] | str]:
-    """Records of a binary format: ``(wire time [s] or NaN, PGN, payload in wire order)``, or a
-    reason string (``garbage``, ``truncated``, ``bad_frame``) for a damaged stretch."""
+def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, bytes, int] | str]:
+    """Records of a binary format: ``(wire time [s] or NaN, PGN, payload in wire order, source
+    address)``, or a reason string (``garbage``, ``truncated``, ``bad_frame``) for a damaged
+    stretch."""
     nan = math.nan
     if fmt == "ebyte":
         i, n, junk = 0, len(blob), False
@@ -550,7 +645,8 @@ def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, bytes] |
             ln = b & 0x0F
             if b & 0x80 and 1 <= ln <= 8 and i + 5 + ln <= n:
                 pkt = blob[i:i + 5 + ln]
-                yield nan, pgn_of_can_id(int.from_bytes(pkt[1:5], "big") & 0x1FFFFFFF), pkt[5:]
+                cid = int.from_bytes(pkt[1:5], "big") & 0x1FFFFFFF
+                yield nan, pgn_of_can_id(cid), pkt[5:], cid & 0xFF
                 i += 5 + ln
                 junk = False
                 continue
@@ -578,11 +674,11 @@ def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, bytes] |
                 i = k + 2
                 continue
             cid = int.from_bytes(pkt[5:9], "little") & 0x1FFFFFFF
-            yield nan, pgn_of_can_id(cid), pkt[10:10 + min(pkt[9], 8)]
+            yield nan, pgn_of_can_id(cid), pkt[10:10 + min(pkt[9], 8)], cid & 0xFF
             i = k + 20
         return
-    # bst_d0 / bst_95 in BDTP framing
-    want = 0xD0 if fmt == "bst_d0" else 0x95
+    # bst_d0 / bst_95 / ngt1 (BST 93) in BDTP framing
+    want = {"bst_d0": 0xD0, "bst_95": 0x95, "ngt1": 0x93}[fmt]
     last = 0
     for off, end, blk in bdtp_frames(blob):
         if off > last and blob[last:off].strip(b"\x00"):
@@ -590,6 +686,9 @@ def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, bytes] |
         last = end
         if blk is None:
             yield "truncated"
+            continue
+        if blk and want == 0x93 and blk[0] == 0xA0:
+            yield "device_message"  # the NGT-1's own status and settings
             continue
         if not blk or blk[0] != want:
             yield "garbage"
@@ -602,13 +701,22 @@ def binary_records(fmt: str, blob: bytes) -> Iterator[tuple[float, int, bytes] |
                 yield "bad_frame"
                 continue
             ms = int.from_bytes(blk[9:13], "little")
-            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), blk[13:-1]
+            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), blk[13:-1], blk[4]
+        elif want == 0x93:
+            # 93, length (of what follows up to the checksum), priority, PGN (3 bytes, little
+            # endian), destination, source, milliseconds (4), data length, data, checksum
+            if len(blk) < 14 or blk[1] != len(blk) - 3 or blk[12] != len(blk) - 14:
+                yield "bad_frame"
+                continue
+            ms = int.from_bytes(blk[8:12], "little")
+            pgn = int.from_bytes(blk[3:6], "little") & 0x3FFFF
+            yield ms / 1000.0, pgn, blk[13:-1], blk[7]
         else:
             if len(blk) < 9 or blk[1] != len(blk) - 3:
                 yield "bad_frame"
                 continue
             ms = int.from_bytes(blk[2:4], "little")
-            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), blk[8:-1]
+            yield ms / 1000.0, _pgn_dpp(blk[5], blk[6], blk[7]), blk[8:-1], blk[4]
     if blob[last:].strip(b"\x00"):
         yield "garbage"
 
@@ -636,10 +744,15 @@ def _library_text_format(line: str) -> str | None:
     return f
 
 
+#: The first byte of a BDTP frame (the BST command) of each binary Actisense format.
+_BST_COMMANDS = {0xD0: "bst_d0", 0x95: "bst_95", 0x93: "ngt1"}
+
+
 def detect_n2k_format(path: Path, head: bytes) -> str | None:
     """The NMEA 2000 wire format of a log from its first bytes ``head`` (None: not one)."""
-    if head[:2] == b"\x10\x02" and len(head) > 2 and head[2] in (0xD0, 0x95):
-        return "bst_d0" if head[2] == 0xD0 else "bst_95"
+    k = head.find(b"\x10\x02", 0, 16)  # (a capture may start inside a frame)
+    if k >= 0 and len(head) > k + 2 and head[k + 2] in _BST_COMMANDS:
+        return _BST_COMMANDS[head[k + 2]]
     if head[:2] == b"\xaa\x55":
         return "waveshare"
     if head[:4] == b"LOGG" or path.suffix.lower() in PYTHON_CAN_SUFFIXES:
@@ -708,7 +821,8 @@ def _python_can_records(path: Path):
             if not m.is_extended_id or m.is_error_frame or m.is_remote_frame:
                 yield "garbage"
                 continue
-            yield float(m.timestamp), pgn_of_can_id(m.arbitration_id), bytes(m.data)
+            yield (float(m.timestamp), pgn_of_can_id(m.arbitration_id), bytes(m.data),
+                   m.arbitration_id & 0xFF)
     except Exception:  # python-can raises struct/zlib/value errors on a damaged file
         yield "damaged"
     finally:
@@ -746,11 +860,13 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     info = FORMATS[fmt]
     rejected: dict[str, int] = {}
     ignored: dict[int, int] = {}
-    wires: list[float] = []  # per record kept: wire time (NaN: none), PGN, 8-byte payload
-    pgns: list[int] = []
+    wires: list[float] = []  # per record kept: wire time (NaN: none), PGN, 8-byte payload,
+    pgns: list[int] = []  # source address (-1: none in the format)
     payloads: list[bytes] = []
+    srcs: list[int] = []
     first_bad: int | None = None
     n_records = 0
+    device_msgs = 0  # NGT-1 messages of the gateway itself (BST A0), not bus traffic
     wanted = {*PGNS, SYSTEM_TIME_PGN}
     epoch_clock = info.clock == "epoch"
 
@@ -760,19 +876,21 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
         if first_bad is None:
             first_bad = where
 
-    def take(where: int, wire: float, pgn: int, payload: bytes | None) -> None:
+    def take(where: int, wire: float, pgn: int, payload: bytes | None, src: int) -> None:
         if pgn not in wanted:
             ignored[pgn] = ignored.get(pgn, 0) + 1
         elif payload is None:
             rej("garbage", where)
-        elif len(payload) < 8:  # every PGN read here is a single 8-byte frame
+        elif len(payload) < _needed_bytes(pgn):  # every PGN read here is a single frame
             rej("truncated", where)
         elif epoch_clock and not (math.isfinite(wire) and abs(wire) <= MAX_EPOCH_S):
             rej("no_time", where)
         else:
             wires.append(wire)
             pgns.append(pgn)
-            payloads.append(payload[:8])
+            # (a sender may leave out trailing reserved bytes: "not available" there)
+            payloads.append(payload[:8].ljust(8, b"\xff"))
+            srcs.append(src)
 
     if not info.binary:
         text = blob.decode("ascii", errors="replace")
@@ -789,7 +907,7 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
             if isinstance(r, str):
                 rej(r, lineno)
                 continue
-            take(lineno, r[0], r[1], r[2])
+            take(lineno, r[0], r[1], r[2], r[3])
         what = f"{len(lines)} line(s)"
     else:
         recs = (_python_can_records(path) if fmt == "python_can"
@@ -800,10 +918,12 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
             if isinstance(r, str):
                 if r == "damaged":
                     damaged = True
+                elif r == "device_message":
+                    device_msgs += 1
                 else:
                     rej(r, n_records)
                 continue
-            take(n_records, r[0], r[1], r[2])
+            take(n_records, r[0], r[1], r[2], r[3])
         what = f"{n_records} record(s)"
         if damaged:
             rej("damaged_file", n_records)
@@ -812,6 +932,11 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     if ignored:
         meta["ignored_pgns"] = {str(k): v for k, v in sorted(ignored.items())}
         findings.append(ignored_finding(path, "ignored_pgns", "frame(s) of PGNs", ignored))
+    if device_msgs:
+        findings.append(Finding(
+            "info", "gateway_messages", f"{path.name}: ignored {device_msgs} message(s) of the "
+            "NGT-1 gateway itself (BST A0: its status and settings, no bus traffic)",
+            count=device_msgs))
 
     def fail(extra: str = "") -> LogReadError:
         detail = ", ".join(f"{k}: {v}" for k, v in sorted(rejected.items()))
@@ -842,6 +967,8 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
     systs = np.where(last >= 0, sys_epoch[np.maximum(last, 0)], np.nan)
     w = w_all[data]
     chans = {k: v[data] for k, v in chans.items()}
+    src = np.asarray(srcs, dtype=np.int64)[data]
+    stream = pg[data] * 256 + src  # a message stream: one PGN from one sender
     clock = info.clock
     if fmt == "python_can" and np.nanmax(np.abs(w)) < 1e8:
         clock = "rel"  # python-can gives time since the start of the file (e.g. .asc, .trc)
@@ -857,6 +984,7 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
         keep = np.isfinite(w)
         _add_no_time(rejected, int((~keep).sum()))
         chans = {k: v[keep] for k, v in chans.items()}
+        src, stream = src[keep], stream[keep]
         t_abs = w[keep]
         first_sys = np.flatnonzero(sys_ok & np.isfinite(unw))
         if len(first_sys):  # the first System Time on the same clock dates the log
@@ -870,6 +998,7 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
                        f"(PGN {SYSTEM_TIME_PGN})")
         _add_no_time(rejected, int((~ok).sum()))
         chans = {k: v[ok] for k, v in chans.items()}
+        src, stream = src[ok], stream[ok]
         t_abs = s_d[ok]
         t0_epoch = float(np.min(t_abs))
     # engine instances -> n or n_port/n_stbd
@@ -880,25 +1009,101 @@ def read_nmea2000(path: str | Path, spec: FormatSpec | None = None) -> Trial:
         for k in eng:
             inst = int(k[len("_engine"):])
             chans[{0: "n_port", 1: "n_stbd"}.get(inst, f"n_{inst}")] = chans.pop(k)
-    if "psi_mag" in chans and not np.isfinite(chans.get("psi", np.array([np.nan]))).any():
-        chans["psi"] = chans.pop("psi_mag")
     # fields the bus marked "not available" throughout (e.g. an unused angleOrder) are absent
     chans = {k: v for k, v in chans.items() if np.isfinite(v).any()}
     t_min = float(np.min(t_abs))
+    t_rel = t_abs - t_min
+    # one source per channel (the spec's, else the most samples); the others reported
+    labels = {int(a): (f"0x{int(a):02X}" if a >= 0 else "unknown") for a in np.unique(src)}
+    sources = Sources(src, labels, {int(a): int(a) for a in np.unique(src) if a >= 0},
+                      "source address", "source addresses")
+    chans, sourced, found, smeta = select_sources(path, t_rel, chans, sources, spec,
+                                                  reader="nmea2000")
+    findings += found
+    meta.update(smeta)
+    _derive(path, t_rel, chans, findings)
+    chans = {k: v for k, v in chans.items()
+             if not k.startswith("_") and np.isfinite(v).any()}
+    # records left without a value: another source's (reported above) or consumed by a
+    # derived channel (a magnetic variation) - not bad records
+    used = np.zeros(len(t_rel), dtype=bool)
+    for v in (*chans.values(), *sourced.values()):
+        used |= np.isfinite(v)
+    if not used.all():
+        chans = {k: v[used] for k, v in chans.items()}
+        sourced = {k: v[used] for k, v in sourced.items()}
+        t_rel, stream = t_rel[used], stream[used]
+    _check_bus_rate(path, t_rel, findings)
     if math.isfinite(t0_epoch):
         meta["t0_epoch"] = t0_epoch
         meta["t0_utc"] = utc_iso(t0_epoch)
-    chans = apply_renames(chans, spec)
+    chans = apply_renames(chans, spec, sourced)
     return assemble(
         path,
-        t_abs - t_min,
+        t_rel,
         chans,
         spec=spec,
         rejected=rejected,
         findings=findings,
         count_duplicates=False,
         meta=meta,
+        streams=stream,
     )
+
+
+#: Records per second no NMEA 2000 bus carries: 250 kbit/s over CAN frames of 8 data bytes
+#: (at least 111 bits with a 29-bit identifier, before bit stuffing) is at most 2,250 frames/s,
+#: and a reassembled fast-packet PGN is several frames.
+MAX_BUS_RECORDS_S = 2250.0
+
+
+def _check_bus_rate(path: Path, t: np.ndarray, findings: list[Finding]) -> None:
+    """A warning when the records decoded here arrive faster than a bus can carry them (over
+    the whole log, at least 100 records): their stamps are not their times of arrival (a
+    recorder that stamped a buffer as it read it)."""
+    n = len(t)
+    span = float(np.max(t) - np.min(t)) if n else 0.0
+    if n < 100 or n <= MAX_BUS_RECORDS_S * span:
+        return
+    rate = n / span if span > 0 else math.inf
+    findings.append(Finding(
+        "warning", "time_stamps_collapsed",
+        f"{path.name}: {n} records of the PGNs read are stamped within {span:.3f} s "
+        f"({rate:,.0f} per second, more than a 250 kbit/s NMEA 2000 bus carries: at most "
+        f"{MAX_BUS_RECORDS_S:,.0f}): the stamps are not the records' times of arrival (a "
+        "recorder that stamped a buffer as it read it); rates, derivatives and the physics "
+        "checks of this log are meaningless", count=n,
+        data={"records": n, "span_s": span}))
+
+
+def _derive(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
+            findings: list[Finding]) -> None:
+    """Channels derived from others (module docstring): the heading from PGN 127257's yaw or a
+    magnetic heading, the true wind from its magnetic or bow-referenced forms. In place."""
+    if not ("psi" in chans and np.isfinite(chans["psi"]).any()):
+        yaw = chans.get("_yaw")
+        mag = chans.get("psi_mag")
+        if mag is not None and np.isfinite(mag).any():  # 127250 says it is magnetic
+            heading_from_magnetic(path, chans, findings, "PGN 127250")
+        elif yaw is not None and np.isfinite(yaw).any():
+            chans["psi"] = np.remainder(yaw, 2 * math.pi)
+            findings.append(Finding(
+                "info", "heading_from_attitude",
+                f"{path.name}: no heading (PGN 127250) in the log: psi is the yaw of the "
+                "attitude (PGN 127257), taken as a true heading (a satellite compass; the "
+                "yaw of a magnetic compass is off by the variation)",
+                count=int(np.isfinite(yaw).sum()), channel="psi"))
+    wind_from_magnetic(path, chans, findings, "PGN 130306")
+    have = {k for k, v in chans.items() if np.isfinite(v).any()}
+    for sp, an in (("_wind_speed_boat", "wind_angle_true"),
+                   ("_wind_speed_water", "_wind_angle_water")):
+        if sp in have and "wind_speed_true" not in have:
+            chans["wind_speed_true"] = chans[sp]
+            have.add("wind_speed_true")
+        if an in have and "wind_angle_true" not in have:
+            chans["wind_angle_true"] = chans[an]
+            have.add("wind_angle_true")
+    true_wind_direction(path, t, chans, findings, "PGN 130306")
 
 
 def _add_no_time(rejected: dict[str, int], n: int) -> None:
@@ -1069,7 +1274,7 @@ def nmea2000_bytes(
     for st, pgn, fields in msgs:
         rel = st - e0 + boot_offset_s  # a gateway clock started boot_offset_s before the log
         if n2k_format in ("n2k_ascii", "n2k_ascii_raw", "basic_string", "pcdin", "mxpgn",
-                          "pdgy", "bst_d0"):  # reassembled PGN formats
+                          "pdgy", "bst_d0", "ngt1"):  # reassembled PGN formats
             pl = enc.payload(pgn, fields)
             if n2k_format in ("n2k_ascii", "n2k_ascii_raw"):
                 rec = f"{(src << 12) | (255 << 4) | prio:05X} {pgn:05X} {pl.hex().upper()}"
@@ -1086,9 +1291,15 @@ def nmea2000_bytes(
             elif n2k_format == "mxpgn":
                 attr = f"{(prio & 7) << 4 | (len(pl) & 0x0F):02X}{src:02X}"
                 out_t.append(_nmea0183(f"$MXPGN,{pgn:06X},{attr},{pl[::-1].hex().upper()}"))
-            elif n2k_format == "pdgy":
-                out_t.append(f"!PDGY,{pgn},{prio},{src},255,{rel:.3f},"
+            elif n2k_format == "pdgy":  # (iKonvert: milliseconds without zero padding)
+                ms = round(rel * 1000)
+                out_t.append(f"!PDGY,{pgn},{prio},{src},255,{ms // 1000}.{ms % 1000},"
                              + base64.b64encode(pl).decode("ascii"))
+            elif n2k_format == "ngt1":
+                ms = round(rel * 1000) % 2**32
+                blk = bytes([0x93, 11 + len(pl), prio, *pgn.to_bytes(3, "little"), 255, src,
+                             *ms.to_bytes(4, "little"), len(pl)]) + pl
+                out_b.append(_bdtp(_bst_checksum(blk)))
             else:  # bst_d0
                 pf = (pgn >> 8) & 0xFF
                 head = bytes([0xD0, *(13 + len(pl)).to_bytes(2, "little"), 255, src,

@@ -1,31 +1,47 @@
-"""NMEA 0183 logs: reader (GGA RMC VTG HDT HDG THS ROT RSA, any talker) and writer.
+"""NMEA 0183 logs: reader (GGA RMC GLL ZDA VTG HDT HDG HDM THS ROT RSA VHW MWV MWD VWR VWT XDR,
+any talker) and writer.
 
 Line format: an optional *log-line time prefix* (ISO 8601 date-time such as
 ``2025-11-24T12:00:00.125Z``, or epoch seconds such as ``1764000000.125``, optionally in ``()`` or
 ``[]``), then the sentence ``$ttSSS,...*hh``. Time of a record (``time_source``):
 
 - ``prefix``: the prefix of its line (lines without one are rejected as ``no_time``);
-- ``sentence``: the UTC time of GGA/RMC (+ the RMC date when present; midnight roll-over unwrapped);
-  sentences without their own time (HDT, ROT, RSA, VTG, ...) get a time interpolated linearly in
-  line position between the neighbouring time-stamped sentences (a ``time_interpolated`` finding
-  says how many), clamped at the ends;
+- ``sentence``: the UTC time of GGA/RMC/GLL/ZDA (+ the RMC or ZDA date when present; midnight
+  roll-over unwrapped). A sentence without its own time that a talker sends once per fix (VTG,
+  GSA after RMC: at most once between two timed sentences of the same talker) gets the time of
+  the fix it follows (a ``time_from_epoch`` finding counts them); the others (another
+  talker's, or several per fix such as a 10 Hz heading) a time interpolated linearly in line
+  position between the neighbouring timed sentences (``time_interpolated``), clamped at the
+  ends;
 - ``auto`` (default): ``prefix`` when most sentence lines carry a parseable prefix, else
   ``sentence``.
 
 Times are seconds since the first record (``t`` [s]); ``meta["t0_utc"]`` is the ISO time of t = 0
-when the log gives a date (epoch prefix, ISO prefix or RMC date).
+when the log gives a date (epoch prefix, ISO prefix, RMC or ZDA date).
 
-Channels (Trial units): ``lat``, ``lon`` [deg] (GGA, RMC), ``sog`` [m/s] and ``cog`` [rad] (RMC,
-VTG), ``psi`` [rad] (HDT, THS; HDG's magnetic heading + deviation + variation when no true heading
-is in the log, else kept as ``psi_hdg``), ``r`` [rad/s] (ROT, deg/min, negative = bow to port),
-``delta`` [rad] (RSA starboard/single rudder, negative = bow to port, i.e. the Trial convention),
-``delta_port`` [rad] (RSA port rudder when valid).
+Channels (Trial units): ``lat``, ``lon`` [deg] (GGA, RMC, GLL), ``sog`` [m/s] and ``cog`` [rad]
+(RMC, VTG), ``stw`` [m/s] (VHW), ``psi`` [rad] (HDT, THS); ``psi_mag`` [rad] the magnetic heading
+plus its deviation (HDG, HDM), which becomes ``psi`` with the logged magnetic variation (HDG,
+RMC) when no true heading is in the log (:mod:`usvid.io._derived`); ``r`` [rad/s] (ROT,
+deg/min, negative = bow to port), ``delta`` [rad] (RSA starboard/single rudder, negative = bow to
+port, i.e. the Trial convention), ``delta_port`` [rad] (RSA port rudder when valid); wind:
+``wind_speed``, ``wind_angle`` (MWV "R", VWR: apparent, from the bow, clockwise, coming from),
+``wind_speed_true``, ``wind_angle_true`` (MWV "T", VWT: the true wind from the bow; with a
+heading ``wind_dir_true = wind_angle_true + psi``), ``wind_speed_true``, ``wind_dir_true`` (MWD:
+from north; a magnetic-only MWD with the variation); XDR angle groups (type A, unit D) named
+ROLL/HEEL -> ``phi`` (positive starboard down), PITCH/TRIM -> ``theta`` (bow up), RUDDER ->
+``delta``.
+
+Sources: the talker of each sentence is its sender; a channel that several talkers give is
+taken from one (``source:`` in the spec, else the one with the most samples) and the others are
+reported (:mod:`usvid.io.sources`), never interleaved.
 
 Rejected records, counted per reason in ``Trial.rejected``: ``garbage`` (no ``$``/``!``, or bytes
 that are not printable ASCII), ``truncated`` (no ``*hh`` checksum field at the end),
 ``checksum`` (mismatch), ``bad_fields`` (a known sentence whose fields do not parse),
 ``invalid_flag`` (a status/mode field saying the data are invalid: RMC ``V``, GGA quality 0,
-THS ``V``, ROT/RSA ``V``), ``no_time`` (no usable time), plus those of
+GLL ``V`` or mode ``N``, THS ``V``, ROT/RSA/MWV ``V``), ``no_time`` (no usable time), plus those
+of
 :func:`usvid.io._assemble.assemble`. Other well-formed sentences are ignored and counted in
 ``meta["ignored_sentences"]`` and an info finding.
 
@@ -35,8 +51,11 @@ buffer, then ``bytes.split`` per line; about 10x the rate of per-line pynmeagps)
 both give identical trials on clean logs and on logs with damaged framing (checksum, truncation,
 garbage). One known difference: pynmeagps validates every field of a sentence, the fast path only
 the fields usvid decodes, so a sentence with a malformed field usvid does not use (e.g. RMC's
-magnetic variation) is ``bad_fields`` for the pynmeagps engine and read by the fast one. Times
-and dates of GGA/RMC are parsed by usvid's strict rules in both engines.
+magnetic variation) is ``bad_fields`` for the pynmeagps engine and read by the fast one (so is
+an XDR with one malformed group: the fast engine skips that group). Times and dates of GGA/RMC
+are parsed by usvid's strict rules in both engines; GLL, ZDA, HDM, VHW and the wind and XDR
+sentences are decoded by usvid's field rules in both (after pynmeagps has checked the
+sentence).
 """
 
 from __future__ import annotations
@@ -58,15 +77,26 @@ from usvid.io._assemble import (
     read_log_bytes,
     utc_iso,
 )
+from usvid.io._derived import heading_from_magnetic, true_wind_direction, wind_from_magnetic
+from usvid.io.sources import Sources, select_sources
 from usvid.io.spec import FormatSpec
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
 KN = 1852.0 / 3600.0  # m/s per knot
 DEG = math.pi / 180.0
-TYPES = ("GGA", "RMC", "VTG", "HDT", "HDG", "THS", "ROT", "RSA")
+TYPES = ("GGA", "RMC", "GLL", "ZDA", "VTG", "HDT", "HDG", "HDM", "THS", "ROT", "RSA", "MWV",
+         "MWD", "VWR", "VWT", "VHW", "XDR")
 _FAST_TYPES = {f"{t},".encode(): t for t in TYPES}
-_TIMED = ("GGA", "RMC")
+#: Sentences that carry a UTC time of day (and ZDA, RMC a date).
+_TIMED = ("GGA", "RMC", "GLL", "ZDA")
+#: Types decoded with usvid's own field rules in both engines (pynmeagps validates the
+#: sentence; its field model of these differs between versions, or it refuses XDR groups
+#: whose value is malformed although the others are good).
+_OWN_RULES = ("GLL", "ZDA", "HDM", "MWV", "MWD", "VWR", "VWT", "VHW", "XDR")
+#: XDR transducer names (upper case) of an angle [deg] and the channel they give.
+XDR_ANGLES = {"ROLL": "phi", "HEEL": "phi", "PITCH": "theta", "PTCH": "theta", "TRIM": "theta",
+              "RUDDER": "delta", "RUD": "delta"}
 _HEX = np.full(256, 255, dtype=np.uint8)
 for _i, _c in enumerate(b"0123456789ABCDEF"):
     _HEX[_c] = _i
@@ -245,12 +275,34 @@ def _decode_fields(typ: str, f: list[bytes]) -> tuple[float, float, dict[str, fl
             if f[1] == b"V":
                 return None
             raise ValueError("RMC status")
-        return tod, day, {
+        out = {
             "lat": _latlon(f[2], f[3], b"S", 2),
             "lon": _latlon(f[4], f[5], b"W", 3),
             "sog": _num(f[6]) * KN,
             "cog": _num(f[7]) * DEG,
         }
+        if len(f) >= 11 and f[9]:  # magnetic variation, east positive
+            out["_variation"] = _num(f[9]) * DEG * (-1.0 if f[10] == b"W" else 1.0)
+        return tod, day, out
+    if typ == "GLL":
+        if len(f) < 5:
+            raise ValueError("GLL fields")
+        tod = _hms(f[4]) if f[4] else nan
+        if (len(f) >= 6 and f[5] == b"V") or (len(f) >= 7 and f[6] == b"N"):
+            return None
+        return tod, nan, {"lat": _latlon(f[0], f[1], b"S", 2),
+                          "lon": _latlon(f[2], f[3], b"W", 3)}
+    if typ == "ZDA":
+        if len(f) < 4:
+            raise ValueError("ZDA fields")
+        tod = _hms(f[0]) if f[0] else nan
+        day = nan
+        if f[1] and f[2] and f[3]:
+            y = int(f[3])
+            y = 2000 + y if len(f[3]) <= 2 else y  # (some loggers write two digits)
+            d = date(y, int(f[2]), int(f[1]))
+            day = datetime(d.year, d.month, d.day, tzinfo=UTC).timestamp()
+        return tod, day, {}
     if typ == "VTG":
         if len(f) < 7:
             raise ValueError("VTG fields")
@@ -275,12 +327,35 @@ def _decode_fields(typ: str, f: list[bytes]) -> tuple[float, float, dict[str, fl
             raise ValueError("HDG fields")
         h = _num(f[0])
         dev = _num(f[1]) if f[1] else 0.0
-        var = _num(f[3]) if f[3] else 0.0
         if f[1] and f[2] == b"W":
             dev = -dev
-        if f[3] and f[4] == b"W":
-            var = -var
-        return nan, nan, {"psi_hdg": (h + dev + var) * DEG}
+        out = {"psi_mag": (h + dev) * DEG}
+        if f[3]:
+            out["_variation"] = _num(f[3]) * DEG * (-1.0 if f[4] == b"W" else 1.0)
+        return nan, nan, out
+    if typ == "HDM":
+        if len(f) < 1:
+            raise ValueError("HDM fields")
+        return nan, nan, {"psi_mag": _num(f[0]) * DEG}
+    if typ in ("MWV", "VWR", "VWT"):
+        return _wind(typ, f)
+    if typ == "MWD":
+        if len(f) < 8:
+            raise ValueError("MWD fields")
+        spd = _num(f[6]) if f[6] else _num(f[4]) * KN
+        out = {"wind_speed_true": spd}
+        if f[0]:
+            out["wind_dir_true"] = _num(f[0]) * DEG
+        elif f[2]:
+            out["_wind_dir_mag"] = _num(f[2]) * DEG
+        return nan, nan, out
+    if typ == "VHW":
+        if len(f) < 7:
+            raise ValueError("VHW fields")
+        stw = _num(f[4]) * KN if f[4] else _num(f[6]) / 3.6
+        return nan, nan, {"stw": stw}
+    if typ == "XDR":
+        return nan, nan, _xdr(f)
     if typ == "ROT":
         if len(f) < 2:
             raise ValueError("ROT fields")
@@ -305,6 +380,58 @@ def _decode_fields(typ: str, f: list[bytes]) -> tuple[float, float, dict[str, fl
     raise ValueError(typ)
 
 
+#: Wind speed units of MWV and their factor to m/s (K km/h, M m/s, N knots, S statute mph).
+_WIND_UNITS = {b"K": 1.0 / 3.6, b"M": 1.0, b"N": KN, b"S": 1609.344 / 3600.0}
+
+
+def _wind(typ: str, f: list[bytes]) -> tuple[float, float, dict[str, float]] | None:
+    """MWV (angle 0-360 clockwise from the bow, R relative / T true, speed and its unit,
+    status) and VWR / VWT (angle 0-180 and L/R, speed in knots, m/s or km/h): the wind comes
+    from that angle. R and VWR: apparent (``wind_speed``, ``wind_angle``); T and VWT: the true
+    wind relative to the bow (``wind_speed_true``, ``wind_angle_true``)."""
+    nan = math.nan
+    if typ == "MWV":
+        if len(f) < 4:
+            raise ValueError("MWV fields")
+        if len(f) >= 5 and f[4] == b"V":
+            return None
+        if f[1] not in (b"R", b"T") or (f[2] and f[3] not in _WIND_UNITS):
+            raise ValueError("MWV reference or unit")
+        ang = _num(f[0]) * DEG
+        spd = _num(f[2]) * _WIND_UNITS[f[3]] if f[2] else nan
+        true = f[1] == b"T"
+    else:
+        if len(f) < 6:
+            raise ValueError(f"{typ} fields")
+        if f[0] and f[1] not in (b"L", b"R"):
+            raise ValueError(f"{typ} side")
+        ang = _num(f[0]) * DEG * (-1.0 if f[1] == b"L" else 1.0)
+        spd = (_num(f[4]) if f[4] else _num(f[2]) * KN if f[2] else
+               _num(f[6]) / 3.6 if len(f) >= 7 and f[6] else nan)
+        true = typ == "VWT"
+    if true:
+        return nan, nan, {"wind_speed_true": spd, "wind_angle_true": ang}
+    return nan, nan, {"wind_speed": spd, "wind_angle": ang}
+
+
+def _xdr(f: list[bytes]) -> dict[str, float]:
+    """XDR transducer groups (type, value, unit, name): angles (type A, unit D) named roll or
+    heel (``phi``: positive starboard down, as B&G's heel), pitch or trim (``theta``: bow up)
+    or rudder (``delta``: positive to starboard); other transducers, and groups whose value
+    does not parse, are skipped (a damaged group does not spoil the others)."""
+    out: dict[str, float] = {}
+    for k in range(0, len(f) - 3, 4):
+        typ, val, unit, name = f[k:k + 4]
+        ch = XDR_ANGLES.get(name.strip().upper().decode("ascii", "replace"))
+        if typ != b"A" or unit != b"D" or ch is None or ch in out:
+            continue
+        try:
+            out[ch] = _num(val) * DEG
+        except ValueError:
+            continue
+    return {k: v for k, v in out.items() if math.isfinite(v)}
+
+
 def _sentence_type(body: bytes) -> str | None:
     """Sentence type (``GGA``...) of a standard address ``ttSSS``; None for proprietary/other."""
     addr = body.split(b",", 1)[0]
@@ -325,6 +452,8 @@ class _Records:
         self.pre: list[float] = []
         self.tod: list[float] = []
         self.day: list[float] = []
+        self.talker: list[bytes] = []
+        self.typ: list[str] = []
         self.idx: dict[str, list[int]] = {}
         self.val: dict[str, list[float]] = {}
         self._memo: dict[bytes, float] = {}
@@ -332,9 +461,12 @@ class _Records:
     def __len__(self) -> int:
         return len(self.line)
 
-    def add(self, i: int, prefix: bytes, tod: float, day: float, values: dict) -> None:
+    def add(self, i: int, talker: bytes, typ: str, prefix: bytes, tod: float, day: float,
+            values: dict) -> None:
         j = len(self.line)
         self.line.append(i)
+        self.talker.append(talker)
+        self.typ.append(typ)
         v = self._memo.get(prefix)
         if v is None:
             v = self._memo[prefix] = _prefix_time(prefix)
@@ -384,7 +516,10 @@ def _scan_fast(blob: bytes):
         if dec is None:
             rejected["invalid_flag"] = rejected.get("invalid_flag", 0) + 1
             continue
-        recs.add(i, line[:a], *dec)
+        if typ == "XDR" and not dec[2]:  # transducers usvid does not read
+            ignored["XDR"] = ignored.get("XDR", 0) + 1
+            continue
+        recs.add(i, body[:2], typ, line[:a], *dec)
     return recs, rejected, ignored, len(lines)
 
 
@@ -455,8 +590,9 @@ def _scan_pynmeagps(blob: bytes):
             ignored[key] = ignored.get(key, 0) + 1
             continue
         try:
-            dec = _from_pynmeagps(typ, msg)
-            if dec is not None and typ in _TIMED:
+            dec = (_decode_fields(typ, sent[1:star].split(b",")[1:]) if typ in _OWN_RULES
+                   else _from_pynmeagps(typ, msg))
+            if dec is not None and typ in ("GGA", "RMC"):
                 # time, date and position syntax by usvid's strict rules (pynmeagps is lenient
                 # there: it reads "010.5" as a longitude and a malformed time as no time)
                 f = sent[1:star].split(b",")[1:]
@@ -472,7 +608,10 @@ def _scan_pynmeagps(blob: bytes):
         if dec is None:
             rej("invalid_flag")
             continue
-        recs.add(i, line[:a], *dec)
+        if typ == "XDR" and not dec[2]:
+            ignored["XDR"] = ignored.get("XDR", 0) + 1
+            continue
+        recs.add(i, sent[1:3], typ, line[:a], *dec)
     return recs, rejected, ignored, len(lines)
 
 
@@ -507,12 +646,16 @@ def _from_pynmeagps(typ: str, m) -> tuple[float, float, dict[str, float]] | None
         day = nan
         if m.date not in ("", None):
             day = datetime(m.date.year, m.date.month, m.date.day, tzinfo=UTC).timestamp()
-        return _tod(m.time), day, {
+        out = {
             "lat": _g(m, "lat"),
             "lon": _g(m, "lon"),
             "sog": _g(m, "spd") * KN,
             "cog": _g(m, "cog") * DEG,
         }
+        var = _g(m, "mv")
+        if math.isfinite(var):
+            out["_variation"] = var * DEG * (-1.0 if getattr(m, "mvEW", "") == "W" else 1.0)
+        return _tod(m.time), day, out
     if typ == "VTG":
         if getattr(m, "posMode", "") == "N":
             return None
@@ -532,8 +675,10 @@ def _from_pynmeagps(typ: str, m) -> tuple[float, float, dict[str, float]] | None
         dev = _g(m, "deviation")
         var = _g(m, "variation")
         dev = 0.0 if math.isnan(dev) else (-dev if m.deviationEW == "W" else dev)
-        var = 0.0 if math.isnan(var) else (-var if m.variationEW == "W" else var)
-        return nan, nan, {"psi_hdg": (h + dev + var) * DEG}
+        out = {"psi_mag": (h + dev) * DEG}
+        if not math.isnan(var):
+            out["_variation"] = (-var if m.variationEW == "W" else var) * DEG
+        return nan, nan, out
     if typ == "ROT":
         if m.valid != "A":
             if m.valid == "V":
@@ -603,12 +748,16 @@ def read_nmea0183(
     pre = np.asarray(recs.pre, dtype=float)
     tod = np.asarray(recs.tod, dtype=float)
     day = np.asarray(recs.day, dtype=float)
+    talkers = sorted(set(recs.talker))
+    code = {tk: i for i, tk in enumerate(talkers)}
+    src = np.fromiter((code[tk] for tk in recs.talker), dtype=np.int64, count=n)
     mode = spec.time_source if spec is not None else "auto"
     if mode == "auto":
         mode = "prefix" if np.isfinite(pre).mean() > 0.5 else "sentence"
     meta: dict = {"time_source": mode, "engine": engine}
     if ignored:
         meta["ignored_sentences"] = dict(ignored)
+    timed_in_order = False
     if mode == "prefix":
         t_rel = pre  # epoch seconds (float64: 0.24 us resolution)
         base = 0.0
@@ -617,8 +766,8 @@ def read_nmea0183(
         have = np.isfinite(tod)
         if not have.any():
             raise LogReadError(
-                f"{path}: no time in the log: no log-line time prefix and no GGA/RMC time"
-            )
+                f"{path}: no time in the log: no log-line time prefix and no GGA/RMC/GLL/ZDA "
+                "time")
         tod_u = _unwrap_days(tod)
         dayv = day[np.isfinite(day)]
         has_date = len(dayv) > 0
@@ -629,32 +778,35 @@ def read_nmea0183(
         if len(dated):
             j = int(dated[0])
             base = float(day[j] - (tod_u[j] - tod[j]))
-        # seconds of day (roll-overs unwrapped), interpolated by line position where absent
-        # an isolated GGA/RMC time out of line with its neighbours is a bad stamp: the record
-        # is timed by line position between the good ones, like the sentences without a time
+        # an isolated sentence time out of line with its neighbours is a bad stamp: the record
+        # is timed like the sentences without a time
         order = np.argsort(line_no[have], kind="stable")
         bad = np.zeros(n, dtype=bool)
         bad[np.flatnonzero(have)[order[bad_stamps(tod_u[have][order])]]] = True
         if bad.any():
             findings.append(Finding(
                 "warning", "bad_time_stamp",
-                f"{path.name}: {int(bad.sum())} GGA/RMC time(s) out of line with their "
+                f"{path.name}: {int(bad.sum())} sentence time(s) out of line with their "
                 f"neighbours (first on line {int(line_no[bad][0]) + 1}); each was re-timed "
                 "between its neighbours", count=int(bad.sum())))
             have &= ~bad
-        tt = tod_u[have]
-        ln = line_no[have]
-        order = np.argsort(ln, kind="stable")
-        t_rel = np.interp(line_no.astype(float), ln[order].astype(float), tt[order])
-        t_rel[have] = tod_u[have]
-        n_interp = int((~have).sum())
+        t_rel, n_epoch, n_interp = _sentence_times(line_no, tod_u, have, src,
+                                                   np.asarray(recs.typ))
+        lo = np.argsort(line_no[have], kind="stable")
+        timed_in_order = bool(np.all(np.diff(tod_u[have][lo]) >= 0))
+        if n_epoch:
+            findings.append(Finding(
+                "info", "time_from_epoch",
+                f"{path.name}: {n_epoch} sentence(s) without their own time (e.g. VTG) got the "
+                "time of the fix they follow (the last timed sentence of the same talker: a "
+                "receiver sends them once per fix)", count=n_epoch))
         if n_interp:
             findings.append(
                 Finding(
                     "info",
                     "time_interpolated",
                     f"{path.name}: {n_interp} sentence(s) without their own time got a time "
-                    "interpolated between the neighbouring GGA/RMC times (no log-line prefix)",
+                    "interpolated between the neighbouring timed sentences (no log-line prefix)",
                     count=n_interp,
                 )
             )
@@ -677,21 +829,104 @@ def read_nmea0183(
         a = np.full(n, np.nan)
         a[np.asarray(recs.idx[k], dtype=np.int64)] = np.asarray(recs.val[k], dtype=float)
         chans[k] = a
-    if "psi_hdg" in chans and "psi" not in chans:
-        chans["psi"] = chans.pop("psi_hdg")
-    t = t_rel - rel0
+    t = (t_rel - rel0)[ok]
     chans = {k: v[ok] for k, v in chans.items()}
-    chans = apply_renames(chans, spec)
+    # a message stream: one sentence type of one talker
+    types = sorted(set(recs.typ))
+    tcode = {ty: i for i, ty in enumerate(types)}
+    stream = (np.fromiter((tcode[ty] for ty in recs.typ), dtype=np.int64, count=n) * 4096
+              + src)[ok]
+    src = src[ok]
+    if timed_in_order:
+        # the log's own times run forward: an order the sentences without a time got from
+        # their fix or their neighbours (a VTG given its RMC's time after a heading given an
+        # interpolated later one) is the reader's doing, not time running backwards
+        o = np.argsort(t, kind="stable")
+        t, src, stream = t[o], src[o], stream[o]
+        chans = {k: v[o] for k, v in chans.items()}
+    labels = {i: f"talker {tk.decode('ascii', 'replace')}" for i, tk in enumerate(talkers)}
+    sources = Sources(src, labels, {i: tk.decode("ascii", "replace")
+                                    for i, tk in enumerate(talkers)}, "talker", "talkers")
+    chans, sourced, found, smeta = select_sources(path, t, chans, sources, spec,
+                                                  reader="nmea0183")
+    findings += found
+    meta.update(smeta)
+    heading_from_magnetic(path, chans, findings, "HDM/HDG")
+    wind_from_magnetic(path, chans, findings, "MWD")
+    true_wind_direction(path, t, chans, findings, "MWV T / VWT")
+    # (fields empty throughout, e.g. an HDT without a heading, give no channel)
+    chans = {k: v for k, v in chans.items() if not k.startswith("_") and np.isfinite(v).any()}
+    # records left without a value: timing sentences (ZDA), another talker's (reported above),
+    # a variation consumed by the heading - not bad records
+    used = np.zeros(len(t), dtype=bool)
+    for v in (*chans.values(), *sourced.values()):
+        used |= np.isfinite(v)
+    if not used.any():
+        raise LogReadError(f"{path}: no channel in the log's sentences ({n} sentences, "
+                           "time only)")
+    chans = apply_renames({k: v[used] for k, v in chans.items()}, spec,
+                          {k: v[used] for k, v in sourced.items()})
     return assemble(
         path,
-        t[ok],
+        t[used],
         chans,
         spec=spec,
         rejected=rejected,
         findings=findings,
         count_duplicates=False,
         meta={**meta, "reader": "nmea0183"},
+        streams=stream[used],
     )
+
+
+#: A sentence type of a talker that appears at most once between two timed sentences of the
+#: same talker in at least this fraction of those intervals belongs to the fix (epoch) it
+#: follows.
+EPOCH_SHARE = 0.9
+
+
+def _sentence_times(line_no: np.ndarray, tod: np.ndarray, have: np.ndarray, src: np.ndarray,
+                    typ: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """Times [s of day, roll-overs unwrapped] of the records of a log without line prefixes:
+    the sentence's own time where it has one (``have``); for a sentence type that a talker
+    sends once per fix (at most once between two timed sentences of the same talker, e.g.
+    VTG after RMC) the time of the last timed sentence of that talker before it (the next one
+    for those before its first); else (another talker's sentences, or several per fix such as
+    a 10 Hz heading) interpolated by line position between the timed sentences of any talker,
+    clamped at the ends. Returns the times and the counts of the two kinds."""
+    t = np.full(len(tod), np.nan)
+    t[have] = tod[have]
+    need = ~have
+    epoch = np.zeros(len(tod), dtype=bool)
+    for tk in np.unique(src[need]):
+        timed = np.flatnonzero(have & (src == tk))
+        if len(timed) < 2:
+            continue
+        tl = line_no[timed]
+        o = np.argsort(tl, kind="stable")
+        tl, ti = tl[o], timed[o]
+        for ty in np.unique(typ[need & (src == tk)]):
+            rows = np.flatnonzero(need & (src == tk) & (typ == ty))
+            slot = np.searchsorted(tl, line_no[rows], side="right")  # timed lines before it
+            inner = (slot > 0) & (slot < len(tl))
+            if not inner.any():
+                continue
+            per = np.bincount(slot[inner], minlength=len(tl) + 1)[1:len(tl)]
+            if np.mean(per <= 1) < EPOCH_SHARE:
+                continue
+            k = np.clip(slot - 1, 0, len(tl) - 1)  # the last timed one before (or the first)
+            t[rows] = tod[ti[k]]
+            epoch[rows] = True
+    rest = need & ~epoch
+    if rest.any():
+        ln = line_no[have]
+        o = np.argsort(ln, kind="stable")
+        ln, tt = ln[o], tod[have][o]
+        # one anchor per time (the first sentence of a fix: GGA, GLL, RMC of one second would
+        # give the sentences between them the same time)
+        first = np.r_[True, tt[1:] != tt[:-1]]
+        t[rest] = np.interp(line_no[rest].astype(float), ln[first].astype(float), tt[first])
+    return t, int(epoch.sum()), int(rest.sum())
 
 
 # ----------------------------------------------------------------------------------------------

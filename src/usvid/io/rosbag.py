@@ -46,6 +46,7 @@ from usvid.io._messages import (
     missing_field,
     missing_topic,
     path_steps,
+    quaternion_zyx,
     raw_of,
     require,
     width,
@@ -494,7 +495,8 @@ def _read_open(path: Path, spec: FormatSpec, reader: Any, state: ReadState) -> T
                 continue
             topic = conn.topic
             if topic not in checked:
-                _check_fields(path, spec, msg, conn.msgtype, by_topic[topic])
+                by_topic[topic] = _check_fields(path, spec, msg, conn.msgtype, by_topic[topic])
+                extract[topic] = _extractor(by_topic[topic])
                 checked.add(topic)
             try:
                 row = extract[topic](msg)
@@ -533,7 +535,8 @@ def _extractor(getters: list) -> Any:
     leaves: list[str] = []
     for col, steps in getters:
         base = ".".join(str(s) for s in steps)
-        sub = {"yaw": "wxyz", "speed": "xy", "course": "xy"}.get(col.conversion or "", "")
+        sub = {"yaw": "wxyz", "roll": "wxyz", "pitch": "wxyz", "speed": "xy",
+               "course": "xy"}.get(col.conversion or "", "")
         leaves += [f"{base}.{a}" for a in sub] if sub else [base]
     if all(isinstance(s, str) for _, steps in getters for s in steps):
         get = operator.attrgetter(*leaves)
@@ -578,20 +581,29 @@ def _known_type(reader: Any, msgtype: str) -> bool:
     return msgtype in reader.typestore.fielddefs
 
 
-def _check_fields(path: Path, spec: FormatSpec, msg: Any, msgtype: str, getters: list) -> None:
+def _check_fields(path: Path, spec: FormatSpec, msg: Any, msgtype: str, getters: list
+                  ) -> list:
+    """The columns of a topic whose fields its first message has (an optional column without
+    its field is left out; a required one is a :class:`LogReadError`)."""
+    keep = []
     for col, steps in getters:
         try:
             v = get_path(msg, steps)
         except (AttributeError, IndexError, TypeError, KeyError):
+            if col.optional:
+                continue
             raise missing_field(path, spec, col, msgtype, _fields(msg)) from None
         try:
             raw_of(v, col.conversion)
         except (AttributeError, TypeError, ValueError):
-            want = {"yaw": "a quaternion (x, y, z, w)", "speed": "a vector (x, y)",
+            want = {"yaw": "a quaternion (x, y, z, w)", "roll": "a quaternion (x, y, z, w)",
+                    "pitch": "a quaternion (x, y, z, w)", "speed": "a vector (x, y)",
                     "course": "a vector (x, y)"}.get(col.conversion or "", "a number")
             raise LogReadError(
                 f"{path}: {spec.source}: columns.{col.name}.field: '{col.col}' of {msgtype} on "
                 f"'{col.topic}' is not {want} (got {type(v).__name__})") from None
+        keep.append((col, steps))
+    return keep
 
 
 # ----------------------------------------------------------------------------------------------
@@ -620,8 +632,9 @@ def write_rosbag(trial: Trial, path: str | Path, *, storage: str = "mcap",
     ``storage``: ``"mcap"`` or ``"sqlite3"`` (a ROS 2 bag folder ``path``) or ``"ros1"`` (a ROS 1
     ``.bag`` file). Channels -> topics (REP 103 frames, SI): ``lat``/``lon`` [deg] ->
     ``/gps/fix`` (NavSatFix), ``sog``/``cog`` (or ``U``) -> ``/gps/fix_velocity`` (TwistStamped,
-    ENU velocity [m/s]), ``psi``/``r`` -> ``/imu/data`` (Imu: ENU orientation, angular velocity
-    about z-up = ``-r``; a part without a sample is NaN with covariance[0] = -1),
+    ENU velocity [m/s]), ``psi``/``r`` -> ``/imu/data`` (Imu: ENU orientation with ``phi``/
+    ``theta`` as its roll and pitch when given, angular velocity about z-up = ``-r`` and about
+    x = ``p``; a part without a sample is NaN with covariance[0] = -1),
     ``u``/``v`` -> ``/odometry/filtered`` (body twist, y to port = ``-v``), ``delta`` /
     ``delta_cmd`` [rad, positive to starboard] -> ``/rudder/angle`` / ``/rudder/cmd`` (Float64),
     ``n`` [rps] -> ``/engine/rpm`` (Float32 [rpm]), ``n_port``/``n_stbd`` ->
@@ -684,7 +697,7 @@ def _messages(trial: Trial, ts: Any, t_ns: np.ndarray, ros1: bool) -> dict[str, 
     Twist = T["geometry_msgs/msg/Twist"]
     ch = {k: channel_or_none(trial, k) for k in
           ("lat", "lon", "sog", "cog", "psi", "r", "u", "v", "delta", "delta_cmd", "n",
-           "n_port", "n_stbd")}
+           "n_port", "n_stbd", "phi", "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     nan = math.nan
@@ -722,12 +735,18 @@ def _messages(trial: Trial, ts: Any, t_ns: np.ndarray, ros1: bool) -> dict[str, 
         if fin("psi", i) or fin("r", i):
             if fin("psi", i):
                 yaw = 0.5 * math.pi - float(ch["psi"][i])  # REP 103: ENU, from east, CCW
-                q = Q(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+                # FLU body: the roll as it is, the pitch negated (bow up about y to port)
+                roll = float(ch["phi"][i]) if fin("phi", i) else 0.0
+                pitch = -float(ch["theta"][i]) if fin("theta", i) else 0.0
+                qw, qx, qy, qz = quaternion_zyx(np.array([yaw]), np.array([pitch]),
+                                                np.array([roll]))[0]
+                q = Q(x=float(qx), y=float(qy), z=float(qz), w=float(qw))
                 qc = cov0.copy()
             else:
                 q, qc = Q(x=nan, y=nan, z=nan, w=nan), cov_unknown.copy()
             if fin("r", i):
-                w, wc = V3(x=0.0, y=0.0, z=-float(ch["r"][i])), cov0.copy()
+                px = float(ch["p"][i]) if fin("p", i) else 0.0
+                w, wc = V3(x=px, y=0.0, z=-float(ch["r"][i])), cov0.copy()
             else:
                 w, wc = V3(x=nan, y=nan, z=nan), cov_unknown.copy()
             out["imu"].append((st, T["sensor_msgs/msg/Imu"](

@@ -33,7 +33,11 @@ For the ``nmea0183`` and ``nmea2000`` readers ``columns`` is optional: the reade
 standard channels themselves (``lat lon psi r delta U sog cog n ...``); an entry there renames or
 re-signs a decoded channel (``delta: {col: delta, sign: -1}``) and must not name a unit other than
 the channel's Trial unit. ``n2k_format`` (nmea2000 only) names the wire format of the log (one of
-:data:`N2K_FORMATS`, default ``auto``).
+:data:`N2K_FORMATS`, default ``auto``). ``source:`` (readers ``nmea0183``, ``nmea2000``,
+``tlog``) takes a channel from one sender when several give it (:mod:`usvid.io.sources`): a
+talker (``psi: {col: psi, source: HE}``), a source address (``source: 23``), a MAVLink
+``"system/component"``; a second column may keep another sender's samples under its own name
+(``psi_b: {col: psi, source: 128}``).
 
 Message-based logs (readers ``rosbag``, ``ulog``, ``dataflash``, ``tlog``) map each channel onto one
 field of one message type; the time of a row is the time of its message, and messages of different
@@ -57,6 +61,10 @@ DataFlash instance column ``I``/``Instance``). ``convert``:
   z up, yaw counter-clockwise from east; the default for ``rosbag``) gives ``psi = pi/2 - yaw``;
   ``frame: ned`` (PX4, ArduPilot; the default elsewhere) gives ``psi = yaw``. Wrapped to
   [0, 2 pi).
+- ``roll`` / ``pitch``: the roll ``phi`` [rad, positive starboard down] and the pitch ``theta``
+  [rad, bow up] of a quaternion (ZYX Euler angles). A body frame FRD (``frame: ned``) gives
+  them as they are; a body frame FLU (``frame: enu``, ROS: y to port, z up) the same roll and
+  the pitch with the opposite sign (a positive rotation about y to port puts the bow down).
 - ``pwm``: a servo pulse width [us] becomes a normalised command in [-1, 1] through
   ``pwm: [min, trim, max]`` (default ``[1100, 1500, 1900]``); ``scale``/``unit`` then turn it
   into a rudder angle (``scale: 35, unit: deg``) or leave it a dimensionless thruster command.
@@ -76,7 +84,7 @@ from pathlib import Path
 from typing import Any
 
 from usvid.errors import FormatSpecError, UsvidError
-from usvid.files import load_yaml_text
+from usvid.files import load_yaml_text, read_input_text, special_file
 from usvid.io import units as _units
 from usvid.trial import CHANNEL_UNITS, VESSEL_FIELDS, Vessel
 
@@ -88,11 +96,14 @@ READERS = ("table", "excel", "parquet", "nmea0183", "nmea2000", "rosbag", "ulog"
 MESSAGE_READERS = ("rosbag", "ulog", "dataflash", "tlog")
 #: NMEA 2000 wire formats the ``nmea2000`` reader reads: every input format the ``nmea2000``
 #: package decodes, named as ``nmea2000.input_formats.N2KFormat`` (see :mod:`usvid.io.n2k`);
-#: ``python_can`` is a log file python-can reads (.asc, .blf, .trc, ...); ``auto`` detects it.
+#: ``python_can`` is a log file python-can reads (.asc, .blf, .trc, ...); ``ngt1`` the
+#: Actisense NGT-1 binary stream (BST 93 in DLE framing, framed by usvid); ``auto`` detects it.
 N2K_FORMATS = ("auto", "candump3", "candump1", "candump2", "n2k_ascii", "n2k_ascii_raw",
                "basic_string", "can_frame_ascii", "can_frame_ascii_raw", "pcdin", "mxpgn", "pdgy",
-               "ebyte", "waveshare", "bst_d0", "bst_95", "python_can")
-CONVERTS = ("yaw", "pwm", "speed", "course")
+               "ebyte", "waveshare", "bst_d0", "bst_95", "python_can", "ngt1")
+CONVERTS = ("yaw", "roll", "pitch", "pwm", "speed", "course")
+#: Conversions of a quaternion field (4 raw values: w, x, y, z).
+QUATERNION_CONVERTS = ("yaw", "roll", "pitch")
 FRAMES = ("enu", "ned")
 DELIMITERS = {"whitespace": None, ",": ",", ";": ";", "\t": "\t", "tab": "\t"}
 SPEC_KEYS = (
@@ -111,9 +122,11 @@ SPEC_KEYS = (
     "columns",
     "vessel",
 )
-COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional")
+COLUMN_KEYS = ("col", "unit", "sign", "offset", "scale", "optional", "source")
 MESSAGE_COLUMN_KEYS = ("topic", "message", "field", "unit", "sign", "offset", "scale", "optional",
-                       "convert", "frame", "instance", "pwm")
+                       "convert", "frame", "instance", "pwm", "source")
+#: Readers whose records name their sender (``source:`` of a column; :mod:`usvid.io.sources`).
+SOURCE_READERS = ("nmea0183", "nmea2000", "tlog")
 #: Optional particulars the ``vessel`` block also accepts directly (SI; kept in
 #: ``Vessel.extra``): centre of gravity forward of midship [m], yaw moment of inertia about it
 #: [kg m^2], propeller diameter [m], rudder area [m^2] (the MMG model's particulars).
@@ -135,6 +148,10 @@ class ColumnSpec:
     (``None``: the field's value), ``frame`` the earth frame of a quaternion or velocity vector,
     ``instance`` the instance of a multi-instance message, ``pwm`` the (min, trim, max) pulse
     widths [us] of ``convert: pwm``.
+
+    ``source`` (readers ``nmea2000``, ``nmea0183``, ``tlog``): the sender to take the channel
+    from when several give it (:mod:`usvid.io.sources`): an NMEA 2000 source address 0-253,
+    an NMEA 0183 talker (``"HE"``), a MAVLink ``"system/component"`` (``"1/1"``) or system id.
     """
 
     name: str
@@ -149,6 +166,7 @@ class ColumnSpec:
     frame: str = "ned"
     instance: int | None = None
     pwm: tuple[float, float, float] = (1100.0, 1500.0, 1900.0)
+    source: int | str | None = None
 
     @property
     def factor(self) -> float:
@@ -265,10 +283,11 @@ def _message_column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
     frame = v.get("frame", "enu" if reader == "rosbag" else "ned")
     if frame not in FRAMES:
         raise _err(source, f"{where}.frame", f"expected enu or ned, got {frame!r}")
-    if "frame" in v and conv not in ("yaw", "speed", "course"):
-        raise _err(source, f"{where}.frame", "only used with convert: yaw, speed or course")
+    if "frame" in v and conv not in (*QUATERNION_CONVERTS, "speed", "course"):
+        raise _err(source, f"{where}.frame", "only used with convert: yaw, roll, pitch, speed "
+                                             "or course")
     unit = _unit(name, v.get("unit"), source, where)
-    if conv in ("yaw", "course") and unit not in (None, "rad"):
+    if conv in (*QUATERNION_CONVERTS, "course") and unit not in (None, "rad"):
         raise _err(source, f"{where}.unit", f"convert: {conv} gives radians; no unit needed")
     if conv == "speed" and unit not in (None, "m/s"):
         raise _err(source, f"{where}.unit", "convert: speed gives m/s; no unit needed")
@@ -285,7 +304,33 @@ def _message_column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
         raise _err(source, f"{where}.pwm", f"expected min < trim < max, got {list(pwm)!r}")
     return ColumnSpec(name=name, col=fld, unit=unit, **_linear(v, source, where),
                       topic=topic.strip(), conversion=conv, frame=frame, instance=inst,
-                      pwm=(lo, trim, hi))
+                      pwm=(lo, trim, hi), source=_source(v, reader, source, where))
+
+
+def _source(v: dict, reader: str, source: str, where: str) -> int | str | None:
+    """The ``source`` of a column, checked for its reader: an NMEA 2000 address 0-253, an
+    NMEA 0183 talker of two characters, a MAVLink ``"system/component"`` or system id."""
+    if "source" not in v:
+        return None
+    x = v["source"]
+    w = f"{where}.source"
+    if reader not in SOURCE_READERS:
+        raise _err(source, w, f"only used by reader {' / '.join(SOURCE_READERS)}, not {reader}")
+    if reader == "nmea2000":
+        if isinstance(x, bool) or not isinstance(x, int) or not 0 <= x <= 253:
+            raise _err(source, w, f"expected an NMEA 2000 source address 0..253, got {x!r}")
+        return x
+    if reader == "nmea0183":
+        if not isinstance(x, str) or not re.fullmatch(r"[A-Z0-9]{2}", x.strip().upper()):
+            raise _err(source, w, f"expected an NMEA 0183 talker such as \"HE\", got {x!r}")
+        return x.strip().upper()
+    if isinstance(x, int) and not isinstance(x, bool) and 0 <= x <= 255:
+        return f"{x}"
+    if not isinstance(x, str) or not re.fullmatch(r"\d{1,3}(/\d{1,3})?", x.strip()) or any(
+            int(p) > 255 for p in x.strip().split("/")):
+        raise _err(source, w, f"expected a MAVLink system/component such as \"1/1\" (or a "
+                              f"system id), got {x!r}")
+    return x.strip()
 
 
 def _linear(v: dict, source: str, where: str) -> dict[str, Any]:
@@ -322,7 +367,46 @@ def _column(name: str, v: Any, reader: str, source: str) -> ColumnSpec:
     lin = _linear(v, source, where)
     if lin["optional"] and name == "t":
         raise _err(source, f"{where}.optional", "the time column cannot be optional")
-    return ColumnSpec(name=name, col=col, unit=unit, **lin)
+    return ColumnSpec(name=name, col=col, unit=unit, **lin,
+                      source=_source(v, reader, source, where))
+
+
+def column_mapping(c: ColumnSpec, reader: str) -> dict[str, Any]:
+    """The YAML mapping of a column as a spec file writes it (keys with their default values
+    left out): the inverse of the parsing, for messages that quote a user's own column with a
+    change (``{col: 8, unit: deg, sign: -1}``)."""
+    out: dict[str, Any] = {}
+    if reader in MESSAGE_READERS:
+        out["message" if reader in ("dataflash", "tlog", "ulog") else "topic"] = c.topic
+        out["field"] = c.col
+        if c.conversion:
+            out["convert"] = c.conversion
+        if c.conversion in (*QUATERNION_CONVERTS, "speed", "course") and c.frame != (
+                "enu" if reader == "rosbag" else "ned"):
+            out["frame"] = c.frame
+        if c.instance is not None:
+            out["instance"] = c.instance
+        if c.conversion == "pwm" and c.pwm != (1100.0, 1500.0, 1900.0):
+            out["pwm"] = [_plain(x) for x in c.pwm]
+    else:
+        out["col"] = c.col
+    if c.scale != 1.0:
+        out["scale"] = _plain(c.scale)
+    if c.offset != 0.0:
+        out["offset"] = _plain(c.offset)
+    if c.unit is not None:
+        out["unit"] = c.unit
+    if c.sign != 1.0:
+        out["sign"] = -1
+    if c.source is not None:
+        out["source"] = c.source
+    if c.optional:
+        out["optional"] = True
+    return out
+
+
+def _plain(x: float) -> float | int:
+    return int(x) if float(x).is_integer() else float(x)
 
 
 def _vessel(v: Any, source: str) -> Vessel:
@@ -500,15 +584,8 @@ def load_spec(path: str | Path) -> FormatSpec:
     Raises :class:`FormatSpecError` for an unreadable file, bad YAML or any schema violation.
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise FormatSpecError(f"{p}: cannot read format spec ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise FormatSpecError(f"{p}: format spec is not UTF-8 text") from None
-    if len(text) > MAX_SPEC_BYTES:
-        raise FormatSpecError(f"{p}: {len(text)} characters; a format spec has at most "
-                              f"{MAX_SPEC_BYTES}")
+    # a regular file of at most MAX_SPEC_BYTES bytes, UTF-8 (a FIFO or /dev/zero is refused)
+    text = read_input_text(p, "format spec", MAX_SPEC_BYTES, error=FormatSpecError)
     try:
         # yaml.SafeLoader with bounds on nesting and alias expansion (usvid.files)
         d = load_yaml_text(text, str(p))
@@ -520,6 +597,14 @@ def load_spec(path: str | Path) -> FormatSpec:
 def shipped_specs() -> list[str]:
     """Names of the specs shipped with usvid (``src/usvid/specs/*.yaml``, without suffix)."""
     return sorted(p.stem for p in _SPECS_DIR.glob("*.yaml"))
+
+
+def shipped_name(source: str) -> str | None:
+    """The name of the shipped spec a spec was loaded from (its ``source``: ``"px4_boat.yaml"``,
+    ``"ardupilot_rover.yaml (variants.tlog)"``), None for any other spec."""
+    stem = source.split(" (")[0]
+    stem = stem[:-5] if stem.endswith(".yaml") else stem
+    return stem if stem in shipped_specs() else None
 
 
 def shipped_spec_path(name: str) -> Path:
@@ -553,7 +638,7 @@ def coerce_spec(spec: str | Path | FormatSpec | dict | None) -> FormatSpec | Non
     if isinstance(spec, dict):
         return parse_spec(spec)
     p = Path(spec)
-    if p.is_file():
+    if p.is_file() or special_file(p) is not None:  # (a FIFO or device: load_spec says so)
         return load_spec(p)
     if isinstance(spec, str) and "/" not in spec and "\\" not in spec:
         stem = spec[:-5] if spec.endswith(".yaml") else spec

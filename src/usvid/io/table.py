@@ -30,6 +30,10 @@ from usvid.trial import Finding, Trial
 
 #: A line with one of these is garbage (control bytes other than tab, undecodable bytes).
 _CTRL_RE = re.compile("[\x00-\x08\x0a-\x1f\x7f\ufffd]")
+#: Longest line of a text table [bytes]: a table of a thousand 64-character cells has 65 kB
+#: lines; a longer one is not a table (a one-line 200 MB file would be split into gigabytes of
+#: cells).
+MAX_LINE_BYTES = 1_000_000
 #: Cells read as missing (not as bad values).
 _NA = ["", "nan", "NaN", "NA", "None", "-"]
 
@@ -191,6 +195,22 @@ def _records(lines: list[str], i: int, delim: str | None
             start += done + 1
 
 
+def check_line_length(path: Path, blob: bytes, max_bytes: int = MAX_LINE_BYTES) -> None:
+    """:class:`LogReadError` naming the line when a line of ``blob`` is longer than
+    ``max_bytes``. Windows of ``max_bytes`` are searched backwards for their last line feed
+    (C speed, no copy): a window without one holds part of a too long line, and the next window
+    starts after the last line feed found, so every line is covered and the work is about
+    ``len(blob) / max_bytes`` searches."""
+    pos, n = 0, len(blob)
+    while n - pos > max_bytes:
+        nl = blob.rfind(b"\n", pos, pos + max_bytes + 1)
+        if nl < 0:
+            line = blob.count(b"\n", 0, pos) + 1
+            raise LogReadError(f"{path} line {line}: longer than {max_bytes} bytes; a table "
+                               f"line has at most {max_bytes} (is this a table?)")
+        pos = nl + 1
+
+
 def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     """Read a delimited text table (whitespace, ',', ';', tab) with a spec.
 
@@ -200,6 +220,7 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     """
     path = Path(path)
     blob = read_log_bytes(path)
+    check_line_length(path, blob)
     fast = _read_clean(path, spec, blob)
     if fast is not None:
         return fast

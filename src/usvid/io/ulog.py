@@ -37,9 +37,11 @@ from usvid.io._messages import (
     build_trial,
     missing_field,
     missing_topic,
+    quaternion_zyx,
     require,
 )
-from usvid.io.spec import ColumnSpec, FormatSpec
+from usvid.io.spec import QUATERNION_CONVERTS, ColumnSpec, FormatSpec
+from usvid.io.vehicles import mav_type_kind, vehicle_finding
 from usvid.io.writers import channel_or_none, log_start_epoch
 from usvid.trial import Finding, Trial
 
@@ -71,10 +73,56 @@ def _cut_at_end(path: Path) -> bool:
     return pos != size
 
 
+#: Older and newer PX4 names of the topics and fields the ``px4_boat`` preset reads:
+#: (topic, field) -> [(topic, field, scale)], tried in order when the spec's topic has no data
+#: (``vehicle_gps_position`` became ``sensor_gps`` with degrees instead of 1e-7 degrees;
+#: ``vehicle_angular_velocity`` took the gyro of ``sensor_combined``).
+ALIASES: dict[tuple[str, str], tuple[tuple[str, str, float], ...]] = {
+    ("vehicle_global_position", "lat"): (("sensor_gps", "latitude_deg", 1.0),
+                                         ("vehicle_gps_position", "latitude_deg", 1.0),
+                                         ("vehicle_gps_position", "lat", 1e-7)),
+    ("vehicle_global_position", "lon"): (("sensor_gps", "longitude_deg", 1.0),
+                                         ("vehicle_gps_position", "longitude_deg", 1.0),
+                                         ("vehicle_gps_position", "lon", 1e-7)),
+    ("sensor_gps", "vel_m_s"): (("vehicle_gps_position", "vel_m_s", 1.0),),
+    ("sensor_gps", "cog_rad"): (("vehicle_gps_position", "cog_rad", 1.0),),
+    ("sensor_gps", "fix_type"): (("vehicle_gps_position", "fix_type", 1.0),),
+    ("sensor_gps", "hdop"): (("vehicle_gps_position", "hdop", 1.0),),
+    ("vehicle_angular_velocity", "xyz[0]"): (("sensor_combined", "gyro_rad[0]", 1.0),),
+    ("vehicle_angular_velocity", "xyz[2]"): (("sensor_combined", "gyro_rad[2]", 1.0),),
+}
+
+
+def _alias(col: ColumnSpec, data: dict) -> tuple[ColumnSpec, dict, str] | None:
+    """The first alias of ``col`` (:data:`ALIASES`) with data in the log: the column re-aimed
+    at it (its scale times the alias's), the topic's data and a description; None if none."""
+    from dataclasses import replace
+
+    for topic, field, scale in ALIASES.get((col.topic or "", str(col.col)), ()):
+        d = data.get((topic, col.instance or 0))
+        if d is not None and field in d and len(d[field]):
+            return (replace(col, topic=topic, col=field, scale=col.scale * scale), d,
+                    f"{topic}.{field}" + (f" x {scale:g}" if scale != 1.0 else ""))
+    return None
+
+
+def _name_vehicle(path: Path, state: ReadState, mav_type: float | None) -> None:
+    """The kind of vehicle from the PX4 parameter MAV_TYPE (:mod:`usvid.io.vehicles`)."""
+    if mav_type is None or not math.isfinite(float(mav_type)):
+        return
+    vehicle = mav_type_kind(int(mav_type), "PX4 parameter MAV_TYPE")
+    if vehicle is None:
+        return
+    state.meta["vehicle"] = vehicle
+    f = vehicle_finding(path, vehicle)
+    if f is not None:
+        state.findings.append(f)
+
+
 def _names(col: ColumnSpec, data: dict) -> list[str]:
     """pyulog column names of ``col`` (4 for a quaternion, 2 for a vector)."""
     f = str(col.col)
-    if col.conversion == "yaw":
+    if col.conversion in QUATERNION_CONVERTS:
         return [f"{f}[{i}]" for i in range(4)]
     if col.conversion in ("speed", "course"):
         if f"{f}[0]" in data:
@@ -97,7 +145,9 @@ def read_ulog(path: str | Path, spec: FormatSpec) -> Trial:
         head = fh.read(16)
     if not is_ulog(head):
         raise LogReadError(f"{path}: not a PX4 ULog (no ULog header)")
-    topics = sorted({c.topic for c in spec.columns.values()} | set(_GPS_TOPICS))
+    topics = sorted({c.topic for c in spec.columns.values()} | set(_GPS_TOPICS)
+                    | {a[0] for c in spec.columns.values()
+                       for a in ALIASES.get((c.topic or "", str(c.col)), ())})
     quiet = io.StringIO()
     try:
         with contextlib.redirect_stdout(quiet), contextlib.redirect_stderr(quiet):
@@ -127,20 +177,32 @@ def read_ulog(path: str | Path, spec: FormatSpec) -> Trial:
         inst = col.instance or 0
         d = data.get((col.topic, inst))
         if d is None:
+            alt = _alias(col, data)
+            if alt is not None:
+                col, d, why = alt
+            if alt is not None and not col.name.startswith("_"):  # (internal: no finding)
+                state.findings.append(Finding(
+                    "info", "topic_alias", f"{path.name}: '{col.name}' read from {why} (the "
+                    f"topic of the spec has no data: an older or newer PX4)", channel=col.name))
+        if d is None:
             if col.optional:
                 continue
             if col.topic in formats:
                 raise LogReadError(
                     f"{path}: {spec.source}: columns.{col.name}.message: topic '{col.topic}' "
-                    f"instance {inst} has no data in the log")
+                    f"instance {inst} has no data in the log (nor any older or newer name of "
+                    f"it usvid knows)")
             raise missing_topic(path, spec, col, list(formats), what="message")
         names = _names(col, d)
+        if any(n not in d for n in [*names, "timestamp"]) and col.optional:
+            continue  # (an optional column whose field this PX4 does not log)
         if any(n not in d for n in [*names, "timestamp"]):
             shown = sorted(k for k in d if k != "timestamp")
             raise missing_field(path, spec, col, "uORB topic", shown)
         raw = np.column_stack([np.asarray(d[n], dtype=float) for n in names])
         t_ns = np.asarray(d["timestamp"], dtype=np.int64) * 1000
         series.append(Series(col, t_ns, raw if raw.shape[1] > 1 else raw[:, 0]))
+    _name_vehicle(path, state, ulog.initial_parameters.get("MAV_TYPE"))
     epoch = None
     for name in _GPS_TOPICS:
         g = data.get((name, 0))
@@ -196,7 +258,7 @@ def ulog_bytes(trial: Trial, *, t0_utc: str | None = None, boot_offset_s: float 
     e0 = log_start_epoch(trial, t0_utc)
     t_us = np.round((trial.t + boot_offset_s) * 1e6).astype(np.uint64)
     ch = {k: channel_or_none(trial, k) for k in
-          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n")}
+          ("lat", "lon", "sog", "cog", "psi", "r", "delta", "n", "phi", "theta", "p")}
     if ch["sog"] is None:
         ch["sog"] = channel_or_none(trial, "U")
     n = len(t_us)
@@ -220,10 +282,11 @@ def ulog_bytes(trial: Trial, *, t0_utc: str | None = None, boot_offset_s: float 
         "latitude_deg": col("lat"), "longitude_deg": col("lon"), "vel_m_s": col("sog"),
         "cog_rad": np.where(col("cog") > math.pi, col("cog") - 2 * math.pi, col("cog"))})
     psi = col("psi")
-    q = np.column_stack([np.cos(psi / 2), 0 * psi, 0 * psi, np.sin(psi / 2)])  # NED, FRD
+    zero = 0 * psi
+    q = quaternion_zyx(psi, np.nan_to_num(col("theta")), np.nan_to_num(col("phi")))  # NED, FRD
     topics["vehicle_attitude"] = (fin("psi"), {"q": q})
     topics["vehicle_angular_velocity"] = (fin("r"), {"xyz": np.column_stack(
-        [0 * psi, 0 * psi, col("r")])})
+        [np.nan_to_num(col("p")), zero, col("r")])})
     ctrl = np.zeros((n, 8))
     ctrl[:, 0] = col("delta") / math.radians(SERVO_FULL_DEG)
     topics["actuator_servos"] = (fin("delta"), {"control": ctrl})

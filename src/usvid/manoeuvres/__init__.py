@@ -10,9 +10,13 @@ Layer: above :mod:`usvid.prep`, below :mod:`usvid.sim` (imports only ``usvid.tri
   (:func:`find_execute`), plateau level and rudder amplitude (:func:`rudder_amplitude`), rudder
   rate (:func:`rudder_rate`), switching angle (:func:`nominal_switch`), zig-zag reversals
   (:func:`zigzag_crossings`) and steady turn (:func:`steady_turn`); manoeuvres found in a log
-  (:func:`find_manoeuvres` -> :class:`Segment`).
+  (:func:`find_manoeuvres` -> :class:`Segment`; what it left out and why:
+  :func:`manoeuvre_findings`).
 - :mod:`.metrics`: zig-zag and turning-circle metrics of a time history (IMO MSC.137(76), ITTC
   7.5-04-02-01): :func:`zigzag_metrics`, :func:`turning_metrics`.
+- :mod:`.drift`: the current measured by a turning test of 540 deg or more and the turning
+  metrics corrected for it (IMO MSC/Circ.1053 3.4.2.5): :func:`imo_current`,
+  :func:`current_corrected_turning`.
 - :mod:`.measure`: the segments of a log measured with those metrics (:func:`measured_metrics`).
 - :mod:`.imo`: the IMO MSC.137(76) criteria.
 """
@@ -22,12 +26,19 @@ from usvid.manoeuvres.detect import (
     SteadyTurn,
     find_execute,
     find_manoeuvres,
+    manoeuvre_findings,
     nominal_switch,
     plateau_level,
     rudder_amplitude,
     rudder_rate,
     steady_turn,
     zigzag_crossings,
+)
+from usvid.manoeuvres.drift import (
+    CurrentEstimate,
+    current_corrected_track,
+    current_corrected_turning,
+    imo_current,
 )
 from usvid.manoeuvres.imo import (
     imo_turning_applies,
@@ -45,9 +56,12 @@ from usvid.manoeuvres.metrics import (
 )
 
 __all__ = [
-    "PID", "Commanded", "CourseChange", "Disturbance", "Segment", "SteadyTurn", "Turning",
-    "TurningMetrics", "ZigZag", "ZigZagMetrics", "find_execute", "find_manoeuvres",
-    "imo_turning_applies", "imo_turning_check", "imo_zigzag_check", "manoeuvre_metrics",
+    "PID", "Commanded", "CourseChange", "CurrentEstimate", "Disturbance", "Segment",
+    "SteadyTurn", "Turning", "TurningMetrics", "ZigZag", "ZigZagMetrics",
+    "current_corrected_track", "current_corrected_turning", "find_execute", "find_manoeuvres",
+    "imo_current",
+    "imo_turning_applies", "imo_turning_check", "imo_zigzag_check", "manoeuvre_findings",
+    "manoeuvre_metrics",
     "measured_metrics", "nominal_switch", "plateau_level", "rudder_amplitude", "rudder_rate",
     "steady_turn", "turning_metrics", "zigzag_crossings", "zigzag_kind", "zigzag_metrics",
 ]

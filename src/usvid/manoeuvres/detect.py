@@ -11,6 +11,8 @@ defined once, in the docstring of its function:
 
 * **rudder execute and side** (from ``delta_0``, the rudder over the :data:`APPROACH_S` before
   the execute): :func:`find_execute`;
+* **approach** (speed, shaft speed and rudder offset over the :data:`APPROACH_S` before the
+  execute): :func:`approach`, carried by every segment;
 * **plateau level and rudder amplitude**: :func:`plateau_level`, :func:`rudder_amplitude`;
 * **rudder rate**: :func:`rudder_rate`;
 * **switching angle**: the median deviation of the heading (smoothed over 2 s) from the heading
@@ -32,7 +34,10 @@ differential port - starboard, the catamaran paper: tau_r = (T_port - T_stbd) b/
   ``min_turn_deg`` (180 deg by default, enough for the tactical diameter);
 * where no command explains it, a run of one-signed yaw rate turning at least 360 deg is a
   turning circle found from the heading alone (closed-loop circles of a thruster-driven USV);
-  its "execute" is the start of the run (``execute_from="heading"``).
+  its "execute" is the start of the run (``execute_from="heading"``);
+* a turning circle needs the vessel under way at its execute (:func:`turn_under_way`: over its
+  approach, :mod:`usvid.prep.under_way`); a turn of the heading on the spot or at the dock is
+  left out and said (:func:`manoeuvre_findings`), never measured as a circle of no diameter.
 
 The segments are measured by :mod:`usvid.manoeuvres.measure` with the definitions of
 :mod:`usvid.manoeuvres.metrics` (the simulator uses the same functions), so a measured and a
@@ -49,9 +54,9 @@ import numpy as np
 
 from usvid.errors import UsvidError
 from usvid.prep.filters import savgol_derivative, savgol_smooth, unwrap_angle
-from usvid.prep.glitches import repair_trial_heading
-from usvid.prep.prepare import prepare
-from usvid.trial import Trial
+from usvid.prep.prepare import PreparedTrial, as_prepared
+from usvid.prep.under_way import UnderWay, under_way
+from usvid.trial import Finding, Trial
 
 #: The approach before a manoeuvre [s]: the rudder over it is the reference ``delta_0``.
 APPROACH_S = 5.0
@@ -68,6 +73,62 @@ THRUSTER_PAIRS: tuple[tuple[str, str], ...] = (
 )
 
 
+@dataclass(frozen=True)
+class Approach:
+    """The approach of a manoeuvre: the state before its execute, over the :data:`APPROACH_S`
+    before it (:func:`approach`). ``speed`` [m/s] the mean speed ``U`` (else ``u``),
+    ``shaft_speed`` [rps] the mean shaft speed ``n``, both None when not logged there;
+    ``rudder_offset`` [rad] ``delta_0``, the median rudder (None without a rudder)."""
+
+    t_execute: float
+    speed: float | None = None
+    shaft_speed: float | None = None
+    rudder_offset: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"speed_m_s": self.speed, "shaft_speed_rps": self.shaft_speed,
+                "rudder_offset_deg": None if self.rudder_offset is None
+                else math.degrees(self.rudder_offset)}
+
+
+def approach_window(t: np.ndarray, t_execute: float) -> np.ndarray:
+    """The samples of the approach before ``t_execute`` [s] (times ``t`` [s]): ``t_execute -
+    APPROACH_S .. t_execute``; the samples up to the execute's when none lies in that window;
+    the first :data:`APPROACH_S` of a record that starts at its execute."""
+    sel = (t >= t_execute - APPROACH_S) & (t <= t_execute)
+    if sel.sum() < 2:
+        i = int(np.searchsorted(t, t_execute, side="right"))
+        sel = np.zeros(len(t), dtype=bool)
+        sel[:max(i, 1)] = True
+        if i <= 1:  # the record starts at the execute: its first APPROACH_S
+            sel = t <= t[0] + APPROACH_S
+    return sel
+
+
+def approach(trial: Trial, t_execute: float) -> Approach:
+    """The :class:`Approach` before ``t_execute`` [s]: means over :func:`approach_window`; the
+    one definition of a manoeuvre's approach speed, shaft speed and rudder offset
+    ``delta_0``."""
+    sel = approach_window(trial.t, t_execute)
+
+    def mean(ch: str) -> float | None:
+        if not trial.has(ch):
+            return None
+        v = trial[ch][sel]
+        v = v[np.isfinite(v)]
+        return float(np.mean(v)) if v.size else None
+
+    speed = mean("U")
+    if speed is None:
+        speed = mean("u")
+    offset = None
+    if trial.has("delta"):
+        d = trial["delta"][sel]
+        d = d[np.isfinite(d)]
+        offset = float(np.median(d)) if d.size else None
+    return Approach(float(t_execute), speed, mean("n"), offset)
+
+
 @dataclass
 class Segment:
     """One manoeuvre found in a log.
@@ -76,7 +137,8 @@ class Segment:
     command turns to starboard) by :func:`find_execute`; ``level`` the amplitude by
     :func:`rudder_amplitude` (rudder [rad] or thruster-differential units);
     ``psi_switch`` [rad] (zig-zag); ``heading_change`` [rad] over the segment; ``command`` the
-    channel(s) used; ``execute_from`` "command" or "heading".
+    channel(s) used; ``execute_from`` "command" or "heading"; ``approach`` the state before
+    the execute (:func:`approach`).
     """
 
     kind: str
@@ -91,6 +153,7 @@ class Segment:
     heading_change: float = 0.0
     execute_from: str = "command"
     extra: dict[str, Any] = field(default_factory=dict)
+    approach: Approach | None = None
 
     @property
     def delta_amp_deg(self) -> float | None:
@@ -118,6 +181,8 @@ class Segment:
             out["psi_switch_deg"] = math.degrees(self.psi_switch)
         if self.kind == "zigzag":
             out["n_pulses"] = self.n_pulses
+        if self.approach is not None:
+            out["approach"] = self.approach.to_dict()
         out.update(self.extra)
         return out
 
@@ -142,8 +207,9 @@ def turning_command(trial: Trial) -> tuple[str, np.ndarray, bool] | None:
             d = trial[ch]
             if np.nanmax(np.abs(d)) > 0:
                 return ch, d, True
+    derived = getattr(trial, "derived", ())  # (n_port, n_stbd from PWM: read the PWM itself)
     for port, stbd in THRUSTER_PAIRS:
-        if trial.has(port) and trial.has(stbd):
+        if trial.has(port) and trial.has(stbd) and port not in derived:
             return f"{port}-{stbd}", trial[port] - trial[stbd], False
     return None
 
@@ -618,7 +684,9 @@ def find_manoeuvres(
     ----------
     trial : Trial
         Needs ``psi`` [rad] and a command (``delta`` [rad], ``delta_cmd``, or a thruster pair);
-        a non-uniform trial is prepared first (:func:`usvid.prep.prepare`).
+        a raw trial is prepared first (:func:`usvid.prep.prepare`). On a prepared trial the
+        segments are found once (remembered by the trial) and returned again on a second call
+        with the same options.
     min_level : float, optional
         Smallest command counted as a deflection: rudder [rad] default 1 deg; thruster
         differential default 20 % of the 95th percentile of its magnitude.
@@ -637,9 +705,58 @@ def find_manoeuvres(
     """
     if not trial.has("psi"):
         raise UsvidError(f"trial {trial.name or '?'}: no heading 'psi', cannot find manoeuvres")
-    trial, _ = repair_trial_heading(trial)  # at the sensor's own samples, before resampling
-    if not trial.is_uniform or trial.data[["t", "psi"]].isna().any().any():
-        trial = prepare(trial, derivatives=False)
+    options = _options(min_level=min_level, min_pulse_s=min_pulse_s,
+                       max_transition_s=max_transition_s, min_turn_deg=min_turn_deg,
+                       psi_switch=psi_switch, smooth_s=smooth_s)
+    prepared = as_prepared(trial, derivatives=False)
+    if not prepared.has("psi"):
+        raise UsvidError(f"trial {trial.name or '?'}: no heading 'psi', cannot find manoeuvres")
+    return list(_segmentation(prepared, options)[0])
+
+
+def manoeuvre_findings(trial: Trial, **options: Any) -> list[Finding]:
+    """What :func:`find_manoeuvres` (with the same ``options``) found and did not return, and
+    why: a turn of the heading while the vessel was not under way (code
+    ``turn_not_under_way``). From the same segmentation (no second one)."""
+    if not trial.has("psi"):
+        return []
+    prepared = as_prepared(trial, derivatives=False)
+    if not prepared.has("psi"):
+        return []
+    return list(_segmentation(prepared, _options(**options))[1])
+
+
+def _options(*, min_level: float | None = None, min_pulse_s: float = 2.0,
+             max_transition_s: float = 10.0, min_turn_deg: float = 180.0,
+             psi_switch: float | None = None, smooth_s: float | None = None) -> dict[str, Any]:
+    return dict(min_level=min_level, min_pulse_s=min_pulse_s,
+                max_transition_s=max_transition_s, min_turn_deg=min_turn_deg,
+                psi_switch=psi_switch, smooth_s=smooth_s)
+
+
+def _segmentation(prepared: PreparedTrial, options: dict[str, Any]
+                  ) -> tuple[list[Segment], list[Finding]]:
+    key = ("segments", *sorted(options.items()))
+    return prepared.remember(key, lambda: segment_trial(prepared, **options))
+
+
+def turn_under_way(trial: PreparedTrial, seg: Segment) -> UnderWay:
+    """Whether the vessel was under way at the execute of a turn ``seg``
+    (:func:`usvid.prep.under_way.under_way`, the one definition): over its approach
+    (:func:`approach_window`), else, when the log tells no speed there, over the turn."""
+    t = trial.t
+    uw = under_way(trial, approach_window(t, seg.t_execute))
+    if not uw.known:
+        uw = under_way(trial, (t >= seg.t_execute) & (t <= seg.t_end))
+    return uw
+
+
+def segment_trial(trial: PreparedTrial, *, min_level: float | None, min_pulse_s: float,
+                  max_transition_s: float, min_turn_deg: float, psi_switch: float | None,
+                  smooth_s: float | None) -> tuple[list[Segment], list[Finding]]:
+    """The segmentation behind :func:`find_manoeuvres` (run once per prepared trial and
+    options; call :func:`find_manoeuvres`): the segments, and the findings of the turns left
+    out because the vessel was not under way (:func:`manoeuvre_findings`)."""
     t = trial.t
     dt = float(np.median(np.diff(t)))
     psi = unwrap_angle(trial["psi"])
@@ -654,14 +771,17 @@ def find_manoeuvres(
             min_level = (math.radians(1.0) if rudder
                          else 0.2 * float(np.nanpercentile(np.abs(cs), 95)))
         cc = c if rudder else cs  # the command the execute and the level are read from
-        pulses = _pulses(cc, cs, dt, min_level, min_pulse_s, merge_gap_s=1.0)
+        # a command that never leaves zero (e.g. equal thrusters throughout: a differential of
+        # zero, whose 95th percentile is 0) has no pulses, whatever the threshold
+        pulses = (_pulses(cc, cs, dt, min_level, min_pulse_s, merge_gap_s=1.0)
+                  if min_level > 0 else [])
         # chains of alternating pulses of similar level
         chains: list[list[_Pulse]] = []
         for p in pulses:
             if chains:
                 q = chains[-1][-1]
                 if (q.sign != p.sign and (p.i0 - q.i1) * dt <= max_transition_s
-                        and 0.7 <= p.level / q.level <= 1 / 0.7):
+                        and 0.7 * q.level <= p.level <= q.level / 0.7):
                     chains[-1].append(p)
                     continue
             chains.append([p])
@@ -683,7 +803,25 @@ def find_manoeuvres(
             floor = _plateau_end(cc, chain[-1])
     segs += _turning_from_heading(t, psi, dt, used)
     segs.sort(key=lambda s: s.t_start)
-    return segs
+    kept: list[Segment] = []
+    findings: list[Finding] = []
+    for seg in segs:
+        seg.approach = approach(trial, seg.t_execute)
+        if seg.kind == "turning":  # a turning circle is sailed: the vessel under way
+            uw = turn_under_way(trial, seg)
+            if uw.is_under_way is False:
+                findings.append(Finding(
+                    "info", "turn_not_under_way",
+                    f"the heading turns {math.degrees(seg.heading_change):.0f} deg from t = "
+                    f"{seg.t_start:.1f} s to {seg.t_end:.1f} s, but the vessel was not under "
+                    f"way: {uw.reason()}; not a turning circle (on the spot or at the dock the "
+                    "heading turns without a track to measure)",
+                    t_start=seg.t_start, t_end=seg.t_end, channel="psi",
+                    data={"heading_change_deg": math.degrees(seg.heading_change),
+                          "median_speed_m_s": uw.median_speed, "speed_from": uw.source}))
+                continue
+        kept.append(seg)
+    return kept, findings
 
 
 def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch

@@ -52,18 +52,21 @@ class Criterion:
 
 @dataclass
 class ImoCheck:
-    """A set of IMO criteria for one manoeuvre; ``passed`` is True when all known ones pass,
-    False when any fails, ``None`` when none could be evaluated."""
+    """A set of IMO criteria for one manoeuvre; ``passed`` is True when every criterion was
+    evaluated and passes, False when any fails, ``None`` otherwise (a metric could not be
+    computed: a verdict on the others alone would pass a test that was not completed)."""
 
     manoeuvre: str
     criteria: list[Criterion] = field(default_factory=list)
 
     @property
     def passed(self) -> bool | None:
-        known = [c.passed for c in self.criteria if c.passed is not None]
-        if not known:
+        verdicts = [c.passed for c in self.criteria]
+        if False in verdicts:
+            return False
+        if not verdicts or None in verdicts:
             return None
-        return all(known)
+        return True
 
     def to_dict(self) -> dict[str, Any]:
         return {"manoeuvre": self.manoeuvre, "passed": self.passed,

@@ -22,9 +22,9 @@ def check_params(owner: str, values: dict[str, Any], *, positive: tuple[str, ...
         if not np.all(np.isfinite(arr)):
             raise UsvidError(f"{owner}.{name} must be finite (got {_show(arr)})")
         if name in positive and not np.all(arr > 0):
-            raise UsvidError(f"{owner}.{name} must be > 0 (got {_show(arr)})")
+            raise UsvidError(f"{owner}.{name} must be > 0 (got {_show(arr, ~(arr > 0))})")
         if name in nonnegative and not np.all(arr >= 0):
-            raise UsvidError(f"{owner}.{name} must be >= 0 (got {_show(arr)})")
+            raise UsvidError(f"{owner}.{name} must be >= 0 (got {_show(arr, ~(arr >= 0))})")
 
 
 def checked(owner: str, *, positive: tuple[str, ...] = (), nonnegative: tuple[str, ...] = (),
@@ -34,9 +34,17 @@ def checked(owner: str, *, positive: tuple[str, ...] = (), nonnegative: tuple[st
     return tuple(np.asarray(v, dtype=float) for v in values.values())
 
 
-def _show(arr: np.ndarray) -> str:
+def _show(arr: np.ndarray, bad: np.ndarray | None = None) -> str:
+    """A value for an error message: a scalar as it is; of a batch (an array of lanes) the
+    first offending lane (``bad``, default the non-finite ones) with its index."""
     if arr.ndim == 0:
         v = float(arr)
         return "nan" if math.isnan(v) else repr(v)
-    bad = arr[~np.isfinite(arr)] if not np.all(np.isfinite(arr)) else arr.ravel()[:3]
-    return np.array2string(np.asarray(bad)[:3])
+    flat = arr.ravel()
+    mask = (~np.isfinite(flat)) if bad is None else np.asarray(bad, dtype=bool).ravel()
+    if not mask.any():
+        return np.array2string(flat[:3])
+    i = int(np.argmax(mask))
+    v = float(flat[i])
+    return (f"{'nan' if math.isnan(v) else repr(v)} in lane {i} of {flat.size}"
+            + (f", {int(mask.sum())} lanes out of range" if mask.sum() > 1 else ""))

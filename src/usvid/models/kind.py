@@ -106,7 +106,7 @@ class ParamSpec:
         for op, v, ok in (("> ", self.gt, np.greater), (">= ", self.ge, np.greater_equal),
                           ("< ", self.lt, np.less), ("<= ", self.le, np.less_equal)):
             if v is not None and not np.all(ok(arr, v)):
-                raise UsvidError(f"{where} must be {op}{v:g} (got {_show(arr)})")
+                raise UsvidError(f"{where} must be {op}{v:g} (got {_show(arr, ~ok(arr, v))})")
 
 
 def param(unit: str, meaning: str, *, default: Any = REQUIRED,

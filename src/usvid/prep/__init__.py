@@ -2,7 +2,8 @@
 
 Geodetic -> local NED (:func:`to_ned`), stale GNSS fixes (:func:`drop_stale`), multi-rate
 alignment (:func:`resample`), zero-phase filtering and derivatives (:func:`savgol_derivative`),
-body velocities, the one-call :func:`prepare`, the channel :func:`audit` and merging the logs of
+body velocities, the one-call :func:`prepare` (a :class:`PreparedTrial`, made once per log and
+command), the channel :func:`audit` and merging the logs of
 several loggers (:func:`merge_trials`). Finding and measuring manoeuvres in a log is one layer up,
 in :mod:`usvid.manoeuvres`.
 """
@@ -24,14 +25,16 @@ from usvid.prep.kinematics import (
     earth_to_body,
 )
 from usvid.prep.merge import merge_trials
-from usvid.prep.prepare import prepare, sort_time
+from usvid.prep.prepare import PreparedTrial, as_prepared, prepare, sort_time
 from usvid.prep.resample import infer_rate, resample
 from usvid.prep.stale import StaleReport, detect_stale, drop_stale
 from usvid.prep.state_estimation import StateEstimate, estimate_states
 
 __all__ = [
+    "PreparedTrial",
     "StaleReport",
     "StateEstimate",
+    "as_prepared",
     "audit",
     "body_to_earth",
     "body_velocity_from_cog",

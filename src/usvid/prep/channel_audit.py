@@ -18,13 +18,30 @@ The checks:
   sign of K/T must be positive (usvid convention: positive delta makes r positive);
 * a thruster differential (port minus starboard) the same way (the catamaran paper:
   tau_r ~ T_port - T_stbd);
-* a constant scale factor between two position sources (lat/lon vs a file's own x/y).
+* a constant scale factor between two position sources (lat/lon vs a file's own x/y);
+* degenerate data: a position jump implying a speed no vessel makes (:data:`MAX_SPEED`), an
+  actuator channel constant over the whole log, time running backwards (errors), a rudder angle
+  beyond any rudder's travel.
+
+Verdicts only where the data support them: the channels are compared on the prepared trial's
+grid (:func:`usvid.prep.prepare`, the one road: the rate of the fastest *message stream*,
+:func:`usvid.prep.resample.stream_rate`, not the spacing of the merged records, which a gateway
+stamping in bursts makes a millisecond);
+the physics checks need :data:`MIN_PHYSICS_S` of log, the yaw-rate check a nearly level
+vehicle and some turning, the rudder-sign check a vessel under way (:mod:`usvid.prep.under_way`,
+the one definition: speed at least :data:`MIN_SPEED` on :data:`MIN_MOVING_S` of the log). Every
+error says what to do, with the format-spec line that does it for the log's reader
+(:func:`spec_hint`). Heading glitches and steps are those of :mod:`usvid.prep.glitches` (the
+one definition the manoeuvre metrics use too).
 """
 
 from __future__ import annotations
 
 import math
+import re
+import warnings
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -41,15 +58,32 @@ from usvid.prep.filters import (
 from usvid.prep.geodesy import geodetic_to_ned
 from usvid.prep.glitches import (
     GLITCH_MIN,
-    heading_glitches,
-    repair_trial_heading,
+    MAX_TURN_RATE,
+    STEP_MIN,
 )
 from usvid.prep.kinematics import earth_to_body
-from usvid.prep.prepare import prepare
+from usvid.prep.prepare import PreparedTrial, prepare
 from usvid.prep.stale import POSITION_GROUPS, detect_stale
+from usvid.prep.under_way import MIN_MOVING_S, MIN_SPEED
+from usvid.prep.under_way import moving as moving_samples
 from usvid.trial import Finding, Trial
 
 RAD = 180.0 / np.pi
+#: Physics checks need at least this much log [s].
+MIN_PHYSICS_S = 10.0
+#: The rudder sign is judged only on samples where the vessel makes way (a boat at the dock
+#: turns with wind and lines, not with its rudder), on at least MIN_MOVING_S [s] of them:
+#: :mod:`usvid.prep.under_way`, the one definition (MIN_SPEED [m/s]).
+#: The yaw-rate check compares a body-axis rate with d(psi)/dt: only for a nearly level vehicle
+#: (roll and pitch within this [rad] on 90 % of the samples; a banked aircraft's body rate is no
+#: heading rate).
+MAX_LEVEL = math.radians(10.0)
+#: Fastest speed over ground of a surface vessel [m/s] (90 knots; racing boats stay below);
+#: a position jump implying more is no motion. For aircraft, MAX_SPEED_AIR (Mach 0.9).
+MAX_SPEED, MAX_SPEED_AIR = 46.0, 300.0
+#: A rudder angle beyond this [rad] is beyond any rudder's travel (35-45 deg; high-lift
+#: rudders 65-70 deg; an azimuth drive turns all round and is logged as a thrust angle).
+MAX_RUDDER = math.radians(70.0)
 #: Gains between a candidate channel and d(psi)/dt that have a plain explanation.
 _GAINS: tuple[tuple[float, str], ...] = (
     (1.0, "matches"),
@@ -147,7 +181,15 @@ def _check_time(trial: Trial) -> list[Finding]:
     pos = dt[dt > 0]
     if len(pos):
         med = float(np.median(pos))
-        gap = dt > max(3.0 * med, med + 0.5)
+        # in a multi-rate log no record may arrive for a while between the samples of the
+        # slowest regular channel: a gap is longer than twice its own typical spacing too
+        slow = 0.0
+        for c in _numeric_channels(trial):
+            y = trial[c]
+            ts = t[np.isfinite(y)]
+            if 2 < len(ts) < len(t):
+                slow = max(slow, float(np.median(np.diff(ts))))
+        gap = dt > max(3.0 * med, med + 0.5, 2.0 * slow)
         if gap.any():
             i = np.flatnonzero(gap)
             longest = int(i[np.argmax(dt[i])])
@@ -232,6 +274,8 @@ def _check_saturation(trial: Trial, chans: list[str], hard_over_deg: float = 34.
         if ok.sum() < 20:
             continue
         if ch in ("delta", "delta_cmd"):
+            if np.nanmedian(np.abs(y)) > MAX_RUDDER:
+                continue  # no rudder angle at all (rudder_out_of_range says so)
             pinned = ok & (np.abs(y) >= np.deg2rad(hard_over_deg))
             frac = pinned.sum() / ok.sum()
             if frac > 0.01:
@@ -262,7 +306,248 @@ def _check_saturation(trial: Trial, chans: list[str], hard_over_deg: float = 34.
     return out
 
 
+
+# --- what to do: the format-spec line for the log's reader --------------------------------------
+def spec_hint(trial: Trial, channel: str, *, sign: bool = False, take: str | None = None,
+              unit: str | None = None, rename: str | None = None) -> str:
+    """The format-spec change that fixes ``channel`` for this log's reader, as words with the
+    YAML line: flip its sign (``sign``), read it from the column / decoded channel / message
+    field of channel ``take`` instead, give it another ``unit``, or ``rename`` it (a channel
+    renamed away is not used as that channel: ``r`` renamed ``r_logged`` lets usvid derive the
+    yaw rate from the heading). The line is the user's own
+    column (``meta["spec_columns"]``) changed; for a shipped preset read without ``--format``,
+    a copy of the preset; for the NMEA readers without a column, a spec naming the decoded
+    channel."""
+    meta = trial.meta
+    cols = meta.get("spec_columns") or {}
+    reader = meta.get("reader")
+    src_name = meta.get("spec") or ""
+    shipped = meta.get("spec_shipped")
+    base = dict(cols.get(take or channel) or {})
+    if not base and reader in ("nmea0183", "nmea2000"):
+        base = {"col": take or channel}
+    if not base:
+        return (f"map '{channel}' in the format spec (columns: {channel}: ...) to the right "
+                "source column with its unit and sign")
+    base.pop("optional", None)
+    if sign:
+        if base.get("sign") == -1:
+            base.pop("sign")
+        else:
+            base["sign"] = -1
+    if unit is not None:
+        base["unit"] = unit
+    if rename is not None:
+        entry = f"{rename}: {flow_yaml(base)}"
+        if reader in ("nmea0183", "nmea2000") and not cols:
+            return (f"give a format spec with `reader: {reader}` and `columns: {{{entry}}}` "
+                    f"(--format): '{channel}' is then kept as '{rename}', not used as "
+                    f"'{channel}'")
+        return f"rename its `{channel}:` line in the format spec to `{entry}`" + (
+            f" (a copy of the shipped spec '{shipped}', given with --format)" if shipped else "")
+    line = f"columns: {{{channel}: {flow_yaml(base)}}}"
+    if shipped:
+        name = shipped
+        part = (f" (its {src_name.split('(')[1].rstrip(')')} columns)" if "(" in src_name
+                else "")
+        return (f"copy the shipped spec '{name}' (usvid.io.shipped_spec_path('{name}')), change "
+                f"the line{part} to `{channel}: {flow_yaml(base)}` and give the copy with "
+                "--format")
+    if not cols and reader in ("nmea0183", "nmea2000"):
+        return (f"give a format spec with `reader: {reader}` and `{line}` (--format; the other "
+                "channels are decoded as before)")
+    where = f" {src_name}" if src_name and not src_name.startswith("<") else ""
+    return f"in the format spec{where} write `{line}`"
+
+
+def flow_yaml(d: dict[str, Any]) -> str:
+    """A mapping as one line of YAML flow style (``{col: 8, unit: deg}``; strings quoted when
+    YAML would read them otherwise)."""
+    def val(v: Any) -> str:
+        if isinstance(v, dict):
+            return flow_yaml(v)
+        if isinstance(v, list):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str) and not re.fullmatch(r"[A-Za-z_/][A-Za-z0-9_./]*", v):
+            return '"' + v.replace('"', '\\"') + '"'
+        return str(v)
+    return "{" + ", ".join(f"{k}: {val(v)}" for k, v in d.items()) + "}"
+
+
+
+# --- degenerate data: errors ----------------------------------------------------------------------
+#: Steering channels: constant over a whole log, no steering response can be identified (a
+#: propeller rate held constant is the usual trial; a rudder or a thruster differential held
+#: constant steers nothing).
+STEERING = ("delta", "delta_cmd")
+
+
+def _constant(y: np.ndarray) -> bool:
+    v = y[np.isfinite(y)]
+    return bool(len(v)) and float(np.ptp(v)) <= 1e-9 * max(1.0, float(np.max(np.abs(v))))
+
+
+def _check_actuators(trial: Trial) -> list[Finding]:
+    """A steering channel (rudder, or the differential of a thruster pair) that holds one value
+    over the whole log (at least 20 samples and :data:`MIN_PHYSICS_S`) is an error when no other
+    steering channel moves (a warning otherwise); a rudder angle beyond :data:`MAX_RUDDER` is
+    explained."""
+    out: list[Finding] = []
+    t = trial.t
+    cands: list[tuple[str, np.ndarray, str]] = [(c, trial[c], c) for c in STEERING
+                                                if trial.has(c)]
+    pair = next(((a, b) for a, b in THRUSTER_PAIRS if trial.has(a) and trial.has(b)), None)
+    if pair is not None:
+        a, b = pair
+        cands.append((f"'{a}' - '{b}'", trial[a] - trial[b], a))
+    moved = [c for _, y, c in cands if np.isfinite(y).any() and not _constant(y)]
+    for what, y, ch in cands:
+        ok = np.isfinite(y)
+        if not ok.any():
+            continue
+        span = float(t[ok][-1] - t[ok][0]) if ok.sum() > 1 else 0.0
+        if ch.startswith("delta") and np.nanmedian(np.abs(y)) > MAX_RUDDER:
+            out.append(Finding(
+                "warning", "rudder_out_of_range",
+                f"rudder channel '{ch}' reads {math.degrees(float(np.nanmedian(y))):.1f} deg "
+                f"(median): beyond any rudder's travel (at most about "
+                f"{math.degrees(MAX_RUDDER):.0f} deg); the sensor is not calibrated or not "
+                "connected, or the field holds another quantity - it is no rudder angle",
+                count=int(ok.sum()), t_start=float(t[ok][0]), t_end=float(t[ok][-1]),
+                channel=ch, data={"median_deg": math.degrees(float(np.nanmedian(y)))}))
+        if ok.sum() < 20 or span < MIN_PHYSICS_S or not _constant(y):
+            continue
+        v0 = float(y[ok][0])
+        value = f"{math.degrees(v0):.2f} deg" if ch.startswith("delta") else f"{v0:.6g}"
+        if ch.startswith("delta"):
+            other = next((c for c in ("delta_port", "delta_cmd", "delta") if c != ch
+                          and trial.has(c) and not _constant(trial[c])), None)
+            fix = (f"if it did move, this is not the channel: {spec_hint(trial, ch, take=other)}"
+                   if other else f"if it did move, map the right one: {spec_hint(trial, ch)}")
+            name = f"rudder channel '{ch}'"
+        else:
+            fix = ("if they did differ, map the thruster channels: "
+                   + spec_hint(trial, pair[0]) + f"; the same for '{pair[1]}'")
+            name = f"the thruster differential {what}"
+        alone = not moved  # (another steering channel that moves: only this one is stuck)
+        out.append(Finding(
+            "error" if alone else "warning", "actuator_constant",
+            f"{name} holds {value} on all {int(ok.sum())} samples over {span:.1f} s"
+            + (": nothing steered in this log, so no steering response can be identified"
+               if alone else f", while {', '.join(repr(c) for c in moved)} moves: it is not "
+               "used for steering, or logged from another device") + f"; {fix}",
+            count=int(ok.sum()), t_start=float(t[ok][0]), t_end=float(t[ok][-1]), channel=ch,
+            data={"value": v0}))
+    return out
+
+
+def _check_position_jumps(trial: Trial, stale_rows: np.ndarray | None) -> list[Finding]:
+    """Consecutive valid fixes (lat/lon, or x/y without them) further apart than
+    :data:`MAX_SPEED` times their time difference: an error (no vessel moves so)."""
+    t = trial.t
+    if trial.has("lat") and trial.has("lon"):
+        lat, lon = trial["lat"].copy(), trial["lon"].copy()
+        if stale_rows is not None:
+            lat[stale_rows] = np.nan
+        ok = np.isfinite(lat) & np.isfinite(lon)
+        if ok.sum() < 2:
+            return []
+        la, lo = np.radians(lat[ok]), np.radians(lon[ok])
+        # great-circle distance (haversine, mean Earth radius 6371.0 km)
+        h = (np.sin(np.diff(la) / 2) ** 2
+             + np.cos(la[1:]) * np.cos(la[:-1]) * np.sin(np.diff(lo) / 2) ** 2)
+        dist = 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))
+        which = "lat/lon"
+    elif trial.has("x") and trial.has("y"):
+        x, y = trial["x"], trial["y"]
+        ok = np.isfinite(x) & np.isfinite(y)
+        if ok.sum() < 2:
+            return []
+        dist = np.hypot(np.diff(x[ok]), np.diff(y[ok]))
+        which = "x/y"
+    else:
+        return []
+    tt = t[ok]
+    dt = np.diff(tt)
+    air = (trial.meta.get("vehicle") or {}).get("kind", "") in (
+        "fixed-wing aircraft", "VTOL aircraft", "helicopter", "multicopter")
+    vmax = MAX_SPEED_AIR if air else MAX_SPEED
+    with np.errstate(divide="ignore", invalid="ignore"):
+        jump = (dist > 10.0) & (dist > vmax * np.maximum(dt, 0.0))
+    if not jump.any():
+        return []
+    i = np.flatnonzero(jump)
+    k = int(i[np.argmax(dist[i])])
+    big = float(dist[k])
+    reader = trial.meta.get("reader")
+    who = {"nmea2000": "source address", "nmea0183": "talker"}.get(reader or "")
+    fix = (f"if two receivers alternate, take one: a format spec with `reader: {reader}` and "
+           "`columns: {lat: {col: lat, source: S}, lon: {col: lon, source: S}}` (S: the "
+           f"receiver's {who}, as the several_sources finding lists them)" if who else
+           "check the position columns (their unit: degrees, not radians or 1e-7 degrees) "
+           "and the receiver's fix quality")
+    return [Finding(
+        "error", "position_jump",
+        f"the positions ({which}) jump {len(i)} time(s) by more than a vessel can move "
+        f"(largest {big / 1000:.3g} km in {float(dt[k]):.3g} s at t = {float(tt[k + 1]):.2f} s, "
+        f"more than {vmax:g} m/s): these are no motion (a bad fix, or two sources); use only "
+        f"the part of the log on one side of them (LOG:T0:T1), or {fix}",
+        count=len(i), t_start=float(tt[i[0] + 1]), t_end=float(tt[i[-1] + 1]), channel="lat"
+        if which == "lat/lon" else "x", data={"largest_m": big, "max_speed_m_s": vmax})]
+
+
+def _check_time_backwards(trial: Trial) -> list[Finding]:
+    """Time running backwards, as the reader found it (it sorted or re-timed the records): an
+    error when a clock reset was found or more than 1 % of the records (at least 3) went
+    backwards; records slightly out of order (jitter) stay the reader's warning."""
+    n = max(len(trial), 1)
+    back = [f for f in trial.findings if f.code == "non_monotonic_time"]
+    resets = [b for b in trial.meta.get("time_breaks", []) if b.get("kind") == "clock_reset"]
+    repaired = [f for f in trial.findings if f.code == "clock_reset_repaired"]
+    n_back = sum(f.count for f in back)
+    if not resets and not repaired and not (n_back >= 3 and n_back > 0.01 * n):
+        return []
+    what = []
+    if n_back:
+        what.append(f"{n_back} record(s) earlier than the one before (sorted into place)")
+    if resets or repaired:
+        k = len(resets) + sum(f.count for f in repaired)
+        what.append(f"{k} clock reset(s) (the clock continued one step later)")
+    return [Finding(
+        "error", "time_backwards",
+        f"time runs backwards in this log: {'; '.join(what)}: a clock that was reset, or "
+        "records of two runs joined; usvid put the records in order, which is right only for "
+        "jitter - give each run as its own log (LOG:T0:T1), or drop the late records with "
+        "`non_monotonic: reject` in the format spec", count=n_back + len(resets),
+        channel="t")]
+
+
 # --- physics checks ----------------------------------------------------------------------------
+def step_mask(prep: Trial, dt: float, window_s: float) -> np.ndarray:
+    """Grid samples within a derivative window of a heading step (:mod:`usvid.prep.glitches`,
+    found at the compass's own samples; times in ``meta["heading_steps"]``)."""
+    t = prep.t
+    out = np.zeros(len(t), dtype=bool)
+    half = window_samples(window_s, dt) * dt
+    for ts in prep.meta.get("heading_steps", []):
+        out |= np.abs(t - ts) <= half + 1e-9
+    return out
+
+
+def _level(prep: Trial) -> bool:
+    """True unless the roll or pitch channel exceeds :data:`MAX_LEVEL` on more than 10 % of
+    its samples."""
+    for ch in ("phi", "theta"):
+        if prep.has(ch):
+            a = np.abs(prep[ch])
+            a = a[np.isfinite(a)]
+            if len(a) and np.mean(a > MAX_LEVEL) > 0.1:
+                return False
+    return True
+
+
 def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float) -> list[Finding]:
     if not prep.has("psi"):
         return [Finding("info", "no_heading", "no heading channel 'psi': yaw rate not checked")]
@@ -272,11 +557,12 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
     # 1-deg glitch is 1 deg/s in a 1-s derivative, which would hide a good gyro's agreement)
     w = max(window_s, 2.0)
     psi = unwrap_angle(prep["psi"])
-    spikes = heading_jumps(psi, window_samples(w, dt))
+    spikes = step_mask(prep, dt, w)
     # glitches were found and repaired at the compass's own samples, before resampling
     n_glitch = int(prep.meta.get("heading_glitches", 0))
     if n_glitch:
-        a, b = prep.meta.get("heading_glitch_span", (None, None))
+        gt = prep.meta.get("heading_glitch_times") or [None]
+        a, b = gt[0], gt[-1]
         out.append(Finding(
             "warning", "heading_glitch",
             f"{n_glitch} heading sample(s) leave the heading's course (glitches of more than "
@@ -289,16 +575,34 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
     ref = savgol_derivative(psi, dt, w)
     if spikes.any():
         a, b = _span(t, spikes)
+        n_steps = len(prep.meta.get("heading_steps", []))
         out.append(Finding(
             "warning", "heading_jump",
-            f"the heading jumps within one sample (glitches, or records of different runs "
-            f"joined); the {int(spikes.sum())} samples around the jumps are left out of the "
-            f"yaw-rate and rudder checks",
-            count=int(spikes.sum()), t_start=a, t_end=b, channel="psi"))
+            f"the heading jumps {n_steps} time(s) by more than {math.degrees(STEP_MIN):.0f} deg "
+            f"faster than any vessel turns ({math.degrees(MAX_TURN_RATE):.0f} deg/s: records of "
+            f"different runs or sensors joined, a compass re-aligned); the "
+            f"{int(spikes.sum())} samples around the jumps are left out of the yaw-rate and "
+            "rudder checks", count=int(spikes.sum()), t_start=a, t_end=b, channel="psi",
+            data={"steps": n_steps}))
         ref = np.where(spikes, np.nan, ref)
-    if np.nanstd(ref) < np.deg2rad(0.05):
-        return [Finding("info", "no_turning",
-                        "heading hardly changes: yaw rate and rudder sign cannot be checked")]
+    turned = np.nanmax(psi) - np.nanmin(psi) if np.isfinite(psi).any() else 0.0
+    if not np.isfinite(ref).any() or np.nanstd(ref) < np.deg2rad(0.05) or turned < MIN_TURN:
+        return out + [Finding("info", "no_turning",
+                              f"heading hardly changes ({math.degrees(turned):.1f} deg over the "
+                              "log): yaw rate and rudder sign cannot be checked")]
+    vehicle = prep.meta.get("vehicle") or {}
+    if vehicle.get("surface_vessel") is False:
+        return out + [Finding(
+            "info", "not_checked_vehicle",
+            f"the yaw rate is not checked against the heading: the log is from a "
+            f"{vehicle.get('kind')}, whose body-axis rate is no heading rate when it banks or "
+            "pitches")]
+    if not _level(prep):
+        return out + [Finding(
+            "info", "not_level",
+            f"the vehicle rolls or pitches beyond {math.degrees(MAX_LEVEL):.0f} deg on more "
+            "than 10 % of the log: a body-axis yaw rate is not d(psi)/dt there, so the yaw "
+            "rate is not checked against the heading")]
     matches = []
     for ch in prep.channels:
         if ch in _NOT_RATE or ch not in measured:
@@ -329,9 +633,12 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
                 return out
             code = "yaw_rate_sign" if ex is not None and ex[0] < 0 else "yaw_rate_scale"
             if ex is not None and abs(ex[0]) == 1.0 and ex[0] < 0:
-                fix = "give it sign: -1 in the format spec"
+                fix = "flip its sign: " + spec_hint(prep, "r", sign=True)
+            elif ex is not None and prep.meta.get("reader") in ("nmea0183", "nmea2000"):
+                fix = "the reader delivers r in rad/s: check the sender's unit"
             elif ex is not None:
-                fix = "fix the angle unit of r (or psi) in the format spec"
+                to = "deg/s" if abs(ex[0]) > 1 else "rad/s"
+                fix = "fix its angle unit: " + spec_hint(prep, "r", unit=to, sign=ex[0] < 0)
             else:
                 fix = "check its unit"
             out.append(Finding(
@@ -342,6 +649,19 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
                 data={"corr": r_match.corr, "gain": r_match.gain}))
             return out
         corr_r = r_match.corr if r_match is not None else float("nan")
+        lag = _lag_match(savgol_smooth(prep["r"], dt, w), ref, dt) if best is None else None
+        if (lag is not None and lag["corr"] >= 0.7 and lag["corr"] >= corr_r + 0.2
+                and 0.7 <= lag["gain"] <= 1.3 and lag["lag_s"] > 0):
+            out.append(Finding(
+                "warning", "yaw_rate_lag",
+                f"channel 'r' follows d(psi)/dt {lag['lag_s']:.1f} s late (correlation "
+                f"{lag['corr']:+.2f} at that delay, {corr_r:+.2f} without; gain "
+                f"{lag['gain']:.2f}): a filtered or delayed rate of turn. A fit would take the "
+                "delay for the vessel's response; to derive the yaw rate from the heading "
+                "instead, " + spec_hint(prep, "r", rename="r_logged"),
+                count=r_match.n if r_match else 0, t_start=span[0], t_end=span[1],
+                channel="r", data={"corr_r": corr_r, **lag}))
+            return out
         if best is None and r_match is not None and r_match.corr >= 0.3 \
                 and 0.7 <= r_match.gain <= 1.3:
             # same sign and unit, but loose: little yaw motion against heading/gyro noise (a
@@ -356,13 +676,15 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
                 f"yaw rate", count=r_match.n, t_start=span[0], t_end=span[1], channel="r",
                 data={"corr": r_match.corr, "gain": r_match.gain}))
             return out
+        shown = f"{corr_r:+.2f}" if math.isfinite(corr_r) else "none"
         if best is not None:
             msg = (f"channel 'r' is not the yaw rate: it does not follow d(psi)/dt (correlation "
-                   f"{corr_r:+.2f}); channel {describe(best)}, so '{best.name}' is the yaw rate "
-                   f"- map that column to r in the format spec")
+                   f"{shown}); channel {describe(best)}, so '{best.name}' is the yaw rate - "
+                   + spec_hint(prep, "r", take=best.name))
         else:
-            msg = (f"channel 'r' does not follow d(psi)/dt (correlation {corr_r:+.2f}) and no "
-                   f"other channel does either: the yaw rate is not in this log")
+            msg = (f"channel 'r' does not follow d(psi)/dt (correlation {shown}) and no "
+                   "other channel does either: the yaw rate is not in this log - to derive it "
+                   "from the heading, " + spec_hint(prep, "r", rename="r_logged"))
         out.append(Finding(
             "error", "yaw_rate_column", msg, count=r_match.n if r_match else 0,
             t_start=span[0], t_end=span[1], channel="r",
@@ -377,30 +699,28 @@ def _check_yaw_rate(prep: Trial, measured: set[str], dt: float, window_s: float)
     return out
 
 
-def heading_jumps(psi: np.ndarray, dilate: int = 0, k: float = 10.0) -> np.ndarray:
-    """Bool (N,): samples where the heading [rad] steps as a glitch, widened by ``dilate``.
+#: Longest delay searched between a yaw rate and d(psi)/dt [s].
+MAX_LAG_S = 5.0
+#: Least heading change over the log [rad] for the yaw-rate check (a straight run weaving by
+#: a degree or two against a compass's noise says nothing about the yaw-rate channel).
+MIN_TURN = math.radians(2.0)
 
-    A step is a glitch when its one-sample change is more than ``k`` times the median change of
-    its ten neighbours and of the whole log: a real turn, however fast, builds up over several
-    samples, a glitch (or two records joined) happens in one.
-    """
-    from scipy.ndimage import median_filter
 
-    psi = np.asarray(psi, dtype=float)
-    out = np.zeros(psi.shape, dtype=bool)
-    ok = np.isfinite(psi)
-    if ok.sum() < 20:
-        return out
-    idx = np.flatnonzero(ok)
-    d = np.abs(np.diff(psi[idx]))
-    local = median_filter(d, size=11, mode="nearest")
-    glob = float(np.median(d))
-    floor = 1e-6  # rad: a heading resolution no sensor beats
-    jump = (d > k * np.maximum(local, floor)) & (d > k * max(glob, floor))
-    out[idx[1:][jump]] = True
-    if out.any() and dilate > 0:
-        out = np.convolve(out.astype(float), np.ones(2 * dilate + 1), mode="same") > 0
-    return out
+def _lag_match(r: np.ndarray, ref: np.ndarray, dt: float) -> dict | None:
+    """The delay [s] (positive: ``r`` late) within +-:data:`MAX_LAG_S` at which ``r`` best
+    correlates with ``ref``, with that correlation and the gain of ``ref`` on ``r`` there."""
+    best = None
+    for k in range(-int(MAX_LAG_S / dt), int(MAX_LAG_S / dt) + 1, max(1, int(0.1 / dt))):
+        a = r[k:] if k >= 0 else r[:k]
+        b = ref[:len(ref) - k] if k >= 0 else ref[-k:]
+        ok = np.isfinite(a) & np.isfinite(b)
+        if ok.sum() < 20 or np.std(a[ok]) == 0 or np.std(b[ok]) == 0:
+            continue
+        c = float(np.corrcoef(a[ok], b[ok])[0, 1])
+        if best is None or c > best["corr"]:
+            best = {"lag_s": k * dt, "corr": c,
+                    "gain": float(a[ok] @ b[ok] / (a[ok] @ a[ok]))}
+    return best
 
 
 def _check_body_velocity(prep: Trial, measured: set[str], dt: float, window_s: float
@@ -468,9 +788,11 @@ def _check_speed(prep: Trial, measured: set[str], speed: np.ndarray, noise: floa
         if ok.sum() < 20:
             continue
         a, b = y[ok], speed[ok]
+        if not a @ a > 0:
+            continue  # the measured speed is zero throughout: no factor to speak of
         g = float(a @ b / (a @ a))
         rel = float(np.sqrt(np.mean((b - g * a) ** 2)) / np.sqrt(np.mean(b**2)))
-        if abs(g - 1.0) <= 0.03 or rel > 0.3:
+        if not (math.isfinite(g) and math.isfinite(rel)) or abs(g - 1.0) <= 0.03 or rel > 0.3:
             continue  # agrees within 3 %, or no proportional relation to speak of
         t = prep.t
         out.append(Finding(
@@ -485,13 +807,17 @@ def _check_speed(prep: Trial, measured: set[str], speed: np.ndarray, noise: floa
     return out
 
 
-def _nomoto_sign(prep: Trial, cmd: np.ndarray, dt: float, window_s: float) -> dict | None:
-    """Least-squares ``r' = a cmd + b r + c`` with r = d(psi)/dt; returns a, its t-value, R^2."""
-    psi = prep["psi"]
+def _nomoto_sign(prep: Trial, cmd: np.ndarray, dt: float, window_s: float,
+                 use: np.ndarray | None = None) -> dict | None:
+    """Least-squares ``r' = a cmd + b r + c`` with r = d(psi)/dt (on the samples ``use``, away
+    from heading steps); returns a, its t-value, R^2."""
+    psi = unwrap_angle(prep["psi"])
     r = savgol_derivative(psi, dt, 2 * window_s)
     rd = savgol_derivative(psi, dt, 2 * window_s, order=3, deriv=2)
     ok = np.isfinite(r) & np.isfinite(rd) & np.isfinite(cmd)
-    ok &= ~heading_jumps(psi, window_samples(2 * window_s, dt))
+    ok &= ~step_mask(prep, dt, 2 * window_s)
+    if use is not None:
+        ok &= use
     if ok.sum() < 50 or np.std(cmd[ok]) == 0:
         return None
     A = np.column_stack([cmd[ok], r[ok], np.ones(ok.sum())])
@@ -510,38 +836,55 @@ def _check_rudder_sign(prep: Trial, dt: float, window_s: float) -> list[Finding]
     if not prep.has("psi"):
         return out
     t = prep.t
-    for ch in ("delta", "delta_cmd"):
-        if not prep.has(ch):
-            continue
+    moving = moving_samples(prep)
+    cmds = [ch for ch in ("delta", "delta_cmd") if prep.has(ch)]
+    pair = next(((a, b) for a, b in THRUSTER_PAIRS if prep.has(a) and prep.has(b)), None)
+    if moving is not None and (cmds or pair) and moving.sum() * dt < MIN_MOVING_S:
+        return [Finding(
+            "info", "not_under_way",
+            f"the vessel makes way (speed above {MIN_SPEED:g} m/s) on only "
+            f"{moving.sum() * dt:.1f} s of the log (at least {MIN_MOVING_S:g} s needed): the "
+            "sign of its rudder or thrusters is not judged (at the dock or at anchor the "
+            "heading follows wind and lines, not the rudder)",
+            data={"moving_s": float(moving.sum() * dt)})]
+    wrong: dict[str, dict] = {}
+    for ch in cmds:
         d = prep[ch]
         if np.nanstd(d) < np.deg2rad(0.5):
             continue
-        fit = _nomoto_sign(prep, d, dt, window_s)
+        fit = _nomoto_sign(prep, d, dt, window_s, moving)
         if fit is None or abs(fit["t_value"]) < 5:  # weaker evidence than 5 sigma: no verdict
             continue
         if fit["a"] < 0:
-            out.append(Finding(
-                "error", "rudder_sign",
-                f"rudder channel '{ch}' has the wrong sign: a positive '{ch}' turns the vessel to "
-                f"port (r decreasing; Nomoto fit r' = a {ch} + b r + c gives a = {fit['a']:.3g} "
-                f"1/s^2, t = {fit['t_value']:.1f}). usvid wants positive delta to make r positive: "
-                f"give '{ch}' sign: -1 in the format spec",
-                count=fit["n"], t_start=float(t[0]), t_end=float(t[-1]), channel=ch,
-                data=fit))
+            wrong[ch] = fit
+    for ch, fit in wrong.items():
+        # the angle and its command share the convention: flip both
+        both = [c for c in cmds if c == ch or c not in wrong]
+        fixes = " and ".join(f"'{c}': {spec_hint(prep, c, sign=True)}" for c in both)
+        out.append(Finding(
+            "error", "rudder_sign",
+            f"rudder channel '{ch}' has the wrong sign: a positive '{ch}' turns the vessel to "
+            f"port (r decreasing; Nomoto fit r' = a {ch} + b r + c gives a = {fit['a']:.3g} "
+            f"1/s^2, t = {fit['t_value']:.1f}). usvid wants positive delta to make r positive: "
+            f"give it sign: -1 - {fixes}",
+            count=fit["n"], t_start=float(t[0]), t_end=float(t[-1]), channel=ch,
+            data=fit))
     for port, stbd in THRUSTER_PAIRS:
         if not (prep.has(port) and prep.has(stbd)):
             continue
         diff = prep[port] - prep[stbd]
-        if np.nanstd(diff) == 0:
+        if not np.isfinite(diff).any() or np.nanstd(diff) == 0:
             break
-        fit = _nomoto_sign(prep, diff, dt, window_s)
+        fit = _nomoto_sign(prep, diff, dt, window_s, moving)
         if fit is not None and abs(fit["t_value"]) >= 5 and fit["a"] < 0:
             out.append(Finding(
                 "error", "thruster_sign",
                 f"thruster differential '{port}' - '{stbd}' turns the vessel to port (fit "
                 f"r' = a ({port} - {stbd}) + b r + c gives a = {fit['a']:.3g}, t = "
                 f"{fit['t_value']:.1f}); more port thrust should turn it to starboard "
-                f"(tau_r = (T_port - T_stbd) b/2): port and starboard are probably swapped",
+                f"(tau_r = (T_port - T_stbd) b/2): port and starboard are probably swapped - "
+                f"swap them: '{port}': {spec_hint(prep, port, take=stbd)} and '{stbd}': "
+                f"{spec_hint(prep, stbd, take=port)}",
                 count=fit["n"], t_start=float(t[0]), t_end=float(t[-1]), channel=port,
                 data=fit))
         break
@@ -607,30 +950,47 @@ def _check_position_sources(trial: Trial, stale_rows: np.ndarray | None) -> list
     return out
 
 
-def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
+def audit(trial: Trial, *, window_s: float = 1.0,
+          prepared: PreparedTrial | None = None) -> list[Finding]:
     """Check each channel of a raw trial against the physics; returns the problems found.
 
     Parameters
     ----------
     trial : Trial
-        As read (SI units, possibly multi-rate with NaN, stale fixes, lat/lon).
+        As read (SI units, possibly multi-rate with NaN, stale fixes, lat/lon): the time,
+        record and sensor checks read its own stamps and samples.
     window_s : float
         Savitzky-Golay window [s] for the derivatives compared (d(psi)/dt, d(x, y)/dt).
+    prepared : PreparedTrial, optional
+        ``trial`` prepared by the one road (:func:`usvid.prep.prepare`, as the command that
+        audits it also fits or measures it): the physics checks run on it, so the log is
+        prepared once. Default: :func:`usvid.prep.prepare` of ``trial`` (its grid, the fastest
+        message stream's rate; its heading repaired at the compass's own samples).
 
     Returns
     -------
     list of Finding, most severe first (errors, warnings, infos), each with a stable ``code``:
-    ``time_reversal``, ``time_repeated``, ``time_gap``, ``duplicate_rows``, ``stale_gnss_fix``,
-    ``nan_run``, ``nan_samples``, ``channel_empty``, ``saturation``, ``heading_jump``,
-    ``heading_glitch``, ``yaw_rate_column``, ``yaw_rate_sign``, ``yaw_rate_scale``,
-    ``yaw_rate_weak``, ``yaw_rate_found``,
-    ``u_mismatch``, ``v_mismatch``, ``speed_scale``, ``rudder_sign``, ``thruster_sign``,
-    ``position_scale``, ``position_axes``, ``no_heading``, ``no_turning``, ``not_prepared``.
+    ``time_reversal``, ``time_backwards``, ``time_repeated``, ``time_gap``,
+    ``duplicate_rows``, ``stale_gnss_fix``, ``nan_run``, ``nan_samples``, ``channel_empty``,
+    ``saturation``, ``actuator_constant``, ``rudder_out_of_range``, ``position_jump``,
+    ``heading_jump``, ``heading_glitch``, ``yaw_rate_column``, ``yaw_rate_sign``,
+    ``yaw_rate_scale``, ``yaw_rate_weak``, ``yaw_rate_found``, ``u_mismatch``,
+    ``v_mismatch``, ``speed_scale``, ``rudder_sign``, ``thruster_sign``, ``position_scale``,
+    ``position_axes``, ``no_heading``, ``no_turning``, ``not_level``, ``not_under_way``,
+    ``too_short``, ``not_prepared``. Numerical warnings of the checks' statistics (empty
+    slices, NaN) are no output: the checks test their results themselves.
     """
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return sort_findings(_audit(trial, window_s, prepared))
+
+
+def _audit(trial: Trial, window_s: float, prepared: PreparedTrial | None) -> list[Finding]:
     measured = set(trial.channels)
     chans = _numeric_channels(trial)
     findings: list[Finding] = []
     findings += _check_time(trial)
+    findings += _check_time_backwards(trial)
     findings += _check_duplicates(trial, chans)
     rep = detect_stale(trial)
     stale_rows = None
@@ -648,25 +1008,37 @@ def audit(trial: Trial, *, window_s: float = 1.0) -> list[Finding]:
             data={"rate": rep.rate, "fixes": rep.n_fixes}))
     findings += _check_nan(trial, chans)
     findings += _check_saturation(trial, chans)
+    findings += _check_actuators(trial)
+    findings += _check_position_jumps(trial, stale_rows)
     findings += _check_position_sources(trial, stale_rows)
-    try:
-        fixed, n_glitch = repair_trial_heading(trial)
-        if n_glitch:
-            ok = np.isfinite(trial["psi"])
-            bad = heading_glitches(trial.t[ok], unwrap_angle(trial["psi"][ok]))
-            fixed.meta["heading_glitch_span"] = _span(trial.t[ok], bad)
-        prep = prepare(fixed, derivatives=False, window_s=window_s)
-    except UsvidError as exc:  # the audit reports, it does not die on odd data
-        findings.append(Finding("warning", "not_prepared",
-                                f"physics checks skipped: the trial cannot be prepared ({exc})"))
-        return _sorted(findings)
+    if any(f.code == "time_stamps_collapsed" for f in trial.findings) or \
+            trial.duration < MIN_PHYSICS_S:
+        findings.append(Finding(
+            "info", "too_short",
+            f"the log spans {trial.duration:.3g} s of its time stamps (at least "
+            f"{MIN_PHYSICS_S:g} s of trustworthy time are needed): the yaw rate, velocities and "
+            "rudder sign are not checked"))
+        return findings
+    prep = prepared
+    if prep is None:
+        try:
+            prep = prepare(trial, derivatives=False, window_s=window_s)
+        except UsvidError as exc:  # the audit reports, it does not die on odd data
+            findings.append(Finding(
+                "warning", "not_prepared",
+                f"physics checks skipped: the trial cannot be prepared ({exc})"))
+            return findings
     dt = 1.0 / (prep.sample_rate or 1.0)
     findings += _check_yaw_rate(prep, measured, dt, window_s)
     findings += _check_body_velocity(prep, measured, dt, window_s)
     findings += _check_rudder_sign(prep, dt, window_s)
-    return _sorted(findings)
+    return findings
 
 
-def _sorted(findings: list[Finding]) -> list[Finding]:
-    rank = {"error": 0, "warning": 1, "info": 2}
-    return sorted(findings, key=lambda f: rank.get(f.severity, 3))
+#: Order of the severities in every list of findings usvid prints.
+SEVERITY_RANK = {"error": 0, "warning": 1, "info": 2}
+
+
+def sort_findings(findings: list[Finding]) -> list[Finding]:
+    """Findings most severe first (errors, warnings, infos), in their order otherwise."""
+    return sorted(findings, key=lambda f: SEVERITY_RANK.get(f.severity, 3))

@@ -1,6 +1,18 @@
-"""One entry point from a raw trial to an identification-ready one: :func:`prepare`."""
+"""One entry point from a raw trial to a prepared one: :func:`prepare` -> :class:`PreparedTrial`.
+
+Every command, estimator, validation and report consumes a :class:`PreparedTrial`, prepared once
+per log and per command (:func:`as_prepared` passes a prepared trial through untouched). What
+later stages derive from it once - its manoeuvre segments (:func:`usvid.manoeuvres.
+find_manoeuvres`) and its identification series (:func:`usvid.identify.series.trial_series`) -
+is remembered on the prepared trial (:meth:`PreparedTrial.remember`), so that no stage builds
+them a second time.
+"""
 
 from __future__ import annotations
+
+from collections.abc import Callable, Hashable
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -8,14 +20,71 @@ import pandas as pd
 from usvid.errors import UsvidError
 from usvid.prep.filters import savgol_derivative, unwrap_angle
 from usvid.prep.geodesy import to_ned
+from usvid.prep.glitches import repair_trial_heading
 from usvid.prep.kinematics import body_velocity_from_cog, body_velocity_from_positions
 from usvid.prep.resample import resample
 from usvid.prep.stale import drop_stale
-from usvid.trial import Finding, Trial
+from usvid.trial import Finding, Trial, merge_shared_stamp_rows
+
+__all__ = ["PreparedTrial", "as_prepared", "prepare", "sort_time"]
+
+
+@dataclass(eq=False)
+class PreparedTrial(Trial):
+    """A trial ready for every stage (made by :func:`prepare` only): one uniform time grid,
+    time stamps sorted and unique, stale GNSS fixes dropped, positions in NED [m], the heading
+    unwrapped with its glitches repaired at the compass's own samples, thruster commands from
+    PWM pulse widths, the missing states derived (``r``, ``u``, ``v``, ``U``).
+
+    ``heading_glitches``: heading samples repaired; ``filled``: channel -> samples of a
+    single-rate log's gaps filled by interpolation (NaN in the log, bridged on the grid);
+    ``derived``: channels computed here, not measured; ``window_s`` [s]: the Savitzky-Golay
+    window of the derived states; ``resampled_hz`` [Hz]: the grid a log that was not on one
+    uniform grid was resampled to (None when it was on one). ``memo`` holds what later stages
+    derived from this trial once (segments, series): a copy made with :meth:`with_data` or
+    :meth:`slice_time` starts with an empty one.
+    """
+
+    heading_glitches: int = 0
+    filled: dict[str, int] = field(default_factory=dict)
+    derived: tuple[str, ...] = ()
+    window_s: float = 1.0
+    resampled_hz: float | None = None
+    memo: dict[Hashable, Any] = field(default_factory=dict, init=False, repr=False)
+
+    def remember(self, key: Hashable, build: Callable[[], Any]) -> Any:
+        """``build()`` the first time ``key`` is asked for, the same object afterwards."""
+        if key not in self.memo:
+            self.memo[key] = build()
+        return self.memo[key]
+
+
+def as_prepared(trial: Trial, **options: Any) -> PreparedTrial:
+    """``trial`` itself when it is prepared already, else :func:`prepare` (``options``) of it:
+    the one road of every stage into the prepared form."""
+    if isinstance(trial, PreparedTrial):
+        return trial
+    if not isinstance(trial, Trial):
+        raise UsvidError(f"expected a usvid.Trial (got {type(trial).__name__})")
+    return prepare(trial, **options)
+
+
+def pwm_commands(trial: Trial) -> tuple[Trial, bool]:
+    """Thruster commands ``n_port``/``n_stbd`` from logged PWM pulse widths ``pwm_port``/
+    ``pwm_stbd`` [us] where the log has no other commands (the kinds' thrust map then reads the
+    pulse width: ``twin_thrust`` with ``command: pwm``); returns (trial, derived or not)."""
+    if trial.has("pwm_port") and trial.has("pwm_stbd") and not (trial.has("n_port")
+                                                                or trial.has("n_stbd")):
+        data = trial.data.copy()
+        data["n_port"] = data["pwm_port"]
+        data["n_stbd"] = data["pwm_stbd"]
+        return trial.with_data(data), True
+    return trial, False
 
 
 def sort_time(trial: Trial) -> tuple[Trial, int, int]:
-    """Sort rows by time and drop repeated time stamps (first kept).
+    """Sort rows by time and merge rows sharing a time stamp (per channel the last finite
+    value in row order: :func:`usvid.trial.merge_shared_stamps`, the readers' rule).
 
     Returns ``(trial, n_reversals, n_duplicates)``; a reversal is a row whose stamp is earlier
     than its predecessor's (among the rows with a finite time). Rows with a NaN time are dropped
@@ -28,11 +97,7 @@ def sort_time(trial: Trial) -> tuple[Trial, int, int]:
     data = trial.data.loc[ok]
     if n_rev:
         data = data.sort_values("t", kind="stable")
-    tt = data["t"].to_numpy(dtype=float)
-    dup = np.concatenate(([False], np.diff(tt) == 0))
-    n_dup = int(dup.sum())
-    if n_dup:
-        data = data.loc[~dup]
+    data, n_dup = merge_shared_stamp_rows(data)  # the readers' rule for shared stamps
     if n_nan or n_rev or n_dup:
         changes = {}
         if n_nan:
@@ -51,20 +116,34 @@ def prepare(
     max_gap_s: float | None = None,
     drop_stale_fixes: bool = True,
     derivatives: bool = True,
-) -> Trial:
-    """Uniform-grid, NED, unwrapped, differentiated trial from a raw one.
+) -> PreparedTrial:
+    """The :class:`PreparedTrial` of a raw trial: uniform grid, NED, repaired and unwrapped
+    heading, derived states.
 
     Steps: sort time (reversed stamps sorted, repeated ones dropped, both reported; rows without
     a time dropped and counted in ``rejected["nan_time"]``); stale GNSS fixes set missing
     (:mod:`usvid.prep.stale`, rate in ``meta["stale_fixes"]``); lat/lon [deg] -> x, y [m NED]
-    (pymap3d, origin = first fix or ``origin``); resampling onto a uniform grid of ``rate_hz`` [Hz]
-    (default: the fastest channel; gaps longer than ``max_gap_s`` [s] stay NaN); heading unwrapped;
-    missing channels derived: ``r`` = d(psi)/dt, ``u``, ``v`` from d(x, y)/dt rotated by psi (or
-    from SOG/COG), ``U`` = hypot(u, v); with ``derivatives`` also ``u_dot``, ``v_dot``, ``r_dot``
+    (pymap3d, origin = first fix or ``origin``); thruster commands from PWM pulse widths;
+    heading glitches repaired at the compass's own samples, before resampling blurs them into
+    their neighbours (:func:`usvid.prep.glitches.repair_trial_heading`); resampling onto a
+    uniform grid of ``rate_hz`` [Hz] (default: the fastest channel; gaps longer than
+    ``max_gap_s`` [s] stay NaN, never a whole channel invented); heading unwrapped; missing
+    channels derived: ``r`` = d(psi)/dt, ``u``, ``v`` from d(x, y)/dt rotated by psi (or from
+    SOG/COG), ``U`` = hypot(u, v); with ``derivatives`` also ``u_dot``, ``v_dot``, ``r_dot``
     [m/s^2, rad/s^2]. All derivatives are zero-phase Savitzky-Golay over ``window_s`` [s].
 
-    Channels computed here (not measured) are listed in ``meta["derived"]``.
+    A trial prepared already is returned as it is (resampled when another ``rate_hz`` is
+    asked for, its derivatives added when asked for and missing).
     """
+    prior = trial if isinstance(trial, PreparedTrial) else None
+    if prior is not None:
+        rate = prior.sample_rate
+        rerate = rate_hz is not None and (rate is None or abs(rate - rate_hz) > 1e-6 * rate_hz)
+        if not rerate and (not derivatives or all(f"{c}_dot" in prior.channels or not
+                                                  prior.has(c) for c in ("u", "v", "r"))):
+            return prior
+        trial = Trial(**{f: getattr(prior, f) for f in ("data", "vessel", "sources", "rejected",
+                                                        "findings", "name", "meta")})
     if len(trial) < 3:
         raise UsvidError(f"trial {trial.name or '?'}: fewer than three samples, cannot prepare")
     findings = list(trial.findings)
@@ -76,7 +155,8 @@ def prepare(
                                 count=n_rev, channel="t"))
     if n_dup:
         findings.append(Finding("info", "time_duplicate",
-                                f"{n_dup} repeated time stamp(s); the first row of each kept",
+                                f"{n_dup} repeated time stamp(s); rows merged, the last "
+                                "value of each channel kept",
                                 count=n_dup, channel="t"))
     if drop_stale_fixes:
         trial, rep = drop_stale(trial)
@@ -88,13 +168,28 @@ def prepare(
                 f"({', '.join(rep.channels)})",
                 count=rep.n_stale, data={"rate": rep.rate, "channels": rep.channels}))
     trial = to_ned(trial, origin)
+    trial, from_pwm = pwm_commands(trial)
+    derived: list[str] = list(prior.derived) if prior is not None else []
+    if from_pwm:
+        derived += ["n_port", "n_stbd"]
+    trial, n_glitch = repair_trial_heading(trial)
     trial = trial.with_data(trial.data, findings=findings)
     uniform = trial.is_uniform and not trial.data.isna().any().any()
+    filled: dict[str, int] = dict(prior.filled) if prior is not None else {}
+    resampled = prior.resampled_hz if prior is not None else None
     if rate_hz is not None or not uniform:
+        before = trial.data.isna().sum() if trial.is_uniform else None
         trial = resample(trial, rate_hz, max_gap_s=max_gap_s)
+        if before is None:
+            resampled = trial.sample_rate
+        if before is not None:  # a single-rate log's gaps: what the grid bridged
+            after = trial.data.isna().sum()
+            for ch, n in before.items():
+                k = int(n - after.get(ch, n))
+                if k > 0:
+                    filled[str(ch)] = filled.get(str(ch), 0) + k
     data = trial.data.copy()
     dt = 1.0 / trial.sample_rate if trial.sample_rate else float(np.median(np.diff(trial.t)))
-    derived: list[str] = list(trial.meta.get("derived", []))
 
     def have(c: str) -> bool:
         return c in data.columns and bool(np.isfinite(data[c].to_numpy(dtype=float)).any())
@@ -131,7 +226,9 @@ def prepare(
                 data[f"{name}_dot"] = savgol_derivative(data[name].to_numpy(dtype=float), dt,
                                                         window_s)
                 derived.append(f"{name}_dot")
-    meta = dict(trial.meta)
-    meta["derived"] = sorted(set(derived))
-    meta["prepared"] = {"window_s": window_s, "rate_hz": 1.0 / dt}
-    return trial.with_data(pd.DataFrame(data).reset_index(drop=True), meta=meta)
+    return PreparedTrial(
+        data=pd.DataFrame(data).reset_index(drop=True), vessel=trial.vessel,
+        sources=list(trial.sources), rejected=dict(trial.rejected),
+        findings=list(trial.findings), name=trial.name, meta=dict(trial.meta),
+        heading_glitches=int(n_glitch), filled=filled, derived=tuple(sorted(set(derived))),
+        window_s=float(window_s), resampled_hz=resampled)

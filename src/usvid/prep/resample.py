@@ -20,29 +20,49 @@ from usvid.trial import Finding, Trial
 ANGLE_CHANNELS: frozenset[str] = frozenset({"psi", "cog", "heading", "psi_cmd", "psi_set"})
 
 
-def channel_rate(t: np.ndarray, y: np.ndarray) -> float | None:
-    """Median sample rate [Hz] of channel ``y`` over its own finite samples (None if < 2)."""
-    ts = t[np.isfinite(y)]
+def stream_rate(t: np.ndarray, y: np.ndarray) -> float | None:
+    """Samples per second [Hz] of channel ``y`` (times ``t`` [s], NaN where it has no sample):
+    the rate of its message stream, the one definition of a channel's rate (the grid of
+    :func:`resample`, the audit's physics checks).
+
+    A regular stream (most of its time spent in spacings near the median spacing: the spacing
+    that holds the middle of its flowing time at most twice the median spacing) has the rate
+    1 / median spacing, its nominal rate: a regular log keeps its own samples on the grid,
+    dropped samples and jitter do not move it. A bursty stream (a gateway stamping ten frames
+    within a few milliseconds every 0.3 s: a median spacing of a millisecond) has its samples
+    over the time it flows: the span less the gaps longer than max(1 s, 5 x its mean spacing).
+    None with fewer than two distinct stamps.
+    """
+    ts = np.unique(t[np.isfinite(y) & np.isfinite(t)])
     if len(ts) < 2:
         return None
-    dt = np.diff(np.unique(ts))
-    dt = dt[dt > 0]
-    return float(1.0 / np.median(dt)) if len(dt) else None
+    d = np.diff(ts)
+    span = float(ts[-1] - ts[0])
+    flows = d <= max(1.0, 5.0 * span / len(d))
+    df = np.sort(d[flows])
+    if not len(df):
+        return None
+    med = float(np.median(df))
+    # the spacing holding the middle of the flowing time (the time-weighted median spacing)
+    held = float(df[np.searchsorted(np.cumsum(df), 0.5 * df.sum())])
+    if held <= 2.0 * med:
+        return 1.0 / med
+    return len(df) / float(df.sum())
 
 
 def infer_rate(trial: Trial) -> float:
-    """The grid rate [Hz]: the fastest channel's median own sample rate (else the time rate)."""
+    """The grid rate [Hz]: the fastest channel's :func:`stream_rate` (else the time stamps')."""
     t = trial.t
     rates = []
     for ch in trial.channels:
         col = trial.data[ch]
         if not pd.api.types.is_numeric_dtype(col):
             continue
-        r = channel_rate(t, col.to_numpy(dtype=float))
+        r = stream_rate(t, col.to_numpy(dtype=float))
         if r:
             rates.append(r)
     if not rates:
-        r = channel_rate(t, t)
+        r = stream_rate(t, t)
         if not r:
             raise UsvidError(f"trial {trial.name or '?'}: fewer than two distinct time stamps")
         return r
@@ -92,7 +112,8 @@ def resample(
     t_start: float | None = None,
     t_end: float | None = None,
 ) -> Trial:
-    """The trial on one uniform grid of ``rate_hz`` [Hz] (default: the fastest channel's rate).
+    """The trial on one uniform grid of ``rate_hz`` [Hz] (default: the fastest channel's
+    :func:`stream_rate`).
 
     Parameters
     ----------
@@ -102,7 +123,7 @@ def resample(
         Grid rate [Hz].
     max_gap_s : float, optional
         Longest gap [s] between two samples of a channel that is bridged by interpolation;
-        default ``max(1 s, 5 x`` that channel's median sample interval).
+        default ``max(1 s, 5 x`` that channel's sample interval, 1 / :func:`stream_rate`).
     t_start, t_end : float, optional
         Grid span [s]; default the trial's first and last time stamp.
 
@@ -132,7 +153,7 @@ def resample(
         if not (pd.api.types.is_numeric_dtype(col) or pd.api.types.is_bool_dtype(col)):
             continue
         y = col.to_numpy(dtype=float)
-        r = channel_rate(t, y)
+        r = stream_rate(t, y)
         gap = max_gap_s if max_gap_s is not None else max(1.0, 5.0 / r if r else 1.0)
         v = interp_channel(t, y, grid, gap, angle=ch in ANGLE_CHANNELS)
         cols[ch] = v

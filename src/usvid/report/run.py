@@ -18,6 +18,8 @@
   "psi_deg", "delta_deg", "itae", "iae", "max_rudder_deg"}], "paper_itae"}``;
 - ``turning_diameter``: ``{"points_delta_deg", "points_D_over_L", "curve_delta_deg",
   "curve_D_over_L", "coeffs", "rms"}``;
+- ``papers``: ``{"description", "rows": [{"paper", "quantity", "paper_value", "usvid_value",
+  "command", "status"}]}`` (the papers' headline numbers, :mod:`usvid.demo.papers`);
 - ``timing``: ``{"total_s", ...}``.
 """
 
@@ -86,7 +88,8 @@ RUN_FIELDS: dict[str, tuple[type, type | None]] = {
     "settings": (dict, None), "vessel": (dict, None), "steps": (list, dict),
     "campaign": (dict, None), "audit": (list, dict), "models": (list, dict),
     "truth_definition": (str, None), "norrbin_fit": (dict, None), "validation": (list, dict),
-    "course_keeping": (dict, None), "turning_diameter": (dict, None), "timing": (dict, None),
+    "course_keeping": (dict, None), "turning_diameter": (dict, None), "papers": (dict, None),
+    "timing": (dict, None),
     "acceptance": (dict, None), "summary_text": (str, None),
 }
 _JSON_NAMES = {str: "text", dict: "an object", list: "a list", float: "a number"}

@@ -45,6 +45,7 @@ LABELS: dict[str, tuple[str, str]] = {
     "track_rms_m": ("track error, RMS", "m"),
     "track_max_m": ("track error, largest", "m"),
     "duration_s": ("replayed duration", "s"),
+    "diverged_at_s": ("free run diverged after", "s"),
 }
 
 PRINT_CSS = """
@@ -243,7 +244,13 @@ def _model(model: Mapping[str, Any]) -> str:
                 for n, r in zip(names, corr["matrix"], strict=True)]
         ctab = ("<h3>Correlation of the estimates</h3>"
                 + _table([""] + [f"<code>{esc(n)}</code>" for n in names], crow))
-    return head + table + ctab
+    # what identification said about the estimate (poorly determined parameters, ...) and the
+    # checks of the model it returned (a standard manoeuvre that diverged, ...)
+    notes = "".join(f'<p class="bad">warning: {esc(w)}</p>' for w in model.get("warnings", []))
+    notes += "".join(f'<p class="bad">check failed: {esc(c.get("message", ""))}</p>'
+                     for c in model.get("checks", []) if isinstance(c, Mapping)
+                     and not c.get("passed", True))
+    return head + notes + table + ctab
 
 
 def build_validation_html(run: Mapping[str, Any]) -> str:

@@ -10,10 +10,12 @@ and ``held_out`` (one entry per trial: the ``usvid validate`` row plus ``series`
 figures, decimated to at most :data:`MAX_POINTS` samples, and ``band`` the 95 % prediction band
 of the replay from the parameter uncertainty).
 
-Prediction band: parameters drawn from N(theta_hat, C) (C the identification covariance, or the
-diagonal of the standard errors when a model file carries no covariance; seeded), each draw
-replayed on the trial's measured inputs (:func:`usvid.identify.validation.replay_band`); the
-band is the 2.5 % .. 97.5 % quantile of the replayed heading and yaw rate at each instant.
+Prediction band: parameters drawn by the one sampler of the stored uncertainty
+(:class:`usvid.models.uncertainty.Uncertainty`: the identification covariance, else the standard
+errors; seeded; a draw outside the parameter bounds drawn again), each draw replayed on the
+trial's measured inputs (:func:`usvid.identify.validation.replay_band`); the band is the
+2.5 % .. 97.5 % quantile of the replayed heading and yaw rate at each instant. The trials are
+the command's prepared trials (their series built once, shared with the validation).
 """
 
 from __future__ import annotations
@@ -26,8 +28,10 @@ from typing import Any
 import numpy as np
 
 from usvid import __version__
+from usvid.errors import UsvidError
 from usvid.identify.validation import TrialValidation, ValidationResult, replay_band
 from usvid.models.registry import kind_of
+from usvid.models.uncertainty import Uncertainty
 from usvid.report.run import save_run, write_report
 
 #: Largest number of samples per time series kept in ``run.json``.
@@ -56,12 +60,13 @@ def _entry(row: TrialValidation, band: dict[str, Any] | None) -> dict[str, Any]:
     d = row.to_dict()
     d["series"] = _thin(row.series)
     if band:
-        d["band"] = _thin({"t": row.series.get("t"), **band})
+        d["band"] = _thin({"t": row.series.get("t"), **{k: v for k, v in band.items()
+                                                         if isinstance(v, np.ndarray)}})
+        d["band"].update({k: band[k] for k in ("draws", "redrawn", "failed") if k in band})
     return d
 
 
-def _model_block(model: Any, file: str | None, names: Sequence[str] | None,
-                 cov: np.ndarray | None) -> dict[str, Any]:
+def _model_block(model: Any, file: str | None, unc: Uncertainty | None) -> dict[str, Any]:
     kind = kind_of(model.dynamics)
     ident = getattr(model, "identification", None) or {}
     params = {p.name: float(getattr(model.dynamics, p.name))
@@ -74,58 +79,56 @@ def _model_block(model: Any, file: str | None, names: Sequence[str] | None,
         "units": {k: units.get(k, "") for k in params},
         "fit": ident.get("fit", {}), "data": ident.get("data", []),
         "vessel": model.vessel.to_dict() if model.vessel is not None else {},
+        "warnings": list((ident.get("diagnostics") or {}).get("warnings") or []),
+        "checks": ident.get("checks", []),
     }
-    if cov is not None and names:
-        c = np.asarray(cov, dtype=float)
+    if unc is not None and unc.names:
+        c = np.asarray(unc.cov, dtype=float)
         sd = np.sqrt(np.clip(np.diag(c), 0, None))
         with np.errstate(invalid="ignore", divide="ignore"):
             corr = c / np.outer(sd, sd)
         corr[~np.isfinite(corr)] = 0.0
-        out["correlation"] = {"names": list(names), "matrix": corr.round(4).tolist()}
+        out["correlation"] = {"names": list(unc.names), "matrix": corr.round(4).tolist()}
     return out
 
 
 def _bands(model: Any, trials: Sequence[Any], rows: Sequence[TrialValidation],
-           names: Sequence[str] | None, cov: np.ndarray | None) -> list[dict[str, Any] | None]:
+           unc: Uncertainty | None) -> list[dict[str, Any] | None]:
     out: list[dict[str, Any] | None] = []
     for tr, row in zip(trials, rows, strict=True):
-        if not row.replay or names is None or cov is None:
+        if not row.replay or unc is None or not unc.names:
             out.append(None)
             continue
-        out.append(replay_band(model, tr, names, cov))
+        out.append(replay_band(model, tr, unc))
     return out
 
 
-def _uncertainty(model: Any, names: Sequence[str] | None, cov: Any
-                 ) -> tuple[list[str] | None, np.ndarray | None]:
-    if names is not None and cov is not None:
-        return list(names), np.asarray(cov, dtype=float)
-    se = (getattr(model, "identification", None) or {}).get("std_errors") or {}
-    se = {k: v for k, v in se.items() if isinstance(v, int | float) and math.isfinite(v)
-          and hasattr(model.dynamics, k)}
-    if not se:
-        return None, None
-    return list(se), np.diag([float(v) ** 2 for v in se.values()])
+def _uncertainty(model: Any) -> Uncertainty | None:
+    """The model's stored uncertainty (the one reader), None when it has none or it cannot be
+    read (the report then shows no band, and says why in the model block)."""
+    try:
+        return Uncertainty.from_model(model)
+    except UsvidError:
+        return None
 
 
 def build_run(model: Any, held: ValidationResult | None, held_trials: Sequence[Any],
               training: ValidationResult | None = None, training_trials: Sequence[Any] = (),
-              *, model_file: str | None = None, names: Sequence[str] | None = None,
-              cov: Any = None, title: str = "usvid validation report",
+              *, model_file: str | None = None, title: str = "usvid validation report",
               created_by: str = "usvid validate") -> dict[str, Any]:
     """The ``run.json`` dictionary (module docstring)."""
-    names, cov = _uncertainty(model, names, cov)
+    unc = _uncertainty(model)
     run: dict[str, Any] = {
         "usvid_run": 1, "run_kind": "validation", "title": title, "created_by": created_by,
         "usvid_version": __version__,
-        "model": _model_block(model, model_file, names, cov),
+        "model": _model_block(model, model_file, unc),
         "training": [], "held_out": [],
     }
     if training is not None:
-        bands = _bands(model, training_trials, training.rows, names, cov)
+        bands = _bands(model, training_trials, training.rows, unc)
         run["training"] = [_entry(r, b) for r, b in zip(training.rows, bands, strict=True)]
     if held is not None:
-        bands = _bands(model, held_trials, held.rows, names, cov)
+        bands = _bands(model, held_trials, held.rows, unc)
         run["held_out"] = [_entry(r, b) for r, b in zip(held.rows, bands, strict=True)]
     return run
 
@@ -150,9 +153,10 @@ def write_identify_report(out_dir: str | Path, est: Any, training: ValidationRes
                           held_trials: Sequence[Any], *, model_file: str | None = None
                           ) -> Path:
     """``usvid identify --report DIR``: the training trials and the held-out ones
-    (``--validate``), with the identification covariance for the bands."""
+    (``--validate``), with the identification covariance (in the model's identification
+    record) for the bands."""
     run = build_run(est.model_, held, held_trials, training, training_trials,
-                    model_file=model_file, names=list(est.std_errors_), cov=est.cov_,
+                    model_file=model_file,
                     title=f"usvid identification report: {est.kind} ({est.method})",
                     created_by="usvid identify")
     return write_run(run, out_dir)

@@ -23,7 +23,7 @@ from usvid.models.kind import ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.models.servo import IdealServo
-from usvid.sim.simulate import Lanes, initial_state, servo_rows
+from usvid.sim.simulate import Lanes, approach_speed, initial_state, servo_rows
 
 #: Output channels a replay can compare (roll angle and rate for kinds with roll), and the
 #: series holding their smoothed start values.
@@ -167,9 +167,14 @@ def replay_windows(model: VesselModel, win: Windows,
     kind = kind_of(model.dynamics)
     chans = tuple(channels) if channels is not None else tuple(
         c for c in OUTPUTS if c in win.outputs and (c not in ("phi", "p") or c in kind.states))
-    speed = win.init.get("u") if kind.constant_speed else None
-    P = kind.pack(model.dynamics, speed if speed is not None else (
-        model.vessel.speed if model.vessel.speed is not None else 1.0))
+    if kind.constant_speed:
+        # the measured speed of each window; without one the replay stays put (x, y): the
+        # heading and yaw rate of a constant-speed kind, all it compares, do not depend on it
+        speed = win.init.get("u")
+        speed = 0.0 if speed is None else speed
+    else:  # the model's own approach speed (an error when it has none, never an assumed one)
+        speed = approach_speed(model, None)
+    P = kind.pack(model.dynamics, speed)
     out = window_lanes(kind, P, model.dynamics, win, channels=chans).run()
     return {c: out.channels[c] for c in chans}
 

@@ -16,7 +16,7 @@ from usvid.errors import SimulationError, UsvidError
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
 from usvid.manoeuvres.metrics import TurningMetrics, ZigZagMetrics
 from usvid.sim.result import SimResult
-from usvid.sim.simulate import simulate
+from usvid.sim.simulate import approach_speed, simulate
 
 __all__ = ["MAX_T_END", "default_ki", "default_t_end", "run_course", "run_turning", "run_zigzag"]
 
@@ -45,12 +45,11 @@ def default_t_end(model: Any, u0: float) -> float:
 
 
 def _approach_speed(model: Any, u0: float | None) -> float:
-    """``u0`` [m/s], else the model's ``vessel.speed``; :class:`UsvidError` when neither is a
-    positive speed."""
-    u = u0 if u0 is not None else getattr(getattr(model, "vessel", None), "speed", None)
-    if u is None:
-        raise UsvidError("the approach speed u0 is not given and the model has no vessel.speed")
-    if not (math.isfinite(u) and u > 0):
+    """The approach speed [m/s] (:func:`usvid.sim.simulate.approach_speed`: ``u0``, else the
+    model's ``vessel.speed``, else its kind's straight-line speed), checked to be a positive
+    number."""
+    u = approach_speed(model, u0)
+    if np.ndim(u) or not (math.isfinite(u) and u > 0):
         raise UsvidError(f"the approach speed u0 must be > 0 m/s (got {u!r})")
     return float(u)
 

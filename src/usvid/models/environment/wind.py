@@ -26,7 +26,12 @@ undefined and returned as 0.
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
+
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 
 TWO_PI = 2.0 * np.pi
 
@@ -35,6 +40,29 @@ def _wrap_pi(a: np.ndarray) -> np.ndarray:
     """Angle [rad] wrapped into (-pi, pi]."""
     w = np.remainder(a + np.pi, TWO_PI) - np.pi
     return np.where(w == -np.pi, np.pi, w)
+
+
+def _air_relative(vt, bt, vn, ve):
+    """Air velocity relative to the vessel ``a = w - v`` [m/s, NED] from the true wind (speed
+    ``vt``, direction ``bt`` it comes from) and the vessel's ground velocity. The one place of the
+    formula: numpy calls it on arrays, :func:`true_to_apparent_scalar` on floats (numba)."""
+    return -vt * np.cos(bt) - vn, -vt * np.sin(bt) - ve
+
+
+_air_relative_jit = numba.njit(cache=True)(_air_relative)
+
+
+@numba.njit(cache=True)
+def true_to_apparent_scalar(speed_true, dir_true, v_north, v_east, psi):
+    """:func:`true_to_apparent` for one sample (numba, for the integration core): floats in,
+    ``(speed [m/s], angle [rad, from the bow, clockwise, where it comes from, in (-pi, pi]])``
+    out, the angle 0 when the apparent speed is 0."""
+    a_n, a_e = _air_relative_jit(speed_true, dir_true, v_north, v_east)
+    speed = math.hypot(a_n, a_e)
+    if speed == 0.0:
+        return 0.0, 0.0
+    w = (math.atan2(-a_e, -a_n) - psi + math.pi) % TWO_PI - math.pi
+    return speed, (math.pi if w == -math.pi else w)
 
 
 def true_to_apparent(speed_true, dir_true, v_north, v_east, psi):
@@ -57,10 +85,9 @@ def true_to_apparent(speed_true, dir_true, v_north, v_east, psi):
         Apparent wind speed [m/s] and angle [rad, from the bow, clockwise, where it comes from,
         in (-pi, pi]]. Arguments broadcast.
     """
-    vt = np.asarray(speed_true, dtype=float)
-    bt = np.asarray(dir_true, dtype=float)
-    a_n = -vt * np.cos(bt) - np.asarray(v_north, dtype=float)
-    a_e = -vt * np.sin(bt) - np.asarray(v_east, dtype=float)
+    a_n, a_e = _air_relative(np.asarray(speed_true, dtype=float),
+                             np.asarray(dir_true, dtype=float),
+                             np.asarray(v_north, dtype=float), np.asarray(v_east, dtype=float))
     speed = np.hypot(a_n, a_e)
     angle = _wrap_pi(np.arctan2(-a_e, -a_n) - np.asarray(psi, dtype=float))
     return speed, np.where(speed > 0.0, angle, 0.0)

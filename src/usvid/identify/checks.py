@@ -1,0 +1,262 @@
+"""Honest identification: the data are checked before a fit, the model after it.
+
+Before fitting (:func:`check_data`), a trial is refused (:class:`IdentificationError` naming the
+trial, the channel and the statistic) when
+
+* it was not under way: the median speed over the trial is below :data:`MIN_SPEED` [m/s]
+  (:func:`usvid.prep.under_way.under_way`, the one definition: a logged ``U``, ``sog`` or
+  ``u``, ``v``; a speed derived from the positions only when none is logged: GNSS noise at rest
+  makes a derived speed of a moored boat look like motion);
+* it tells no speed at all (no speed channel, no positions) and the format spec declares none
+  (``vessel.speed``): a bench or dock record with a moving rudder looks the same as a basin's
+  rudder and heading record; the user who knows it was under way says so by its speed;
+* the heading does not respond: it stays within :data:`MIN_HEADING_RANGE` [rad] over the whole
+  trial (a constant heading, a compass stuck at one value).
+
+The needed channels missing or without a finite sample, and a constant rudder (no excitation),
+are refused where the series are built (:mod:`usvid.identify.series`) and by the estimator.
+
+After fitting (:func:`check_model`), the model identification returns must
+
+* explain its own training data: the windowed replays reproduce at least :data:`MIN_R2` of the
+  heading's variance (R^2; a fit to noise explains nothing);
+* replay the training trials as a free run without diverging;
+* simulate the standard manoeuvres inside the training envelope (:func:`envelope`): turning
+  circles to both sides at the largest steering angle of the training data, and the standard
+  zig-zags (10/10, 20/20) whose amplitude the training data reached (else one at the largest
+  angle), from the training approach speed: no divergence, the turn to the side of the rudder
+  (a positive rudder angle makes r positive: K > 0 for an ordinary vessel) and, for kinds with
+  a surge equation, a positive speed.
+
+A failed check is a :class:`Check` with the reason and what to do; the estimator refuses such a
+model (``checks="error"``, the default) or keeps the failures in the model file's
+``identification.checks`` (``checks="record"``: ``usvid identify --accept-failed-checks``).
+
+Units: SI and radians inside; messages in degrees and m/s.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from usvid.errors import IdentificationError, UsvidError
+from usvid.manoeuvres.logic import Turning, ZigZag
+from usvid.models.model import VesselModel
+from usvid.models.registry import kind_of
+from usvid.prep.under_way import MIN_SPEED, under_way
+from usvid.sim.runs import default_t_end
+from usvid.sim.simulate import approach_speed, simulate
+from usvid.trial import Trial
+
+__all__ = ["Check", "ChecksFailed", "Envelope", "MIN_HEADING_RANGE", "MIN_R2", "MIN_SPEED",
+           "check_data", "check_model", "envelope", "failed", "refusal", "trial_speed"]
+
+#: Smallest range of the heading [rad] over a trial that responds to its steering (0.5 deg).
+MIN_HEADING_RANGE = math.radians(0.5)
+#: Smallest share of the heading's variance the windowed replays of the training data must
+#: explain (R^2 of the heading).
+MIN_R2 = 0.5
+#: Largest steering angle of the standard manoeuvres [rad] (the rudder's usual limit, 35 deg).
+MAX_CHECK_ANGLE = math.radians(35.0)
+
+
+class ChecksFailed(IdentificationError):
+    """The identified model fails its checks; ``reason`` the failures alone (one line)."""
+
+    def __init__(self, message: str, reason: str = "") -> None:
+        super().__init__(message)
+        self.reason = reason or message
+
+
+@dataclass(frozen=True)
+class Check:
+    """One check of an identified model: ``name``, ``passed``, ``message`` (the reason and
+    what to do when it failed)."""
+
+    name: str
+    passed: bool
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def failed(checks: Sequence[Check]) -> list[Check]:
+    """The checks that failed."""
+    return [c for c in checks if not c.passed]
+
+
+# -- before the fit ------------------------------------------------------------------------------
+def trial_speed(trial: Trial) -> tuple[float | None, str]:
+    """The median speed [m/s] of a trial and the channel it is read from
+    (:func:`usvid.prep.under_way.under_way`, the one definition); (None, "") when the trial
+    has no speed."""
+    uw = under_way(trial)
+    return uw.median_speed, uw.source if uw.known else ""
+
+
+def check_data(trials: Sequence[Trial], kind_name: str) -> None:
+    """Refuse trials that cannot be identified from (module docstring): not under way, or a
+    heading that does not respond. Raises :class:`IdentificationError` naming the trial, the
+    channel and the statistic."""
+    for tr in trials:
+        name = tr.name or (tr.sources[0] if tr.sources else "?")
+        uw = under_way(tr)
+        if uw.is_under_way is False:
+            raise IdentificationError(
+                f"trial {name} was not under way: {uw.reason()}; a {kind_name} model needs "
+                "manoeuvres at speed (a boat at the dock or drifting says nothing about its "
+                "manoeuvring)")
+        if not uw.known and (tr.vessel is None or tr.vessel.speed is None):
+            raise IdentificationError(
+                f"trial {name}: {uw.reason()} (a bench or dock record with a moving rudder "
+                f"looks the same), and the format spec gives no vessel.speed; a {kind_name} "
+                "model needs manoeuvres at speed. If the vessel was under way, give its "
+                "approach speed as vessel.speed [m/s] in the format spec's vessel block (or "
+                "log a speed or positions)")
+        if tr.has("psi"):
+            psi = tr["psi"]
+            psi = psi[np.isfinite(psi)]
+            rng = float(np.max(psi) - np.min(psi))
+            if rng < MIN_HEADING_RANGE:
+                raise IdentificationError(
+                    f"trial {name}: channel 'psi' is constant (range {math.degrees(rng):.3g} "
+                    f"deg over {len(psi)} samples): the heading does not respond to the "
+                    "steering, nothing to identify (check the heading's column and sign in the "
+                    "format spec)")
+
+
+# -- after the fit -------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Envelope:
+    """What the training data covered: the largest steering angle ``delta_max`` [rad] (a
+    rudder, or the thrusters' rudder-equivalent steering), the approach speed ``speed``
+    [m/s]."""
+
+    delta_max: float
+    speed: float
+
+
+def envelope(model: VesselModel, trials: Sequence[Trial]) -> Envelope | None:
+    """The training envelope (:class:`Envelope`): the 99.5th percentile of |delta| over the
+    training trials (thrusters: |n_port - n_stbd| / (2 steer_gain) with the model's steering
+    gain), at most 35 deg and at least 1 deg, and the model's approach speed; None when the
+    trials have no steering the model can be driven with."""
+    devs = []
+    gain = getattr(model.dynamics, "steer_gain", None)
+    for tr in trials:
+        if tr.has("delta"):
+            d = tr["delta"]
+            devs.append(np.abs(d[np.isfinite(d)]))
+        elif tr.has("n_port") and tr.has("n_stbd") and isinstance(gain, int | float) \
+                and gain > 0:
+            c = tr["n_port"] - tr["n_stbd"]
+            devs.append(np.abs(c[np.isfinite(c)]) / (2.0 * gain))
+    if not devs:
+        return None
+    dmax = float(np.percentile(np.concatenate(devs), 99.5))
+    dmax = min(max(dmax, math.radians(1.0)), MAX_CHECK_ANGLE)
+    try:
+        speed = float(approach_speed(model, None))
+    except UsvidError:
+        return None
+    return Envelope(round(math.degrees(dmax), 1) * math.pi / 180.0, speed)
+
+
+def _run(model: VesselModel, logic: Any, u0: float) -> Any:
+    t_end = default_t_end(model, u0)
+    with np.errstate(all="ignore"):
+        return simulate(model, logic, t_end=t_end, dt=0.02, u0=u0,
+                        channels=("psi", "r", "u", "v", "delta"))
+
+
+def _manoeuvre_checks(model: VesselModel, env: Envelope) -> list[Check]:
+    kind = kind_of(model.dynamics)
+    out = []
+    a_deg = math.degrees(env.delta_max)
+    for side in (1, -1):
+        name = f"turning circle {side * a_deg:+.1f} deg"
+        where = (f"the turning circle at {side * a_deg:+.1f} deg rudder (inside the training "
+                 f"envelope: up to {a_deg:.1f} deg at {env.speed:.3g} m/s)")
+        try:
+            res = _run(model, Turning(side * env.delta_max), env.speed)
+        except UsvidError as exc:
+            out.append(Check(name, False, f"{where} cannot be simulated ({exc})"))
+            continue
+        psi = res["psi"][0]
+        finite = res.success and bool(np.all(np.isfinite(psi)))
+        if not finite:
+            t_bad = float(res.t[int(np.argmax(~np.isfinite(psi)))]) if not np.all(
+                np.isfinite(psi)) else math.nan
+            out.append(Check(name, False, f"the model diverges in {where} after {t_bad:.0f} s"))
+            continue
+        turn = float(psi[-1] - psi[0])
+        if side * turn <= 0:
+            out.append(Check(name, False, (
+                f"with the rudder at {side * a_deg:+.1f} deg the model turns to the other side "
+                f"({math.degrees(turn):+.0f} deg): a positive rudder angle makes r positive")))
+            continue
+        if not kind.constant_speed and "u" in res.channels:
+            u_end = float(res["u"][0][-1])
+            if not u_end > 0:
+                out.append(Check(name, False, f"the surge speed in {where} falls to "
+                                              f"{u_end:.3g} m/s: the model stops or runs "
+                                              "astern"))
+                continue
+        out.append(Check(name, True))
+    amps = [a for a in (10.0, 20.0) if a <= a_deg + 1e-9] or [a_deg]
+    for a in amps:
+        name = f"zig-zag {a:g}/{a:g}"
+        try:
+            res = _run(model, ZigZag(math.radians(a), math.radians(a)), env.speed)
+            ok = res.success and bool(np.all(np.isfinite(res["psi"][0])))
+        except UsvidError as exc:
+            out.append(Check(name, False, f"the {name} cannot be simulated ({exc})"))
+            continue
+        out.append(Check(name, ok, "" if ok else f"the model diverges in the {name} zig-zag "
+                                                 f"(inside the training envelope: up to "
+                                                 f"{a_deg:.1f} deg at {env.speed:.3g} m/s)"))
+    return out
+
+
+def check_model(model: VesselModel, trials: Sequence[Trial], fit: dict[str, Any]
+                ) -> list[Check]:
+    """The checks of an identified model (module docstring) on its training ``trials`` and
+    fit metrics ``fit`` (the estimator's ``fit_``: windowed metrics per output and
+    ``free_run``)."""
+    out = []
+    psi = fit.get("psi") if isinstance(fit.get("psi"), dict) else None
+    if psi is not None:
+        r2 = psi.get("r2")
+        ok = isinstance(r2, int | float) and math.isfinite(r2) and r2 >= MIN_R2
+        out.append(Check("explains the heading", ok, "" if ok else (
+            f"the model explains R^2 = {r2:.3g} of the heading's variation in its own training "
+            f"data (windowed replays, {fit.get('window_s', 0):g} s; at least {MIN_R2:g} "
+            "needed): the steering does not explain the yaw (noise, no response, or the wrong "
+            "channels)")))
+    free = fit.get("free_run") or {}
+    bad = [ch for ch, m in free.items() if isinstance(m, dict)
+           and not math.isfinite(float(m.get("rmse", math.nan)))]
+    out.append(Check("free run", not bad, "" if not bad else (
+        f"the free run of the training data diverges ({', '.join(bad)} not finite): the model "
+        "cannot replay the data it was fitted to")))
+    env = envelope(model, trials)
+    if env is not None:
+        out += _manoeuvre_checks(model, env)
+    return out
+
+
+def refusal(kind: str, method: str, checks: Sequence[Check]) -> str:
+    """The one-line reason a model is not returned, and what to do."""
+    bad = failed(checks)
+    return (f"the identified {kind} model ({method}) fails its checks: "
+            + "; ".join(c.message for c in bad)
+            + ". It is not written: try another --method or --model, more or richer training "
+            "data (turns to both sides, the angles you will simulate), or give "
+            "--accept-failed-checks to write it anyway (the failures are kept in its "
+            "identification.checks)")
