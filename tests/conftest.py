@@ -61,15 +61,20 @@ def vtec_dir() -> Path:
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:
-    """Before the xdist workers start: compile the integration core of every model kind, two
-    processes side by side, into numba's disk cache (otherwise every worker compiles every kind
-    it meets: about half of a cold run's CPU). Skipped in a worker and without xdist."""
+    """Before the xdist workers start: compile the integration core (its chunk driver once,
+    then every model kind's code, two processes side by side) into numba's disk cache
+    (otherwise every worker compiles every kind it meets: about half of a cold run's CPU).
+    Skipped in a worker and without xdist."""
     cfg = session.config
     if hasattr(cfg, "workerinput") or not getattr(cfg.option, "numprocesses", None):
         return
-    # the largest kinds (most parameters: longest compile) first, dealt to the two processes
+    # the chunk driver is the same for every kind: compiled first, once, with the smallest
+    # kind; then the other kinds, the largest (most parameters: longest compile) first, dealt to
+    # the two processes
     names = sorted(registry.names(), key=lambda k: -registry.get(k).n_params)
     script = str(Path(__file__).with_name("precompile.py"))
+    subprocess.run([sys.executable, script, names[-1]], env=dict(os.environ), check=False)
+    names = names[:-1]
     procs = [subprocess.Popen([sys.executable, script, *names[i::2]], env=dict(os.environ))
              for i in range(2)]
     for p in procs:

@@ -18,7 +18,6 @@ import numpy as np
 import pandas as pd
 from scipy.integrate import solve_ivp
 
-from usvid.models.kind import MAX_STATES
 from usvid.models.registry import kind_of
 from usvid.trial import Trial, Vessel
 
@@ -34,19 +33,17 @@ def joint_rhs(dynamics: Any, inputs: Callable[[float], Mapping[str, float]],
     of a reference run's time); ``f`` is checked against ``derivatives`` on its first call."""
     kind = kind_of(dynamics)
     P = tuple(np.asarray(kind.pack(dynamics, speed), float)[:, 0].tolist())
-    pad = [0.0] * (MAX_STATES - kind.n_states)
     checked = False
 
     def f(t: float, z: np.ndarray) -> list[float]:
         nonlocal checked
         ins = inputs(t)
         d = float(ins.get("delta", 0.0))
-        s = [float(v) for v in z[3:]] + pad
-        out = kind.rhs(P, s[0], s[1], s[2], s[3], d, math.cos(d), math.sin(d),
-                       float(ins.get("n", math.nan)), float(ins.get("n_port", math.nan)),
-                       float(ins.get("n_stbd", math.nan)))
-        u, v, r = float(out[0]), float(out[1]), float(out[2])
-        dz = [float(x) for x in out[3:3 + kind.n_states]]
+        a = (d, math.cos(d), math.sin(d), float(ins.get("n", math.nan)),
+             float(ins.get("n_port", math.nan)), float(ins.get("n_stbd", math.nan)))
+        u, v, r, ds = kind.rhs(P, tuple(float(v) for v in z[3:]), a, (0.0, 0.0, 0.0, 0.0))
+        u, v, r = float(u), float(v), float(r)
+        dz = [float(x) for x in ds]
         if not checked:  # the same numbers as the kind's numpy right-hand side
             want = kind.derivatives(dynamics, z[3:], speed=speed, **ins)
             np.testing.assert_array_equal([u, v, r, *dz],

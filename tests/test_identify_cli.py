@@ -182,7 +182,7 @@ def test_identify_model_file_schema_and_exit_2(tmp_path, capsys):
                  "--method", "ls", "--out", str(out), "--json"]) == 0
     m = json.loads(out.read_text())
     assert m["usvid_model"] == 1 and m["kind"] == "nomoto1"
-    assert set(m["parameters"]) == {"K", "T", "delta0"}
+    assert set(m["parameters"]) == {"K", "T", "delta0", "N_delta"}  # N_delta: null
     assert {"kind", "max_angle_deg"} <= set(m["servo"])
     assert m["vessel"] == {"length": 7.0, "speed": 1.18}
     ident = m["identification"]

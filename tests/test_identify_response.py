@@ -168,7 +168,7 @@ def test_identify_functional_and_model_file(nomoto_trials):
     res = identify(nomoto_trials, "nomoto1", "ls")
     d = res.to_dict()
     assert d["usvid_model"] == 1 and d["kind"] == "nomoto1"
-    assert set(d["parameters"]) == {"K", "T", "delta0"}
+    assert set(d["parameters"]) == {"K", "T", "delta0", "N_delta"}  # N_delta: null
     ident = d["identification"]
     assert ident["method"] == "ls"
     assert set(ident["std_errors"]) == {"K", "T", "delta0"}

@@ -209,3 +209,27 @@ def test_metrics_nan_inputs_raise_usvid_error_or_nan():
     y = np.r_[np.sin(a), 0.5]
     xc, yc, r = fit_circle(x, y)
     assert abs(xc) < 1e-9 and abs(yc) < 1e-9 and abs(r - 1.0) < 1e-9  # exact points: exact fit
+
+
+def test_roll_metrics_only_with_a_roll_angle():
+    """max_heel_deg is the largest |phi| after the execute, steady_heel_deg the mean phi over
+    the steady turn (the last 360 deg); both absent from to_dict without phi."""
+    t, x, y, psi, delta, r = _circle(1.0)
+    # heel to port settling on -3 deg in the turn, a -5 deg first swing at t = 10 s, and a -20
+    # deg roll before the execute that must not count
+    phi = np.radians(np.where(t < 0, -20.0, -3.0 * (1 - np.exp(-t / 2.0)))
+                     - 2.0 * np.exp(-((t - 10.0) / 1.5) ** 2))
+    m = turning_metrics(t, x, y, psi, delta=delta, U=np.full_like(t, U), r=r, phi=phi)
+    assert m.max_heel_deg == pytest.approx(float(np.degrees(np.max(np.abs(phi[t >= 0])))),
+                                           rel=1e-12)
+    assert 4.9 < m.max_heel_deg < 5.1
+    # the steady window (last 360 deg, t > 137 s) sees -3 deg to 1e-12
+    assert m.steady_heel_deg == pytest.approx(-3.0, abs=1e-9)
+    assert {"max_heel_deg", "steady_heel_deg"} <= set(m.to_dict())
+    m0 = turning_metrics(t, x, y, psi, delta=delta, U=np.full_like(t, U), r=r)
+    assert m0.max_heel_deg is None and "max_heel_deg" not in m0.to_dict()
+    t, psi, delta = _zigzag()
+    phi = 0.1 * np.sin(t)
+    z = zigzag_metrics(t, psi, delta, psi_switch=SW, phi=phi)
+    assert z.max_heel_deg == pytest.approx(math.degrees(0.1), rel=1e-3)  # sampled sine peak
+    assert "max_heel_deg" not in zigzag_metrics(t, psi, delta, psi_switch=SW).to_dict()

@@ -1,4 +1,5 @@
-"""Tests of usvid.models.mmg (MMG standard method, Yasukawa & Yoshimura 2015) and its priors.
+"""Tests of usvid.models.kinds.mmg.physics (MMG standard method, Yasukawa & Yoshimura 2015)
+and its priors.
 
 By-hand values are written out with the paper's own formulas (with J, atan and sin alpha_R),
 not the division-free forms the kernel uses, so an algebra slip in either shows. The cross-check
@@ -13,8 +14,8 @@ import numpy as np
 import pytest
 
 from usvid.errors import UsvidError
-from usvid.models import mmg
 from usvid.models.hull import kijima1990_linear_derivatives
+from usvid.models.kinds.mmg import physics as mmg
 
 RHO = 1025.0
 # Same formulas evaluated in a different algebraic arrangement: float rounding only.
@@ -730,3 +731,39 @@ def test_shipmmg_zigzag_through_the_core(monkeypatch):
     # heading, the core at the interpolated crossing: a difference of r dt ~ 0.002 deg
     assert o1 == pytest.approx(o1s, rel=0.01)
     assert o2 == pytest.approx(o2s, rel=0.01)
+
+
+def test_parameters_declared_once():
+    """FIELDS is the one declaration of the MMG parameters: the fields and defaults of the
+    physics set (MMGParameters) and of the kind's set (MMG) come from it; the earlier import
+    path usvid.models.mmg is the same API, not a copy."""
+    from dataclasses import MISSING, fields
+
+    import usvid.models.mmg as earlier
+    from usvid.models.kind import REQUIRED
+    from usvid.models.kinds.mmg import MMG
+
+    phys = {f.name: f for f in fields(mmg.MMGParameters)}
+    kind = {f.name: f for f in fields(MMG)}
+    assert list(phys) == list(mmg.FIELD_NAMES)
+    for f in mmg.FIELDS:
+        want = MISSING if f.default is REQUIRED else f.default
+        assert phys[f.name].default == want, f.name
+        assert kind[f.name].default == want, f.name
+    assert earlier.kvlcc2 is mmg.kvlcc2 and earlier.MMGParameters is mmg.MMGParameters
+
+
+def test_mmg_thrust_laws_are_the_thrust_modules():
+    """The MMG propeller and pod thrust are usvid.models.thrust's laws (one definition): at the
+    KVLCC2 propeller (K_T = 0.2931 - 0.2753 J - 0.1385 J^2, D_p 0.216 m) n = 10 rps, u_P =
+    0.7 m/s: J = 0.7 / 2.16, T = rho n^2 D^4 K_T(J) by hand."""
+    from usvid.models.thrust import kt_thrust_nb, pod_thrust_nb
+
+    p = _lane(mmg.kvlcc2("paper"))
+    J = 0.7 / (10.0 * 0.216)
+    T = 1025.0 * 100.0 * 0.216 ** 4 * (0.2931 - 0.2753 * J - 0.1385 * J * J)
+    assert mmg._kt_thrust_nb(p, 10.0, 0.7) == pytest.approx(T, rel=1e-12)
+    got = kt_thrust_nb(10.0, 0.7, 1025.0 * 0.216 ** 4, 1025.0 * 0.216 ** 3,
+                       1025.0 * 0.216 ** 2, 0.2931, -0.2753, -0.1385)
+    assert got == pytest.approx(T, rel=1e-12)
+    assert pod_thrust_nb(1.2, -3.0, 2.0, 5.0) == 2.0 * 1.2 * -3.0 + 5.0 * 3.0 * -3.0

@@ -20,8 +20,8 @@ from usvid.identify.validation import validate_trial
 from usvid.io import read_trial, shipped_spec
 from usvid.io.modelfile import load_model
 from usvid.manoeuvres import find_manoeuvres, manoeuvre_metrics
-from usvid.models.kinds import _mmg_fit
 from usvid.models.kinds.mmg import KIND, MMG, particulars, rhs
+from usvid.models.kinds.mmg import fit as _mmg_fit
 from usvid.trial import Trial
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "usv_twin_mmg.json"
@@ -51,14 +51,16 @@ def test_pwm_map_and_asymmetry_hand_value():
     p = KIND.pack(d, 0.8)[:, 0]
     ph = d.physics()
     q = 0.5 * ph.rho * ph.L ** 2 * ph.d
-    out = rhs(p, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, math.nan, 1700.0, 1600.0)
-    assert out[3] == pytest.approx(12.4 / (ph.m + ph.m_x * q), rel=1e-12)
-    assert out[4] == 0.0
-    assert out[5] == pytest.approx(5.2 * 0.25 / (ph.I_zG + ph.J_z * q * ph.L ** 2), rel=1e-12)
+    rest, calm = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0)
+    p = tuple(p.tolist())
+    out = rhs(p, rest, (0.0, 1.0, 0.0, math.nan, 1700.0, 1600.0), calm)[3]
+    assert out[0] == pytest.approx(12.4 / (ph.m + ph.m_x * q), rel=1e-12)
+    assert out[1] == 0.0
+    assert out[2] == pytest.approx(5.2 * 0.25 / (ph.I_zG + ph.J_z * q * ph.L ** 2), rel=1e-12)
     # beyond full PWM the level saturates at 1 (2000 us and 2300 us give the same thrust)
-    a = rhs(p, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, math.nan, 2000.0, 1500.0)
-    b = rhs(p, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, math.nan, 2300.0, 1500.0)
-    assert a[3] == b[3] == pytest.approx(22.0 / (ph.m + ph.m_x * q), rel=1e-12)
+    a = rhs(p, rest, (0.0, 1.0, 0.0, math.nan, 2000.0, 1500.0), calm)[3]
+    b = rhs(p, rest, (0.0, 1.0, 0.0, math.nan, 2300.0, 1500.0), calm)[3]
+    assert a[0] == b[0] == pytest.approx(22.0 / (ph.m + ph.m_x * q), rel=1e-12)
 
 
 @pytest.fixture(scope="module")

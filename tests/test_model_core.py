@@ -73,8 +73,7 @@ def _truth(kind: str) -> tuple[VesselModel, dict[str, float]]:
     if kind == "mmg":
         # the published KVLCC2 MMG model (Yasukawa & Yoshimura 2015) at the HSVA model scale,
         # R_0 = 0.016 (the HSVA runs' resistance) and the shaft speed holding 1.18 m/s
-        from usvid.models.kinds.mmg import equilibrium_rps, from_physics
-        from usvid.models.mmg import kvlcc2
+        from usvid.models.kinds.mmg import equilibrium_rps, from_physics, kvlcc2
 
         p = kvlcc2("hsva").replace(R_0=0.016)
         n0 = equilibrium_rps(p, 1.18)
@@ -85,6 +84,17 @@ def _truth(kind: str) -> tuple[VesselModel, dict[str, float]]:
                  "C_2_minus": p.C_2_minus}
         return VesselModel(from_physics(p, n=n0), servo, Vessel(length=p.L, speed=1.18, beam=p.B,
                                                           draft=p.d, mass=p.m)), extra
+    if kind == "fourdof":
+        # a 2.4 m USV with roll (period ~2 s, GM 0.17 m, centre of gravity 10 cm above the roll
+        # axis) driven by a pod thruster, T = 0.8 |n| n = 80 N at 10 rps (2 m/s)
+        from usvid.models.kinds.fourdof import FourDOF
+        from usvid.models.thrust import PodThrust
+
+        held = {"x_l": 0.5, "z_l": 0.15, "m24": 8.5, "mzg": -7.0, "d42": -15.0}
+        dyn = FourDOF(m11=80.0, m22=130.0, m44=12.0, m66=30.0, d11=40.0, d22=150.0, d44=15.0,
+                      d66=200.0, w_gm=120.0, thrust=PodThrust(c=0.0, d=0.8), n=10.0, **held)
+        return (VesselModel(dyn, servo, Vessel(length=2.4, speed=2.0)),
+                {**held, "pod_c": 0.0, "pod_d": 0.8})
     # a 2 m catamaran: 35 deg of rudder-equivalent steering turns it at about 15 deg/s, a 20/20
     # zig-zag overshoots by about 15 deg
     dyn = Catamaran(m11=60.0, m22=70.0, m33=20.0, d11=20.0, d22=300.0, d33=45.0, b=0.8,
@@ -110,9 +120,10 @@ def _runs(model: VesselModel, kind: str) -> list:
     amp = np.radians([20.0, 15.0])
     zz = simulate(model, ZigZag(amp, amp, first=np.array([1, -1])), t_end=150.0, dt=0.02)
     runs = [(zz, 0), (zz, 1)]
-    if kind == "threedof":
+    if kind in ("threedof", "fourdof"):
         t = np.arange(0.0, 121.0, 0.1)
-        n = 52.88 * np.interp(t, [0, 30, 33, 60, 63, 90, 93, 121], [1, 1, .75, .75, 1, 1, .85, .85])
+        n = model.dynamics.n * np.interp(t, [0, 30, 33, 60, 63, 90, 93, 121],
+                                         [1, 1, .75, .75, 1, 1, .85, .85])
         res = simulate(model, Commanded(t, delta_cmd=np.radians(5) * np.sin(2 * np.pi * t / 20),
                                         n=n), t_end=120.0, dt=0.02)
         runs.append((res, 0))

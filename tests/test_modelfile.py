@@ -12,14 +12,15 @@ import pytest
 
 from usvid.errors import ModelFileError, UsvidError
 from usvid.io.modelfile import load_model, model_from_dict, model_to_dict, save_model
-from usvid.models import Nomoto1, VesselModel
+from usvid.models import Nomoto1, VesselModel, registry
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 NORRBIN = {
     "usvid_model": 1,
     "kind": "norrbin",
-    "parameters": {"K": 0.707, "T": 0.332, "n1": 1.0, "n3": 1.102, "delta0": 0.0},
+    "parameters": {"K": 0.707, "T": 0.332, "n1": 1.0, "n3": 1.102, "delta0": 0.0,
+                   "N_delta": None},
     "servo": {"kind": "second_order", "omega_n": 1.3964, "zeta": 0.8526, "gain": 1.0,
               "delay": 1.0, "max_angle_deg": 35.0, "max_rate_deg_s": None},
     "vessel": {"length": 7.02, "speed": 5.144},
@@ -56,8 +57,8 @@ def test_norrbin_round_trip(tmp_path):
 
 
 @pytest.mark.parametrize("kind,params", [
-    ("nomoto1", {"K": 0.707, "T": 0.332, "delta0": 0.01}),
-    ("nomoto2", {"K": 0.3, "T1": 20.0, "T2": 2.0, "T3": 4.0, "delta0": 0.0}),
+    ("nomoto1", {"K": 0.707, "T": 0.332, "delta0": 0.01, "N_delta": None}),
+    ("nomoto2", {"K": 0.3, "T1": 20.0, "T2": 2.0, "T3": 4.0, "delta0": 0.0, "N_delta": 5e4}),
 ])
 def test_response_kinds_round_trip(kind, params):
     d = {"usvid_model": 1, "kind": kind, "parameters": params,
@@ -73,7 +74,7 @@ def test_defaults_filled():
     m = model_from_dict({"usvid_model": 1, "kind": "nomoto1", "parameters": {"K": 1, "T": 2}})
     assert m.servo.kind == "ideal" and m.dynamics.delta0 == 0.0
     d = model_to_dict(m)
-    assert d["parameters"] == {"K": 1.0, "T": 2.0, "delta0": 0.0}
+    assert d["parameters"] == {"K": 1.0, "T": 2.0, "delta0": 0.0, "N_delta": None}
     assert d["servo"] == {"kind": "ideal", "max_angle_deg": 35.0, "max_rate_deg_s": None}
 
 
@@ -118,8 +119,8 @@ def _bad(path_and_value):
     ([(("parameters", "K"), "0.7")], 'm.json: parameters.K must be a number (got "0.7")'),
     ([(("parameters", "K"), True)], "m.json: parameters.K must be a number"),
     ([(("parameters", "alpha"), 1.1)], "m.json: unknown key parameters.alpha"),
-    ([(("kind",), "nomoto3")], "m.json: kind must be one of nomoto1, nomoto2, norrbin, "
-                               "threedof, catamaran, mmg, nomoto2_nonlinear (got \"nomoto3\")"),
+    ([(("kind",), "nomoto3")], "m.json: kind must be one of " + ", ".join(registry.names())
+     + " (got \"nomoto3\")"),
     ([(("usvid_model",), 2)], "m.json: usvid_model must be 1"),
     ([(("servo", "kind"), "hydraulic")], "m.json: servo.kind must be one of ideal"),
     ([(("servo", "zeta"), KeyError)], "m.json: servo.zeta is missing"),

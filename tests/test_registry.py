@@ -58,3 +58,18 @@ def test_bad_parameters_name_the_field():
         kind.dynamics(K=0.5, T=-1.0)
     with pytest.raises(UsvidError, match="unknown model kind"):
         registry.get("nomoto3")
+
+
+def test_kind_names_without_importing_the_kinds():
+    """The registry lists the kinds from the kind modules' names without importing them (the
+    CLI's --model help uses it), in the display order; importing usvid.models is lazy."""
+    import subprocess
+    import sys
+
+    code = ("import sys, usvid.models.registry as r; n = r.names(); "
+            "print(','.join(n)); print(any(m.startswith('usvid.models.kinds.') for m in "
+            "sys.modules), 'numba' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert tuple(out[0].split(",")) == registry.names() == tuple(registry.kinds())
+    assert out[1:] == ["False", "False"]

@@ -41,10 +41,11 @@ from usvid.errors import UsvidError
 
 
 def kind_names() -> list[str]:
-    """The model kinds for the help text, from the kind modules' names (importing the registry
-    compiles the kinds: the help stays fast without it)."""
-    folder = Path(__file__).resolve().parent.parent / "models" / "kinds"
-    return sorted(p.stem for p in folder.glob("*.py") if not p.stem.startswith("_"))
+    """The model kinds for the help text (the registry's list; it names them without importing
+    them, so the help stays fast)."""
+    from usvid.models.registry import names
+
+    return list(names())
 
 
 LogsArg = Annotated[list[Path], typer.Argument(help="Log file(s) to identify from.",

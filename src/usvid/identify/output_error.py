@@ -46,6 +46,7 @@ from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.ls import autocorrelation_factor, numerical_jacobian
 from usvid.identify.metrics import rmse
 from usvid.models.kind import Dynamics, ModelKind
+from usvid.sim.layout import STATE_CHANNELS
 from usvid.sim.replay import Windows, window_initial_state, window_lanes
 from usvid.sim.simulate import Lanes
 
@@ -105,7 +106,8 @@ class OEProblem:
         held_by = getattr(kind.dynamics, "held_names", None)  # e.g. the MMG twin variant's
         if held_by is not None:                                # sway coefficients
             self.held = tuple(self.held) + tuple(held_by(self.fixed))
-        self.init_names = tuple(c for c in ("r", "psi", "u", "v") if c in kind.outputs)
+        self.init_names = tuple(c for c in ("r", "psi", "u", "v", *STATE_CHANNELS)
+                                if c in kind.outputs)
         self._lanes: Lanes | None = None  # the windows' lanes (simulate)
 
     def fit_values(self, params: Mapping[str, float]) -> np.ndarray:
@@ -210,7 +212,7 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
     OEResult: parameters (the kind's names) with covariance, fit-space values, diagnostics.
     """
     channels = tuple(channels) if channels is not None else tuple(
-        c for c in ("psi", "r", "u", "v") if c in kind.outputs)
+        c for c in ("psi", "r", "u", "v", *STATE_CHANNELS) if c in kind.outputs)
     prob = OEProblem(kind, fixed, win, channels)
     try:
         x_all = prob.fit_values(start)

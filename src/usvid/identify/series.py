@@ -28,6 +28,7 @@ from usvid.models.kind import ModelKind
 from usvid.prep.filters import savgol_derivative, unwrap_angle, window_samples
 from usvid.prep.prepare import PreparedTrial, as_prepared
 from usvid.prep.state_estimation import MEASUREMENT_CHANNELS, estimate_states
+from usvid.sim.layout import STATE_CHANNELS
 
 #: Fewest samples of a trial for identification.
 MIN_SAMPLES = 20
@@ -177,6 +178,16 @@ def build_series(trial: PreparedTrial, kind: ModelKind, *, smooth_s: float = 1.0
         _ekf_states(trial, name, t, d)
     for ch in ("u", "v"):
         if ch in d and ch + "_s" not in d:
+            d[ch + "_s"] = sg(d[ch])
+            d[ch + "dot_s"] = sg(d[ch], 1)
+    # roll (kinds with the states phi, p): the logged roll angle and rate, smoothed; a roll rate
+    # the log lacks is the roll angle's derivative
+    for ch in STATE_CHANNELS:
+        if ch in kind.states and (ch in needs or trial.has(ch)):
+            if ch == "p" and not trial.has("p") and "phi" in d:
+                d["p"] = sg(d["phi"], 1)
+            else:
+                d[ch] = need(ch)
             d[ch + "_s"] = sg(d[ch])
             d[ch + "dot_s"] = sg(d[ch], 1)
     return Series(name=name, h=h, data=d)

@@ -120,15 +120,33 @@ def _html_table(title: str, d: dict[str, Any]) -> str:
     return f"<table><caption>{html.escape(title)}</caption>{rows}</table>"
 
 
+#: Metrics present only where the run has what they measure (None: left out of ``to_dict``):
+#: the roll metrics, for runs with a roll angle ``phi``.
+_WHEN_MEASURED = ("max_heel_deg", "steady_heel_deg")
+
+
 class _Metrics:
     """``to_dict()``: the CLI keys first (the leading fields), then the extras; NaN stays NaN
-    (the JSON writer maps it to null). ``_repr_html_``: a two-column table (Jupyter)."""
+    (the JSON writer maps it to null); the roll metrics only for runs with a roll angle.
+    ``_repr_html_``: a two-column table (Jupyter)."""
 
     def _repr_html_(self) -> str:
         return _html_table(type(self).__name__, self.to_dict())
 
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)  # type: ignore[call-overload]
+        d = asdict(self)  # type: ignore[call-overload]
+        for k in _WHEN_MEASURED:
+            if k in d and d[k] is None:
+                del d[k]
+        return d
+
+
+def max_heel(t: np.ndarray, phi: Any, t_execute: float) -> float:
+    """Largest heel [deg]: max |phi| from the execute on (phi [rad], positive heel to starboard;
+    NaN samples left out; NaN when none is left)."""
+    ph = as_1d("phi", phi, len(t))
+    ok = np.isfinite(ph) & (t >= t_execute)
+    return math.degrees(float(np.max(np.abs(ph[ok])))) if ok.any() else math.nan
 
 
 # --------------------------------------------------------------------------------------------
@@ -153,6 +171,7 @@ class ZigZagMetrics(_Metrics):
     delta_amp_deg: float = math.nan
     psi_switch_deg: float = math.nan
     initial_turning_distance_m: float = math.nan
+    max_heel_deg: float | None = None
 
 
 def zigzag_metrics(
@@ -167,6 +186,7 @@ def zigzag_metrics(
     x: Any | None = None,
     y: Any | None = None,
     psi_ref: float | None = None,
+    phi: Any | None = None,
 ) -> ZigZagMetrics:
     """Zig-zag metrics of one run (IMO MSC.137(76) / ITTC 7.5-04-02-01; see module docstring).
 
@@ -192,6 +212,8 @@ def zigzag_metrics(
     psi_ref : float, optional
         Reference heading [rad] of the deviation (default: the heading at the execute, as
         :class:`usvid.manoeuvres.logic.ZigZag` without ``psi_ref``).
+    phi : array (N,), optional
+        Roll angle [rad, positive heel to starboard]: gives ``max_heel_deg`` (:func:`max_heel`).
     """
     t = as_1d("t", t)
     n = len(t)
@@ -275,6 +297,7 @@ def zigzag_metrics(
         delta_amp_deg=math.degrees(delta_amp) if delta_amp is not None else math.nan,
         psi_switch_deg=math.degrees(psi_switch),
         initial_turning_distance_m=dist,
+        max_heel_deg=None if phi is None else max_heel(t, phi, float(t_execute)),
     )
 
 
@@ -297,6 +320,8 @@ class TurningMetrics(_Metrics):
     time_to_180_s: float = math.nan
     steady_window_deg: float = math.nan
     steady_diameter_method: str = "circle_fit"
+    max_heel_deg: float | None = None
+    steady_heel_deg: float | None = None
 
 
 def fit_circle(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
@@ -339,6 +364,7 @@ def turning_metrics(
     r: Any | None = None,
     delta: Any | None = None,
     t_execute: float | None = None,
+    phi: Any | None = None,
 ) -> TurningMetrics:
     """Turning-circle metrics of one run (IMO MSC.137(76) definitions; see module docstring).
 
@@ -358,6 +384,9 @@ def turning_metrics(
         Rudder angle [rad]; used to find the execute.
     t_execute : float, optional
         Rudder execute time [s]; default from ``delta``, else ``t[0]``.
+    phi : array (N,), optional
+        Roll angle [rad, positive heel to starboard]: gives ``max_heel_deg`` (:func:`max_heel`)
+        and ``steady_heel_deg``, the mean roll angle over the steady turn [deg, signed].
     """
     t = as_1d("t", t)
     n = len(t)
@@ -404,6 +433,12 @@ def turning_metrics(
     else:
         method = "2U/r"
         diam = 2 * speed / yaw if yaw and yaw > 0 else math.nan
+    heel = steady = None
+    if phi is not None:
+        heel = max_heel(t, phi, float(t_execute))
+        ph = as_1d("phi", phi, n)
+        ws = (t >= st.t_start) & (t <= st.t_end) & np.isfinite(ph)
+        steady = math.degrees(float(np.mean(ph[ws]))) if ws.any() else math.nan
     return TurningMetrics(
         advance_m=advance,
         transfer_m=transfer,
@@ -417,4 +452,6 @@ def turning_metrics(
         time_to_180_s=t180 - t_execute if not math.isnan(t180) else math.nan,
         steady_window_deg=math.degrees(st.arc),
         steady_diameter_method=method,
+        max_heel_deg=heel,
+        steady_heel_deg=steady,
     )

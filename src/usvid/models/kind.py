@@ -5,9 +5,10 @@ A kind is one module holding
 * a parameter-set dataclass (subclass of :class:`Dynamics`) whose fields are declared with
   :func:`param` (unit, bounds, one-line meaning, whether identification estimates it) or
   :func:`submodel` (a nested model such as a thrust law);
-* one numba right-hand side ``rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd)``
-  returning ``(u, v, r, d0, d1, d2, d3)`` (see :class:`ModelKind`), the only copy of the kind's
-  equations of motion, integrated by
+* its named states (``states``, any number up to the generous bound :data:`MAX_STATES`; the
+  core generates the joint state's rows and their packing from the names);
+* one numba right-hand side ``rhs(p, s, a, f)`` returning ``(u, v, r, ds)`` (see
+  :class:`ModelKind`), the only copy of the kind's equations of motion, integrated by
   :mod:`usvid.sim.core` for simulation and for every identification method;
 * ``pack`` (parameters -> the flat rows the right-hand side reads), ``initial`` (the kind's
   states from the measured yaw rate / velocities), and, where the kind has one, its
@@ -21,6 +22,10 @@ are driven by these declarations; adding a kind is adding one module (and its te
 ``pack`` returns parameters as (n_params, lanes) and ``initial`` states as (n_states, lanes); a
 lane is one simulated run (or one output-error window). The joint state of the core holds x, y,
 psi, then the kind's states from position ``S0``.
+
+A state named ``phi`` is the roll angle [rad, positive = heel to starboard] and ``p`` the roll
+rate [rad/s]: the simulator records them (channels ``phi``, ``p``) and the standard runs report
+the largest heel (:mod:`usvid.sim.runs`), for every kind that has them.
 """
 
 from __future__ import annotations
@@ -38,12 +43,22 @@ from usvid.models._validate import _show
 
 #: Row of the first kind state in the joint state of the core (rows 0-2: x, y, psi).
 S0 = 3
-#: Most states a kind may have (the right-hand side returns this many derivatives).
-MAX_STATES = 4
+#: Most states a kind may have: a generous bound, not a layout (the core generates its rows from
+#: the kind's state names; a lane's joint state is a tuple of ``7 + n_states`` floats kept in
+#: registers, and the compile time grows with its length).
+MAX_STATES = 16
 #: Most packed parameter values of a kind (the length of the right-hand side's tuple).
 MAX_PARAMS = 64
 #: Actuator inputs a kind may read (``ModelKind.inputs``).
 INPUTS = ("delta", "n", "n_port", "n_stbd")
+#: The actuator tuple ``a`` of the right-hand side, in this order: the effective steering angle
+#: delta [rad], its cosine and sine, the shaft speed n [rps] and the thruster commands n_port,
+#: n_stbd (NaN: the kind's nominal).
+ACTUATORS = ("delta", "cos_delta", "sin_delta", "n", "n_port", "n_stbd")
+#: The external generalised force ``f`` of the right-hand side, body axes, about the body
+#: origin: surge X [N], sway Y [N], roll moment K [N m], yaw moment N [N m] (wind, waves; zero
+#: in calm water).
+FORCES = ("X", "Y", "K", "N")
 
 
 class _Required:
@@ -246,7 +261,9 @@ class ModelKind:
     dynamics : type[Dynamics]
         The parameter-set dataclass.
     states : tuple of str
-        The kind's own states (rows ``S0 ..`` of the joint state), e.g. ``("r",)``.
+        The kind's own states (rows ``S0 ..`` of the joint state), e.g. ``("r",)``; any number
+        up to :data:`MAX_STATES`. ``phi`` [rad] and ``p`` [rad/s] name roll (recorded and
+        measured generically, see the module docstring).
     body : tuple of 3 ints
         Rows (within ``states``) holding u, v, r, or -1: u is then the constant speed (row
         ``speed_row`` of P) and v is 0 (response models).
@@ -255,15 +272,17 @@ class ModelKind:
     inputs : tuple of str
         Actuator inputs read (subset of :data:`INPUTS`).
     rhs : numba function
-        ``rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd) -> (u, v, r, d0, d1, d2,
-        d3)``: from the lane's parameter tuple ``p`` (the values of ``pack``, at most
-        :data:`MAX_PARAMS`) and the kind's states ``s_i`` (unused ones 0; at most
-        :data:`MAX_STATES`), the body velocities (u, v [m/s], r [rad/s]) for the kinematics and
-        the time derivatives ``d_i`` of the states (unused ones 0). Tuples and scalars only:
-        the core keeps a lane's state in registers. ``delta`` [rad] is the
-        effective steering angle (servo + disturbance), ``cd, sd`` its cosine and sine, ``n``
-        [rps] the shaft speed (NaN: the kind's nominal), ``n_port``, ``n_stbd`` thruster
-        commands (NaN: from the steering angle and the nominal command).
+        ``rhs(p, s, a, f) -> (u, v, r, ds)``: from the lane's parameter tuple ``p`` (the values
+        of ``pack``, at most :data:`MAX_PARAMS`), the kind's states ``s`` (a tuple in the order
+        of ``states``), the actuators ``a`` (:data:`ACTUATORS`: the effective steering angle
+        delta [rad] (servo + disturbance), its cosine and sine, the shaft speed n [rps] (NaN:
+        the kind's nominal), the thruster commands n_port, n_stbd (NaN: from the steering angle
+        and the nominal command)) and the external force ``f`` (:data:`FORCES`: X, Y [N], K,
+        N [N m], body axes; zero in calm water): the velocities the kinematics integrate
+        (``x' = u cos psi - v sin psi``, ``y' = u sin psi + v cos psi``, ``psi' = r``; u, v
+        [m/s], r [rad/s]; a roll kind returns ``v cos phi`` and ``r cos phi``) and the time
+        derivatives ``ds`` of the states (a tuple, the order of ``states``). Tuples and scalars
+        only: the core keeps a lane's state in registers.
     pack : callable ``(dynamics, speed) -> (n_params, B) array``
         The parameter rows (with derived constants) for the core; ``speed`` [m/s] (scalar or
         (B,)) is the approach speed (the constant speed of response kinds).
@@ -326,8 +345,10 @@ class ModelKind:
     source_hash: str = ""
 
     def __post_init__(self) -> None:
-        if len(self.states) > MAX_STATES:
-            raise ValueError(f"kind {self.name}: at most {MAX_STATES} states")
+        if not 1 <= len(self.states) <= MAX_STATES:
+            raise ValueError(f"kind {self.name}: 1 to {MAX_STATES} states")
+        if len(set(self.states)) != len(self.states):
+            raise ValueError(f"kind {self.name}: state names must be unique {self.states}")
         bad = set(self.inputs) - set(INPUTS)
         if bad:
             raise ValueError(f"kind {self.name}: unknown inputs {sorted(bad)}")
@@ -344,6 +365,10 @@ class ModelKind:
     def n_states(self) -> int:
         return len(self.states)
 
+    def state_row(self, name: str) -> int:
+        """Position of the state ``name`` in ``states`` (-1 when the kind has none)."""
+        return self.states.index(name) if name in self.states else -1
+
     @property
     def n_params(self) -> int:
         """Length of the packed parameter rows (and of the right-hand side's tuple)."""
@@ -351,13 +376,15 @@ class ModelKind:
 
     def derivatives(self, dynamics: Dynamics, states: Any, *, delta: Any = 0.0,
                     n: Any = math.nan, n_port: Any = math.nan, n_stbd: Any = math.nan,
-                    speed: Any = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                    speed: Any = 1.0, force: Any = (0.0, 0.0, 0.0, 0.0)
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The kind's right-hand side evaluated with numpy inputs (for checks by hand and
         plots; simulation integrates the same function in the core).
 
         ``states`` (..., n_states) the kind's states; ``delta`` [rad] the effective steering
         angle, ``n`` [rps], ``n_port``/``n_stbd`` commands (NaN: the kind's nominal), ``speed``
-        [m/s] the constant speed of a response kind; all broadcast against ``states[..., 0]``.
+        [m/s] the constant speed of a response kind; all broadcast against ``states[..., 0]``;
+        ``force`` the external force (X, Y [N], K, N [N m], body axes; :data:`FORCES`).
         Returns (u, v [m/s], r [rad/s], d states/dt (..., n_states)).
         """
         x = np.asarray(states, dtype=float)
@@ -372,15 +399,19 @@ class ModelKind:
         P = self.pack(dynamics, speed)
         B = xs.shape[0]
         P = np.broadcast_to(P, (P.shape[0], max(B, P.shape[1])))
+        f = tuple(float(v) for v in force)
+        if len(f) != len(FORCES):
+            raise UsvidError(f"{self.name}: force must be (X, Y, K, N), got {force!r}")
         uvr = np.empty((B, 3))
         dz = np.empty((B, self.n_states))
         for b in range(B):
-            s = list(xs[b]) + [0.0] * (MAX_STATES - self.n_states)
-            d = ins[0][b]
-            out = self.rhs(tuple(P[:, b if P.shape[1] > 1 else 0]), s[0], s[1], s[2], s[3], d,
-                           math.cos(d), math.sin(d), ins[1][b], ins[2][b], ins[3][b])
-            uvr[b] = out[:3]
-            dz[b] = out[3:3 + self.n_states]
+            d = float(ins[0][b])
+            a = (d, math.cos(d), math.sin(d), float(ins[1][b]), float(ins[2][b]),
+                 float(ins[3][b]))
+            u, v, r, ds = self.rhs(tuple(P[:, b if P.shape[1] > 1 else 0].tolist()),
+                                   tuple(xs[b].tolist()), a, f)
+            uvr[b] = (u, v, r)
+            dz[b] = ds
         return (uvr[:, 0].reshape(shape), uvr[:, 1].reshape(shape), uvr[:, 2].reshape(shape),
                 dz.reshape((*shape, self.n_states)))
 
@@ -401,6 +432,11 @@ def batch_size(values: Mapping[str, Any]) -> int:
     except ValueError as exc:
         raise UsvidError(f"batch parameters have incompatible lengths: {exc}") from None
     return int(shape[0]) if shape else 1
+
+
+def inverse(value: Any) -> Any:
+    """1 / value of an optional positive parameter (scalar or (B,)); 0 where it is None."""
+    return 0.0 if value is None else 1.0 / np.asarray(value, dtype=float)
 
 
 def rows(values: Sequence[Any], B: int | None = None) -> np.ndarray:

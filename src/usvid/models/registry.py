@@ -1,7 +1,9 @@
 """The registry of model kinds: every module of :mod:`usvid.models.kinds` with a ``KIND``.
 
-``get("norrbin")`` returns the :class:`usvid.models.kind.ModelKind`; ``names()`` the kinds in a
-stable order (the CLI's ``--model`` choices); ``readme_table()`` the README's kind table.
+The one list of kinds: the modules (or packages) of :mod:`usvid.models.kinds` not named with a
+leading ``_``, each defining ``KIND`` of its own name. ``get("norrbin")`` returns the
+:class:`usvid.models.kind.ModelKind`; ``names()`` the kinds in a stable order (the CLI's
+``--model`` choices; without importing them); ``readme_table()`` the README's kind table.
 """
 
 from __future__ import annotations
@@ -33,30 +35,35 @@ def _models_digest() -> bytes:
     return h.digest()
 
 
+def names() -> tuple[str, ...]:
+    """Kind names in display order: the kind modules (and packages) of
+    :mod:`usvid.models.kinds`, by name, without importing them (the CLI's help lists them
+    cheaply); :data:`_ORDER` first, then alphabetically. A module's kind has its module's name
+    (checked by :func:`kinds`)."""
+    found = [info.name for info in pkgutil.iter_modules(_kinds_pkg.__path__)
+             if not info.name.startswith("_")]
+    return tuple([k for k in _ORDER if k in found] + sorted(set(found) - set(_ORDER)))
+
+
 @cache
 def kinds() -> dict[str, ModelKind]:
-    """All registered kinds by name (imported once)."""
+    """All registered kinds by name (imported once), in the order of :func:`names`."""
     found: dict[str, ModelKind] = {}
     models = _models_digest()
-    for info in pkgutil.iter_modules(_kinds_pkg.__path__):
-        if info.name.startswith("_"):
-            continue
-        module = importlib.import_module(f"{_kinds_pkg.__name__}.{info.name}")
+    for name in names():
+        module = importlib.import_module(f"{_kinds_pkg.__name__}.{name}")
         kind = getattr(module, "KIND", None)
         if not isinstance(kind, ModelKind):  # never skipped silently (a half-imported module
             # in an import cycle has no KIND yet; helpers are private modules, "_name.py")
             raise UsvidError(f"model kind module {module.__name__} defines no KIND "
                              "(a ModelKind); private helpers are named with a leading '_'")
+        if kind.name != name:
+            raise UsvidError(f"model kind module {module.__name__} defines the kind "
+                             f"{kind.name!r}: a kind's module is named for it")
         digest = hashlib.sha256(inspect.getsource(module).encode() + models).hexdigest()[:12]
         object.__setattr__(kind, "source_hash", digest)
         found[kind.name] = kind
-    order = [k for k in _ORDER if k in found] + sorted(set(found) - set(_ORDER))
-    return {k: found[k] for k in order}
-
-
-def names() -> tuple[str, ...]:
-    """Kind names in display order."""
-    return tuple(kinds())
+    return found
 
 
 def get(name: str) -> ModelKind:

@@ -11,6 +11,8 @@ gives a numpy scalar out. Parameter dataclasses accept arrays over a leading bat
 For the integration core (numba) each thrust law has a scalar twin taking plain floats
 (:func:`kt_nb`, :func:`propeller_thrust_nb`, :func:`pod_thrust_nb`); :func:`thrust_nb` evaluates
 any law from its packed form (:func:`thrust_row`), which is how the model kinds read them.
+:func:`kt_thrust_nb` (thrust of a K_T law quadratic in J) and :func:`pod_thrust_nb` are the one
+definition of those laws in numba: the MMG kind's propeller and pod thrusters use them too.
 
 Mu et al. 2018 equation numbers as counted in the paper (the extracted text drops them): (1) thrust,
 (2) t_P = (P - R)/P, (3) Hollo/Holtrop t_P, (4) C_10, (5) C_stern, (6) K_T double sum (J_P defined
@@ -421,18 +423,50 @@ def kt_nb(J: float, P_D: float, theta: float) -> float:
 
 
 @numba.njit(cache=True, inline="always")
+def kt_quadratic_nb(P_D: float, theta: float) -> tuple[float, float, float]:
+    """The K_T regression of :func:`kt_nb` at one pitch ratio P/D and disk ratio theta as a
+    quadratic in J: ``K_T = c0 + c1 J + c2 J^2`` (Mu et al. 2018 eq. 9, 10, Table 2: c0 =
+    A00 + A10 P + A20 P^2 + A30 P^3, c1 = A01 + A11 P + A21 P^2, c2 = A02 + A12 P + A22 P^2,
+    each weighted over the disk ratios)."""
+    w = ((theta - 0.8) * (theta - 1.1) / 0.18, (theta - 0.5) * (theta - 1.1) / -0.09,
+         (theta - 0.5) * (theta - 0.8) / 0.18)
+    P = P_D
+    P2 = P * P
+    c0 = c1 = c2 = 0.0
+    for k in range(3):
+        a = _KT[k]
+        c0 += w[k] * (a[0] + a[3] * P + a[4] * P2 + a[5] * P2 * P)
+        c1 += w[k] * (a[1] + a[6] * P + a[8] * P2)
+        c2 += w[k] * (a[2] + a[7] * P + a[9] * P2)
+    return c0, c1, c2
+
+
+@numba.njit(cache=True, inline="always")
+def kt_thrust_nb(n: float, uP: float, rho_d4: float, rho_d3: float, rho_d2: float, k0: float,
+                 k1: float, k2: float) -> float:
+    """Open-water thrust ``T = rho n |n| D^4 K_T(J)`` [N] of a K_T law quadratic in the advance
+    ratio, ``K_T = k0 + k1 J + k2 J^2``, ``J = u_P / (|n| D)``: the one definition of the K_T
+    thrust law (the propeller of Mu et al. 2018 eq. 1 through :func:`kt_quadratic_nb`, the MMG
+    propeller of Yasukawa & Yoshimura 2015). n [rps], u_P [m/s] the propeller's inflow speed
+    ((1 - w_P) u), ``rho_dk`` = rho D^k. Division-free, ``rho D^4 k0 n|n| + rho D^3 k1 n u_P +
+    rho D^2 k2 sgn(n) u_P^2``: T = 0 at n = 0 without forming J; a reversing shaft (n < 0) is
+    the mirrored propeller (J from |n|, thrust with the sign of n)."""
+    sn = (1.0 if n > 0.0 else 0.0) - (1.0 if n < 0.0 else 0.0)
+    return rho_d4 * k0 * n * abs(n) + rho_d3 * k1 * n * uP + rho_d2 * k2 * sn * uP * uP
+
+
+@numba.njit(cache=True, inline="always")
 def propeller_thrust_nb(n: float, u: float, D: float, P_D: float, theta: float, t_P: float,
                         w_P: float, rho: float) -> float:
     """Scalar numba twin of :meth:`Propeller.thrust` [N]: n [rps], u [m/s], D [m], rho [kg/m^3].
 
-    ``T = (1 - t_P) rho n |n| D^4 K_T((1 - w_P) u / (|n| D))``; 0 for n = 0.
+    ``T = (1 - t_P) rho n |n| D^4 K_T((1 - w_P) u / (|n| D))`` (:func:`kt_thrust_nb` with the
+    K_T regression :func:`kt_quadratic_nb`); 0 for n = 0.
     """
-    if n == 0.0:
-        return 0.0
-    an = abs(n)
-    J = (1.0 - w_P) * u / (an * D)
+    c0, c1, c2 = kt_quadratic_nb(P_D, theta)
     D2 = D * D
-    return (1.0 - t_P) * rho * n * an * (D2 * D2) * kt_nb(J, P_D, theta)
+    return (1.0 - t_P) * kt_thrust_nb(n, (1.0 - w_P) * u, rho * D2 * D2, rho * D2 * D,
+                                      rho * D2, c0, c1, c2)
 
 
 @numba.njit(cache=True, inline="always")
@@ -514,7 +548,8 @@ def thrust_nb(t: tuple, u: float, n: float) -> float:
 __all__ = [
     "C_STERN", "KT_DISK_RATIOS", "KT_TERMS", "MU2018_TABLE2", "PodThrust", "Propeller",
     "TwinThrust", "advance_ratio", "froude_number", "hollo_thrust_deduction", "holtrop_c10",
-    "kt", "kt_nb", "kt_regression", "lagrange_weights", "pod_thrust_nb", "propeller_thrust_nb",
+    "kt", "kt_nb", "kt_quadratic_nb", "kt_regression", "kt_thrust_nb", "lagrange_weights",
+    "pod_thrust_nb", "propeller_thrust_nb",
     "wake_fraction", "THRUST_ROW", "THRUST_LAWS", "thrust_row",
     "thrust_nb",
 ]

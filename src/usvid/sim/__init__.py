@@ -3,9 +3,10 @@
 Public API
 ----------
 - :func:`simulate` ``(model, logic, *, t_end, dt=0.02, u0=None, record_every=1, seed=0,
-  psi0=0, disturbance=None, channels=None, initial=None) -> SimResult`` -- RK4 over a batch
-  (numba, parallel over runs). Any model/servo/logic parameter may be a (B,) array. Units: SI
-  and radians (t_end, dt [s], u0 [m/s], psi0 [rad]).
+  psi0=0, disturbance=None, environment=None, channels=None, initial=None) -> SimResult`` --
+  RK4 over a batch (numba, parallel over runs). Any model/servo/logic parameter may be a (B,)
+  array. Units: SI and radians (t_end, dt [s], u0 [m/s], psi0 [rad]). :class:`Environment`: a
+  current and an external force on the hull, for every kind.
 - Logics (:mod:`usvid.manoeuvres.logic`, re-exported here): :class:`Turning`,
   :class:`ZigZag`, :class:`CourseChange` with :class:`PID`, :class:`Disturbance` (white noise
   through 0.42 s/(s^2 + 0.36 s + 0.37), Mu et al. 2018), :class:`Commanded` (time series).
@@ -22,9 +23,9 @@ Public API
 from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
 from usvid.sim.result import CHANNEL_UNITS, SimResult
 from usvid.sim.runs import run_course, run_turning, run_zigzag
-from usvid.sim.simulate import simulate
+from usvid.sim.simulate import Environment, simulate
 
 __all__ = [
-    "CHANNEL_UNITS", "PID", "Commanded", "CourseChange", "Disturbance", "SimResult", "Turning",
-    "ZigZag", "run_course", "run_turning", "run_zigzag", "simulate",
+    "CHANNEL_UNITS", "PID", "Commanded", "CourseChange", "Disturbance", "Environment",
+    "SimResult", "Turning", "ZigZag", "run_course", "run_turning", "run_zigzag", "simulate",
 ]

@@ -25,9 +25,11 @@ from usvid.models.registry import kind_of
 from usvid.models.servo import IdealServo
 from usvid.sim.simulate import Lanes, approach_speed, initial_state, servo_rows
 
-#: Output channels a replay can compare, and the series holding their smoothed start values.
-OUTPUTS = ("psi", "r", "u", "v")
-_START = {"psi": "psi_s", "r": "r_s", "u": "u_s", "v": "v_s", "rdot": "rdot_s"}
+#: Output channels a replay can compare (roll angle and rate for kinds with roll), and the
+#: series holding their smoothed start values.
+OUTPUTS = ("psi", "r", "u", "v", "phi", "p")
+_START = {"psi": "psi_s", "r": "r_s", "u": "u_s", "v": "v_s", "rdot": "rdot_s", "phi": "phi_s",
+          "p": "p_s"}
 #: Inputs replayed when present in the series (the names of the core's series).
 INPUTS = ("delta", "n", "n_port", "n_stbd")
 
@@ -164,7 +166,7 @@ def replay_windows(model: VesselModel, win: Windows,
     initial state); returns name -> (B, W) simulated outputs (NaN after a divergence)."""
     kind = kind_of(model.dynamics)
     chans = tuple(channels) if channels is not None else tuple(
-        c for c in ("psi", "r", "u", "v") if c in win.outputs)
+        c for c in OUTPUTS if c in win.outputs and (c not in ("phi", "p") or c in kind.states))
     if kind.constant_speed:
         # the measured speed of each window; without one the replay stays put (x, y): the
         # heading and yaw rate of a constant-speed kind, all it compares, do not depend on it

@@ -25,7 +25,8 @@ class SimResult:
     channels : dict name -> (B, N) array, SI units (:data:`CHANNEL_UNITS`): x, y [m, NED],
         psi [rad], u, v [m/s], r [rad/s], U [m/s], delta (servo angle) and delta_cmd (logic
         command) [rad]; n [rps] (threedof), n_port/n_stbd (catamaran commands), dist [rad]
-        (rudder-equivalent disturbance) where relevant.
+        (rudder-equivalent disturbance), roll angle phi [rad, positive heel to starboard] and
+        roll rate p [rad/s] (kinds with those states) where relevant.
     course : dict with ``itae`` [rad s^2], ``iae`` [rad s], ``max_rudder`` [rad], each (B,),
         accumulated at every integration step (not the recorded grid). ITAE/IAE are 0 unless
         the logic is a :class:`~usvid.manoeuvres.logic.CourseChange`.
@@ -108,6 +109,8 @@ class SimResult:
                     args["psi_ref"] = self._logic_value("psi_ref", i)
             if "x" in self.channels and "y" in self.channels:
                 args.update(x=self.channels["x"][i], y=self.channels["y"][i])
+            if "phi" in self.channels:
+                args["phi"] = self.channels["phi"][i]
             args.update(kw)
             delta = self.channels["delta"][i] if "delta" in self.channels else None
             out.append(zigzag_metrics(self.t, self["psi"][i], delta, **args))
@@ -120,7 +123,7 @@ class SimResult:
             args: dict[str, Any] = {}
             if isinstance(self.logic, Turning):
                 args["t_execute"] = self._logic_value("t_start", i)
-            for name in ("U", "r"):
+            for name in ("U", "r", "phi"):
                 if name in self.channels:
                     args[name] = self.channels[name][i]
             args.update(kw)

@@ -101,6 +101,64 @@ def _series(t_grid: np.ndarray, t: np.ndarray, values: Any) -> np.ndarray:
 
 
 @dataclass
+class Environment:
+    """The environment of a simulation besides the rudder-equivalent noise: a current and an
+    external force on the hull (wind, waves), each a constant, one value per run ((B,)), or a
+    time series over ``t`` ((M,) or (B, M) values), linear between samples like the measured
+    inputs.
+
+    ``current_speed`` [m/s] and ``current_dir`` [rad]: the current's speed and the direction it
+    flows towards, from north, clockwise (constant over the area; the kinematics integrate the
+    velocity over ground, the kind's states are its velocities through the water: Fossen 2021
+    ch. 10.3, exact for a constant irrotational current). ``force``: (X, Y [N], K, N [N m]) in
+    body axes (x forward, y starboard, z down; K heels to starboard, N turns to starboard),
+    what a wind or wave-drift model gives; the force kinds add it to their force balance, the
+    response kinds take N as the rudder-equivalent angle N / N_delta (their ``N_delta``
+    [N m/rad]). ``t`` [s]: the sample times of the series (None: constants). Zero current and
+    force are calm water: the same runs as without an environment.
+    """
+
+    current_speed: Any = 0.0
+    current_dir: Any = 0.0
+    force: Sequence[Any] | None = None
+    t: Any = None
+
+    def series(self, t_grid: np.ndarray, B: int) -> dict[str, np.ndarray]:
+        """The core's series (:data:`usvid.sim.core.SERIES` names) on the step grid t_grid
+        [s]: name -> (1 or B, len(t_grid))."""
+        tt = None if self.t is None else np.asarray(self.t, dtype=float)
+
+        def on_grid(v: Any, name: str) -> np.ndarray:
+            a = np.asarray(v, dtype=float)
+            if not np.all(np.isfinite(a)):
+                raise SimulationError(f"Environment.{name} must be finite")
+            if tt is None:
+                if a.ndim > 1:
+                    raise SimulationError(f"Environment.{name}: a constant or one value per "
+                                          f"run (got shape {a.shape}); give t for a series")
+                return np.repeat(a.reshape(-1, 1), t_grid.size, axis=1)
+            if a.shape[-1] != tt.size or a.ndim > 2:
+                raise SimulationError(f"Environment.{name}: {tt.size} samples (as t) for each "
+                                      f"run (got shape {a.shape})")
+            return _series(t_grid, tt, a)
+
+        speed = on_grid(self.current_speed, "current_speed")
+        direction = on_grid(self.current_dir, "current_dir")
+        out = {"current_x": speed * np.cos(direction), "current_y": speed * np.sin(direction)}
+        if self.force is not None:
+            if len(self.force) != 4:
+                raise SimulationError("Environment.force must be (X, Y, K, N) [N, N, N m, N m]")
+            for name, v in zip(("force_X", "force_Y", "force_K", "force_N"), self.force,
+                               strict=True):
+                out[name] = on_grid(v, "force")
+        for a in out.values():
+            if a.shape[0] not in (1, B):
+                raise SimulationError(f"Environment: {a.shape[0]} runs' values for a batch of "
+                                      f"{B}")
+        return out
+
+
+@dataclass
 class LaneResult:
     """Raw output of :meth:`Lanes.run`: recorded channels (name -> (B, N)), course accumulators
     (3, B): ITAE, IAE, max |delta|; zig-zag overshoots (N_ZZ, B) and reversal times
@@ -123,8 +181,11 @@ class Lanes:
     (6, B); ``Z0`` (n_states, B) initial joint states; ``nsteps`` (B,) steps per lane;
     ``series`` name -> (1 or B, max(nsteps) + 1) input samples at the step instants
     (``delta`` measured rudder angle [rad], ``n`` [rps], ``n_port``, ``n_stbd``, ``delta_cmd``
-    [rad]); ``Dq`` (2 or 3, B) disturbance spectral density [1/s], seed and (optional) noise
-    stream index (default: the lane index; lanes with equal seed and stream see the same noise).
+    [rad]; the environment: ``force_X``, ``force_Y`` [N], ``force_K``, ``force_N`` [N m] the
+    external force in body axes, ``current_x``, ``current_y`` [m/s] the current's velocity
+    north and east, :class:`Environment`); ``Dq`` (2 or 3, B) disturbance spectral density
+    [1/s], seed and (optional) noise stream index (default: the lane index; lanes with equal
+    seed and stream see the same noise).
     """
 
     kind: ModelKind
@@ -153,6 +214,10 @@ class Lanes:
             if name not in core.CHANNELS:
                 raise SimulationError(f"unknown channel '{name}' (known: "
                                       f"{', '.join(core.CHANNELS)})")
+            if name in core.STATE_CHANNELS and name not in self.kind.states:
+                raise SimulationError(
+                    f"channel '{name}' needs a kind with the state '{name}' (a "
+                    f"{self.kind.name} model has {', '.join(self.kind.states)})")
         slots = np.full(len(core.CHANNELS), -1, dtype=np.int64)
         for j, name in enumerate(self.channels):
             slots[core.CHANNELS.index(name)] = j
@@ -224,12 +289,13 @@ def initial_state(kind: ModelKind, dynamics: Any, B: int, *, psi0: Any = 0.0,
     return Z0
 
 
+#: Initial values by name (besides the kind's own states, e.g. a roll angle phi).
 _INITIAL = ("x", "y", "v", "r", "delta", "delta_dot")
 
 
 def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
              u0: Any = None, record_every: int = 1, seed: int = 0, psi0: Any = 0.0,
-             disturbance: Disturbance | None = None,
+             disturbance: Disturbance | None = None, environment: Environment | None = None,
              channels: tuple[str, ...] | list[str] | None = None,
              initial: dict[str, Any] | None = None) -> SimResult:
     """Simulate a batch of runs of ``model`` under ``logic`` with fixed-step RK4 (numba).
@@ -258,11 +324,15 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         Initial heading [rad].
     disturbance : Disturbance, optional
         Rudder-equivalent disturbance for any logic (a CourseChange's own takes precedence).
+    environment : Environment, optional
+        A current and an external force on the hull (:class:`Environment`); recorded u, v, U
+        are then over ground.
     channels : sequence of str, optional
         Channels to record (default: all relevant to the model kind).
     initial : dict, optional
         Initial values by name: ``x``, ``y`` [m], ``v`` [m/s], ``r`` [rad/s], ``delta`` [rad]
-        (servo angle; also the command in force before t = 0), ``delta_dot`` [rad/s].
+        (servo angle; also the command in force before t = 0), ``delta_dot`` [rad/s], or any
+        other state of the kind by its name (e.g. a roll angle ``phi`` [rad]).
 
     Returns
     -------
@@ -300,9 +370,10 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         if value is not None and not np.all(np.isfinite(_arr(value))):
             raise SimulationError(f"simulate: {name} must be finite (got {value!r})")
     for name in initial:
-        if name not in _INITIAL:
+        if name not in _INITIAL and (name not in kind.states or name == "u"):
             raise SimulationError(f"simulate: initial['{name}'] is not an initial state "
-                                  f"(use {', '.join(_INITIAL)}; u0= and psi0= for u, psi)")
+                                  f"(use {', '.join(_INITIAL)} or a state of the kind: "
+                                  f"{', '.join(kind.states)}; u0= and psi0= for u, psi)")
         if name == "v" and kind.constant_speed:
             raise SimulationError("simulate: initial['v'] needs a 3-DOF model with sway (not a "
                                   "constant-speed response model)")
@@ -358,6 +429,15 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     if P.shape[1] not in (1, B):
         B = max(B, P.shape[1])
     P = np.broadcast_to(P, (P.shape[0], B))
+    if environment is not None:
+        env = environment.series(t_grid, B)
+        if kind.constant_speed and np.any(env.get("force_N", 0.0) != 0.0) and getattr(
+                model.dynamics, "N_delta", None) is None:
+            raise SimulationError(
+                f"simulate: a {kind.name} model takes an external yaw moment as a "
+                "rudder-equivalent angle N / N_delta: give its parameter N_delta [N m/rad] "
+                "(the yaw moment of one radian of rudder)")
+        series.update(env)
     skind, S = servo_rows(model.servo, B)
     L = np.vstack([_col(v, B) for v in lrows])
     Dq = np.zeros((3, B))
@@ -374,8 +454,9 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         init_vals["delta"] = series["delta"][:, 0]
     Z0 = initial_state(kind, model.dynamics, B, psi0=psi0, values=init_vals)
     if channels is None:
-        wanted = list(_BASE_CHANNELS) + [n for n in ("n", "n_port", "n_stbd")
-                                         if n in kind.inputs]
+        wanted = (list(_BASE_CHANNELS) + [n for n in ("n", "n_port", "n_stbd")
+                                          if n in kind.inputs]
+                  + [n for n in core.STATE_CHANNELS if n in kind.states])
         if dist is not None:
             wanted.append("dist")
     else:

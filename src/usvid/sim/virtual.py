@@ -23,6 +23,8 @@ gyro              r                      ``gyro_sigma_deg_s`` + ``gyro_bias_deg_
 velocity          u, v                   ``speed_sigma_m_s`` (at the gnss rate)
 rudder            delta, delta_cmd       ``rudder_sigma_deg`` (delta_cmd exact)
 engine            n, n_port, n_stbd      ``rpm_sigma`` [rpm] (at the rudder rate)
+attitude          phi, p                 ``roll_sigma_deg``, ``roll_rate_sigma_deg_s`` (an
+                                         IMU's roll angle and rate; kinds with roll)
 ================  =====================  ======================================
 
 Values between simulation samples are linearly interpolated (headings unwrapped first). The
@@ -56,6 +58,7 @@ _GROUPS: dict[str, tuple[str, tuple[str, ...]]] = {
     "velocity": ("gps_rate_hz", ("u", "v")),
     "rudder": ("rudder_rate_hz", ("delta", "delta_cmd")),
     "engine": ("rudder_rate_hz", ("n", "n_port", "n_stbd")),
+    "attitude": ("attitude_rate_hz", ("phi", "p")),
 }
 
 
@@ -65,8 +68,8 @@ class SensorModel:
 
     The defaults are a typical small-USV installation: 5 Hz GNSS with 0.5 m position noise,
     10 Hz compass with 0.5 deg noise, 50 Hz gyro with 0.2 deg/s noise and no bias, 50 Hz rudder
-    feedback with 0.2 deg noise, 2 ms time-stamp jitter. :meth:`perfect` gives noise-free,
-    jitter-free sensors.
+    feedback with 0.2 deg noise, 50 Hz IMU attitude with 0.2 deg roll and 0.2 deg/s roll-rate
+    noise, 2 ms time-stamp jitter. :meth:`perfect` gives noise-free, jitter-free sensors.
     """
 
     gps_rate_hz: float = 5.0
@@ -80,17 +83,22 @@ class SensorModel:
     rudder_rate_hz: float = 50.0
     rudder_sigma_deg: float = 0.2
     rpm_sigma: float = 0.0
+    attitude_rate_hz: float = 50.0
+    roll_sigma_deg: float = 0.2
+    roll_rate_sigma_deg_s: float = 0.2
     jitter_s: float = 0.002
     dropout: float = 0.0
     wrap_heading: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("gps_rate_hz", "heading_rate_hz", "gyro_rate_hz", "rudder_rate_hz"):
+        for name in ("gps_rate_hz", "heading_rate_hz", "gyro_rate_hz", "rudder_rate_hz",
+                     "attitude_rate_hz"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise SimulationError(f"SensorModel.{name} must be > 0 (got {v!r})")
         for name in ("gps_sigma_m", "speed_sigma_m_s", "heading_sigma_deg", "gyro_sigma_deg_s",
-                     "rudder_sigma_deg", "rpm_sigma", "jitter_s"):
+                     "rudder_sigma_deg", "rpm_sigma", "roll_sigma_deg", "roll_rate_sigma_deg_s",
+                     "jitter_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise SimulationError(f"SensorModel.{name} must be >= 0 (got {v!r})")
@@ -105,13 +113,15 @@ class SensorModel:
         return cls(gps_rate_hz=rate_hz, gps_sigma_m=0.0, speed_sigma_m_s=0.0,
                    heading_rate_hz=rate_hz, heading_sigma_deg=0.0, gyro_rate_hz=rate_hz,
                    gyro_sigma_deg_s=0.0, rudder_rate_hz=rate_hz, rudder_sigma_deg=0.0,
+                   attitude_rate_hz=rate_hz, roll_sigma_deg=0.0, roll_rate_sigma_deg_s=0.0,
                    jitter_s=0.0, wrap_heading=False)
 
     def uniform(self, rate_hz: float) -> SensorModel:
         """The same noise levels, but every channel at ``rate_hz`` with no jitter and no dropout
         (one uniform grid)."""
         return replace(self, gps_rate_hz=rate_hz, heading_rate_hz=rate_hz, gyro_rate_hz=rate_hz,
-                       rudder_rate_hz=rate_hz, jitter_s=0.0, dropout=0.0)
+                       rudder_rate_hz=rate_hz, attitude_rate_hz=rate_hz, jitter_s=0.0,
+                       dropout=0.0)
 
     def sigma(self, channel: str) -> float:
         """Noise std of ``channel`` in SI units (m, m/s, rad, rad/s, rps)."""
@@ -122,7 +132,8 @@ class SensorModel:
             "r": math.radians(self.gyro_sigma_deg_s),
             "delta": math.radians(self.rudder_sigma_deg), "delta_cmd": 0.0,
             "n": self.rpm_sigma / 60.0, "n_port": self.rpm_sigma / 60.0,
-            "n_stbd": self.rpm_sigma / 60.0,
+            "n_stbd": self.rpm_sigma / 60.0, "phi": math.radians(self.roll_sigma_deg),
+            "p": math.radians(self.roll_rate_sigma_deg_s),
         }.get(channel, 0.0)
 
     def to_dict(self) -> dict[str, Any]:

@@ -1,4 +1,8 @@
-"""Shared pieces of the diagonal Fossen 3-DOF kinds (``threedof``, ``catamaran``).
+"""Shared pieces of the Fossen-form kinds (``threedof``, ``catamaran`` and the kinds with roll).
+
+The thrust law of a vessel with one propeller or vector thruster (from the format spec's
+particulars, evaluated along a log, its straight-running speed) is :func:`thrust_law`,
+:func:`thrust_of`, :func:`thrust_particulars` and :func:`straight_speed`.
 
 Both kinds use the surge-sway-yaw model of Mu et al. 2018, eq. 13-17 (Fossen 2011 form
 ``M nu' + C(nu) nu + D nu = tau`` reduced under Assumption 1, m23 = m32 = d23 = d32 = 0)::
@@ -22,8 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from usvid.errors import UsvidError
+from usvid.errors import IdentificationError, UsvidError
 from usvid.models.kind import Block, FitSpace
+from usvid.models.thrust import PodThrust, Propeller
 
 
 def fossen_from_regression(a_vr: float, a_u: float, a_tau: float, b_v: float, c_r: float,
@@ -109,3 +114,91 @@ def extra_number(vessel: Any, options: Mapping[str, Any], *names: str) -> float 
             if v is not None:
                 return float(v)
     return None
+
+
+def thrust_of(thrust: Any, u: Any, n: Any) -> np.ndarray:
+    """Thrust T [N] of the thrust law ``thrust`` (a number [N], :class:`Propeller` or
+    :class:`PodThrust`) at surge speed u [m/s] and shaft speed n [rps]."""
+    if thrust is None:
+        raise IdentificationError("parameters.thrust is not set")
+    if not hasattr(thrust, "thrust"):
+        return np.broadcast_to(np.asarray(thrust, float), np.shape(u)) + 0.0
+    if n is None:
+        raise IdentificationError("parameters.n (shaft speed [rps]) is needed by the thrust law")
+    if isinstance(thrust, PodThrust):
+        return np.asarray(thrust.thrust(u, n), float)
+    return np.asarray(thrust.thrust(n, u), float)
+
+
+def straight_speed(thrust: Any, n: Any, d11: Any) -> Any:
+    """Straight-line speed [m/s] at the shaft speed n [rps]: the root of T(u) = d11 u
+    (bisection; d11 [kg/s] the surge damping); None without a thrust law."""
+    if thrust is None:
+        return None
+    if not hasattr(thrust, "thrust"):
+        return np.asarray(thrust, float) / np.asarray(d11, float)
+    lo = np.zeros(np.broadcast_shapes(np.shape(d11), np.shape(n)))
+    hi = lo + 100.0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        g = np.asarray(thrust_of(thrust, mid, n)) - np.asarray(d11) * mid
+        lo = np.where(g > 0, mid, lo)
+        hi = np.where(g > 0, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def thrust_particulars(kind: str, vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
+                       options: Mapping[str, Any]) -> dict[str, Any]:
+    """The thrust law and the nominal shaft speed of a one-thruster vessel from its
+    particulars (format spec ``vessel.extra`` or options): ``thrust`` (an option: a law or a
+    number [N]), else a propeller from ``propeller_diameter``, ``propeller_pitch_ratio``,
+    ``propeller_disk_ratio`` (``thrust_deduction``, ``wake_fraction``, ``water_density``), else
+    the pod law ``pod_c``, ``pod_d``; ``n`` from ``shaft_speed_rps``, else the median measured
+    n. Returns ``{"thrust", "n"}``; :class:`IdentificationError` naming what is missing (for
+    model ``kind``)."""
+    num = extra_number
+    D = num(vessel, options, "propeller_diameter")
+    if options.get("thrust") is not None:  # a thrust law object or a number [N] (Python API)
+        thrust: Any = options["thrust"]
+    elif D is not None:
+        pr = num(vessel, options, "propeller_pitch_ratio")
+        dr = num(vessel, options, "propeller_disk_ratio")
+        if pr is None or dr is None:
+            raise IdentificationError(
+                f"model '{kind}': propeller_diameter is given but propeller_pitch_ratio and "
+                "propeller_disk_ratio are needed too (vessel.extra in the format spec)")
+        thrust = Propeller(D=D, pitch_ratio=pr, disk_ratio=dr,
+                           t_P=num(vessel, options, "thrust_deduction") or 0.0,
+                           w_P=num(vessel, options, "wake_fraction") or 0.0,
+                           rho=num(vessel, options, "water_density") or 1025.0)
+    elif num(vessel, options, "pod_c") is not None:
+        thrust = PodThrust(c=num(vessel, options, "pod_c"), d=num(vessel, options, "pod_d") or 0.0)
+    else:
+        raise IdentificationError(
+            f"model '{kind}' needs a thrust law to be simulated: give propeller_diameter, "
+            "propeller_pitch_ratio, propeller_disk_ratio (and thrust_deduction, wake_fraction) "
+            "or pod_c, pod_d in the format spec's vessel.extra")
+    n = num(vessel, options, "shaft_speed_rps")
+    if n is None:
+        ns = [s["n"][np.isfinite(s["n"])] for s in data if "n" in s]
+        ns = [a for a in ns if a.size]
+        if not ns and not hasattr(thrust, "thrust"):  # a constant thrust [N]: no shaft speed
+            return {"thrust": thrust, "n": None}
+        if not ns:
+            raise IdentificationError(
+                f"model '{kind}' needs the shaft speed: a channel 'n' [rps] in the logs, or "
+                "vessel.extra.shaft_speed_rps")
+        n = float(np.nanmedian(np.concatenate(ns)))
+    return {"thrust": thrust, "n": n}
+
+
+def thrust_series(kind: str, s: Mapping[str, np.ndarray], fixed: Mapping[str, Any]
+                  ) -> np.ndarray:
+    """Thrust T [N] along a trial's series: a measured ``thrust`` channel, else the thrust law
+    of ``fixed`` at the measured n [rps] and u [m/s]."""
+    if "thrust" in s:
+        return np.asarray(s["thrust"], float)
+    if "n" not in s and hasattr(fixed.get("thrust"), "thrust"):
+        raise IdentificationError(f"model '{kind}' needs channel 'n' [rps] (or a thrust "
+                                  "channel)")
+    return thrust_of(fixed["thrust"], s["u"], s.get("n"))

@@ -122,21 +122,23 @@ def _thrust_law(p):
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """Module docstring equations; returns (u, v, r, u', v', r')."""
-    u = s0
-    v = s1
-    r = s2
-    cp = p[7] + p[8] * delta if np.isnan(n_port) else n_port
-    cs = p[7] - p[8] * delta if np.isnan(n_stbd) else n_stbd
+def rhs(p, s, a, f):
+    """Module docstring equations with the external force f = (X, Y, K, N) [N, N, N m, N m]
+    (K unused: no roll); returns (u, v, r, (u', v', r'))."""
+    u = s[0]
+    v = s[1]
+    r = s[2]
+    delta = a[0]
+    cp = p[7] + p[8] * delta if np.isnan(a[4]) else a[4]
+    cs = p[7] - p[8] * delta if np.isnan(a[5]) else a[5]
     law = _thrust_law(p)
     Tp = thrust_nb(law, u, cp)
     Ts = thrust_nb(law, u, cs)
     m11 = p[0]
     m22 = p[1]
-    return (u, v, r, (m22 * v * r - p[3] * u + Tp + Ts) * p[9],
-            (-m11 * u * r - p[4] * v) * p[10],
-            ((m11 - m22) * u * v - p[5] * r + (Tp - Ts) * p[6]) * p[11], 0.0)
+    return u, v, r, ((m22 * v * r - p[3] * u + Tp + Ts + f[0]) * p[9],
+                     (-m11 * u * r - p[4] * v + f[1]) * p[10],
+                     ((m11 - m22) * u * v - p[5] * r + (Tp - Ts) * p[6] + f[3]) * p[11])
 
 
 def _law(thrust: Any) -> Any:

@@ -28,7 +28,7 @@ import numpy as np
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import IdentificationError
-from usvid.models.kind import Block, Dynamics, ModelKind, Regression, param, rows
+from usvid.models.kind import Block, Dynamics, ModelKind, Regression, inverse, param, rows
 
 
 @dataclass
@@ -39,18 +39,25 @@ class Nomoto1(Dynamics):
     T: Any = param("s", "yaw time constant", gt=0.0)
     delta0: Any = param("rad", "rudder offset (straight running at delta = -delta0)",
                         default=0.0)
+    N_delta: Any = param("N m/rad", "yaw moment of one radian of rudder: an external yaw moment "
+                         "N (wind, waves) acts as the rudder angle N / N_delta (null: none)",
+                         fit=False, default=None, gt=0.0)
     kind: ClassVar[str] = "nomoto1"
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """r' = (K (delta + delta0) - r) / T; returns (U, 0, r, r'). Rows: K, T, delta0, U, 1/T."""
-    r = s0
-    return p[3], 0.0, r, (p[0] * (delta + p[2]) - r) * p[4], 0.0, 0.0, 0.0
+def rhs(p, s, a, f):
+    """r' = (K (delta + delta0) - r) / T; returns (U, 0, r, (r',)). Rows: K, T, delta0, U,
+    1/T, 1/N_delta (0: none); an external yaw moment f[3] adds f[3] / N_delta to delta."""
+    r = s[0]
+    d = a[0]
+    if f[3] != 0.0:  # an external yaw moment as a rudder-equivalent angle (calm: compiled away)
+        d = d + p[5] * f[3]
+    return p[3], 0.0, r, ((p[0] * (d + p[2]) - r) * p[4],)
 
 
 def pack(d: Nomoto1, speed: Any) -> np.ndarray:
-    return rows([d.K, d.T, d.delta0, speed, 1.0 / np.asarray(d.T, float)])
+    return rows([d.K, d.T, d.delta0, speed, 1.0 / np.asarray(d.T, float), inverse(d.N_delta)])
 
 
 def _blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any], form: str,

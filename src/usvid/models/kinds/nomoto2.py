@@ -29,7 +29,7 @@ import numpy as np
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import IdentificationError
 from usvid.models.d2c import d2c
-from usvid.models.kind import Block, Dynamics, ModelKind, Regression, param, rows
+from usvid.models.kind import Block, Dynamics, ModelKind, Regression, inverse, param, rows
 
 
 @dataclass
@@ -41,16 +41,22 @@ class Nomoto2(Dynamics):
     T2: Any = param("s", "second time constant", gt=0.0)
     T3: Any = param("s", "zero (lead) time constant", default=0.0)
     delta0: Any = param("rad", "rudder offset", default=0.0)
+    N_delta: Any = param("N m/rad", "yaw moment of one radian of rudder: an external yaw moment "
+                         "N (wind, waves) acts as the rudder angle N / N_delta (null: none)",
+                         fit=False, default=None, gt=0.0)
     kind: ClassVar[str] = "nomoto2"
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """Observable canonical form; rows K, T1, T2, T3, delta0, U, a1, a0, b1, b0."""
-    x1 = s0
-    ue = delta + p[4]
-    return (p[5], 0.0, x1, -p[6] * x1 + s1 + p[8] * ue,
-            -p[7] * x1 + p[9] * ue, 0.0, 0.0)
+def rhs(p, s, a, f):
+    """Observable canonical form; rows K, T1, T2, T3, delta0, U, a1, a0, b1, b0, 1/N_delta (0:
+    none); an external yaw moment f[3] adds f[3] / N_delta to delta."""
+    x1 = s[0]
+    d = a[0]
+    if f[3] != 0.0:  # an external yaw moment as a rudder-equivalent angle (calm: compiled away)
+        d = d + p[10] * f[3]
+    ue = d + p[4]
+    return p[5], 0.0, x1, (-p[6] * x1 + s[1] + p[8] * ue, -p[7] * x1 + p[9] * ue)
 
 
 def _coefficients(d: Nomoto2) -> tuple[np.ndarray, ...]:
@@ -62,7 +68,7 @@ def _coefficients(d: Nomoto2) -> tuple[np.ndarray, ...]:
 
 def pack(d: Nomoto2, speed: Any) -> np.ndarray:
     a1, a0, b1, b0 = _coefficients(d)
-    return rows([d.K, d.T1, d.T2, d.T3, d.delta0, speed, a1, a0, b1, b0])
+    return rows([d.K, d.T1, d.T2, d.T3, d.delta0, speed, a1, a0, b1, b0, inverse(d.N_delta)])
 
 
 def initial(d: Nomoto2, values: Mapping[str, Any]) -> np.ndarray:

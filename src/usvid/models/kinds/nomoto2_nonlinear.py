@@ -34,7 +34,7 @@ import numpy as np
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import IdentificationError
-from usvid.models.kind import Block, Dynamics, ModelKind, Regression, param, rows
+from usvid.models.kind import Block, Dynamics, ModelKind, Regression, inverse, param, rows
 from usvid.models.kinds.nomoto2 import _coefficients
 from usvid.models.kinds.nomoto2 import _to_params as _linear_params
 from usvid.models.kinds.nomoto2 import initial as _nomoto2_initial
@@ -53,22 +53,30 @@ class Nomoto2Nonlinear(Dynamics):
     alpha: Any = param("s^2/rad^2", "cubic yaw damping (Mu et al. 2018 eq. 34: alpha)",
                        default=0.0)
     delta0: Any = param("rad", "rudder offset", default=0.0)
+    N_delta: Any = param("N m/rad", "yaw moment of one radian of rudder: an external yaw moment "
+                         "N (wind, waves) acts as the rudder angle N / N_delta (null: none)",
+                         fit=False, default=None, gt=0.0)
     kind: ClassVar[str] = "nomoto2_nonlinear"
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
+def rhs(p, s, a, f):
     """Observable canonical form with the cubic term; rows K, T1, T2, T3, alpha, delta0, U,
-    a1, a0, b1, b0."""
-    x1 = s0
-    ue = delta + p[5]
-    return (p[6], 0.0, x1, -p[7] * x1 + s1 + p[9] * ue,
-            -p[8] * (x1 + p[4] * x1 * x1 * x1) + p[10] * ue, 0.0, 0.0)
+    a1, a0, b1, b0, 1/N_delta (0: none); an external yaw moment f[3] adds f[3] / N_delta to
+    delta (as in ``nomoto2``)."""
+    x1 = s[0]
+    d = a[0]
+    if f[3] != 0.0:  # an external yaw moment as a rudder-equivalent angle (calm: compiled away)
+        d = d + p[11] * f[3]
+    ue = d + p[5]
+    return p[6], 0.0, x1, (-p[7] * x1 + s[1] + p[9] * ue,
+                           -p[8] * (x1 + p[4] * x1 * x1 * x1) + p[10] * ue)
 
 
 def pack(d: Nomoto2Nonlinear, speed: Any) -> np.ndarray:
     a1, a0, b1, b0 = _coefficients(d)
-    return rows([d.K, d.T1, d.T2, d.T3, d.alpha, d.delta0, speed, a1, a0, b1, b0])
+    return rows([d.K, d.T1, d.T2, d.T3, d.alpha, d.delta0, speed, a1, a0, b1, b0,
+                 inverse(d.N_delta)])
 
 
 def initial(d: Nomoto2Nonlinear, values: Mapping[str, Any]) -> np.ndarray:

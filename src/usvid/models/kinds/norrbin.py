@@ -23,7 +23,16 @@ import numba
 import numpy as np
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
-from usvid.models.kind import Block, Dynamics, FitSpace, ModelKind, Regression, param, rows
+from usvid.models.kind import (
+    Block,
+    Dynamics,
+    FitSpace,
+    ModelKind,
+    Regression,
+    inverse,
+    param,
+    rows,
+)
 
 
 @dataclass
@@ -37,6 +46,9 @@ class Norrbin(Dynamics):
                     default=1.0)
     n3: Any = param("s^2/rad^2", "cubic yaw damping (Mu et al. 2018: alpha)", default=0.0)
     delta0: Any = param("rad", "rudder offset", default=0.0)
+    N_delta: Any = param("N m/rad", "yaw moment of one radian of rudder: an external yaw moment "
+                         "N (wind, waves) acts as the rudder angle N / N_delta (null: none)",
+                         fit=False, default=None, gt=0.0)
     kind: ClassVar[str] = "norrbin"
 
     def steady_yaw_rate(self, delta: float) -> float:
@@ -60,15 +72,20 @@ class Norrbin(Dynamics):
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """r' = (K (delta + delta0) - n1 r - n3 r^3) / T; rows K, T, n1, n3, delta0, U, 1/T."""
-    r = s0
-    dr = (p[0] * (delta + p[4]) - p[2] * r - p[3] * r * r * r) * p[6]
-    return p[5], 0.0, r, dr, 0.0, 0.0, 0.0
+def rhs(p, s, a, f):
+    """r' = (K (delta + delta0) - n1 r - n3 r^3) / T; rows K, T, n1, n3, delta0, U, 1/T,
+    1/N_delta (0: none); an external yaw moment f[3] adds f[3] / N_delta to delta."""
+    r = s[0]
+    d = a[0]
+    if f[3] != 0.0:  # an external yaw moment as a rudder-equivalent angle (calm: compiled away)
+        d = d + p[7] * f[3]
+    dr = (p[0] * (d + p[4]) - p[2] * r - p[3] * r * r * r) * p[6]
+    return p[5], 0.0, r, (dr,)
 
 
 def pack(d: Norrbin, speed: Any) -> np.ndarray:
-    return rows([d.K, d.T, d.n1, d.n3, d.delta0, speed, 1.0 / np.asarray(d.T, float)])
+    return rows([d.K, d.T, d.n1, d.n3, d.delta0, speed, 1.0 / np.asarray(d.T, float),
+                 inverse(d.N_delta)])
 
 
 def _blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any], form: str,

@@ -42,7 +42,7 @@ import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import IdentificationError
 from usvid.models.kind import Dynamics, ModelKind, Regression, param, rows, submodel
 from usvid.models.kinds import _fossen
-from usvid.models.thrust import THRUST_ROW, PodThrust, Propeller, thrust_nb, thrust_row
+from usvid.models.thrust import THRUST_ROW, thrust_nb, thrust_row
 
 #: Mu et al. 2018 eq. 37 (Lanxin USV, 7.02 m), our sign reading; x_l is not printed.
 MU2018_EQ37 = {
@@ -107,17 +107,7 @@ class ThreeDOF(Dynamics):
 
     def thrust_at(self, u: Any, n: Any = None) -> np.ndarray:
         """Thrust T [N] at surge speed u [m/s] and shaft speed n [rps] (default ``self.n``)."""
-        n = self.n if n is None else n
-        if self.thrust is None or not hasattr(self.thrust, "thrust"):
-            if self.thrust is None:
-                raise IdentificationError("parameters.thrust is not set")
-            return np.broadcast_to(np.asarray(self.thrust, float), np.shape(u)) + 0.0
-        if n is None:
-            raise IdentificationError("parameters.n (shaft speed [rps]) is needed by the thrust "
-                                      "law")
-        if isinstance(self.thrust, PodThrust):
-            return np.asarray(self.thrust.thrust(u, n), float)
-        return np.asarray(self.thrust.thrust(n, u), float)
+        return _fossen.thrust_of(self.thrust, u, self.n if n is None else n)
 
 
 # P rows: 0-5 m11 m22 m33 d11 d22 d33, 6-9 m23 m32 d23 d32, 10 x_l, 11 sway, 12 n,
@@ -135,39 +125,40 @@ def _thrust_law(p, mode):
 
 
 @numba.njit(cache=True, forceinline=True)
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - the kind contract
-    """Eq. 13 with the vector thruster (module docstring); returns (u, v, r, u', v', r').
+def rhs(p, s, a, f):
+    """Eq. 13 with the vector thruster (module docstring) and the external force f = (X, Y, K,
+    N) [N, N, N m, N m] (K unused: no roll); returns (u, v, r, (u', v', r')).
 
     An uncoupled model (switch row ``_SW`` >= 0) takes the equations without the vanishing
     coupling terms; with the switch row a constant (the core's vector step of a switch value)
     only that branch and that thrust law are compiled."""
-    u = s0
-    v = s1
-    r = s2
+    u = s[0]
+    v = s[1]
+    r = s[2]
+    n = a[3]
     nn = p[12] if np.isnan(n) else n
     sw = p[_SW]
     plain = sw >= 0.0
     T = thrust_nb(_thrust_law(p, sw if plain else p[_T0]), u, nn)
-    tu = T * cd
-    tr = p[10] * T * sd
+    tu = T * a[1]
+    tr = p[10] * T * a[2]
     m11 = p[0]
     m22 = p[1]
     m33 = p[2]
     if plain:
-        a = m22 * v
-        f1 = tu + a * r - p[3] * u
-        f2 = -(m11 * u * r) - p[4] * v
-        f3 = tr - a * u + m11 * u * v - p[5] * r
-        return (u, v, r, f1 * p[13], m33 * f2 * p[14], m22 * f3 * p[14], 0.0)
-    tv = -T * sd * p[11]
+        c = m22 * v
+        f1 = tu + c * r - p[3] * u + f[0]
+        f2 = -(m11 * u * r) - p[4] * v + f[1]
+        f3 = tr - c * u + m11 * u * v - p[5] * r + f[3]
+        return u, v, r, (f1 * p[13], m33 * f2 * p[14], m22 * f3 * p[14])
+    tv = -T * a[2] * p[11]
     m23 = p[6]
     m32 = p[7]
-    a = m22 * v + m23 * r
-    f1 = tu + a * r - p[3] * u
-    f2 = tv - m11 * u * r - p[4] * v - p[8] * r
-    f3 = tr - a * u + m11 * u * v - p[9] * v - p[5] * r
-    return (u, v, r, f1 * p[13], (m33 * f2 - m23 * f3) * p[14],
-            (m22 * f3 - m32 * f2) * p[14], 0.0)
+    c = m22 * v + m23 * r
+    f1 = tu + c * r - p[3] * u + f[0]
+    f2 = tv - m11 * u * r - p[4] * v - p[8] * r + f[1]
+    f3 = tr - c * u + m11 * u * v - p[9] * v - p[5] * r + f[3]
+    return u, v, r, (f1 * p[13], (m33 * f2 - m23 * f3) * p[14], (m22 * f3 - m32 * f2) * p[14])
 
 
 def pack(d: ThreeDOF, speed: Any) -> np.ndarray:
@@ -189,19 +180,8 @@ def pack(d: ThreeDOF, speed: Any) -> np.ndarray:
 
 
 def straight_speed(d: ThreeDOF) -> Any:
-    """Straight-line speed [m/s] at the nominal shaft speed: root of T(u) = d11 u (bisection)."""
-    if d.thrust is None:
-        return None
-    if not hasattr(d.thrust, "thrust"):
-        return np.asarray(d.thrust, float) / np.asarray(d.d11, float)
-    lo = np.zeros(np.broadcast_shapes(np.shape(d.d11), np.shape(d.n)))
-    hi = lo + 100.0
-    for _ in range(80):
-        mid = 0.5 * (lo + hi)
-        g = np.asarray(d.thrust_at(mid)) - np.asarray(d.d11) * mid
-        lo = np.where(g > 0, mid, lo)
-        hi = np.where(g > 0, hi, mid)
-    return 0.5 * (lo + hi)
+    """Straight-line speed [m/s] at the nominal shaft speed: root of T(u) = d11 u."""
+    return _fossen.straight_speed(d.thrust, d.n, d.d11)
 
 
 def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
@@ -213,40 +193,7 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
         raise IdentificationError(
             "model 'threedof' needs the thruster arm x_l [m] behind the pivot: give --x-l or "
             "vessel.extra.x_l in the format spec")
-    num = _fossen.extra_number
-    D = num(vessel, options, "propeller_diameter")
-    if options.get("thrust") is not None:  # a thrust law object or a number [N] (Python API)
-        thrust: Any = options["thrust"]
-    elif D is not None:
-        pr = num(vessel, options, "propeller_pitch_ratio")
-        dr = num(vessel, options, "propeller_disk_ratio")
-        if pr is None or dr is None:
-            raise IdentificationError(
-                "model 'threedof': propeller_diameter is given but propeller_pitch_ratio and "
-                "propeller_disk_ratio are needed too (vessel.extra in the format spec)")
-        thrust = Propeller(D=D, pitch_ratio=pr, disk_ratio=dr,
-                           t_P=num(vessel, options, "thrust_deduction") or 0.0,
-                           w_P=num(vessel, options, "wake_fraction") or 0.0,
-                           rho=num(vessel, options, "water_density") or 1025.0)
-    elif num(vessel, options, "pod_c") is not None:
-        thrust = PodThrust(c=num(vessel, options, "pod_c"), d=num(vessel, options, "pod_d") or 0.0)
-    else:
-        raise IdentificationError(
-            "model 'threedof' needs a thrust law to be simulated: give propeller_diameter, "
-            "propeller_pitch_ratio, propeller_disk_ratio (and thrust_deduction, wake_fraction) "
-            "or pod_c, pod_d in the format spec's vessel.extra")
-    n = num(vessel, options, "shaft_speed_rps")
-    if n is None:
-        ns = [s["n"][np.isfinite(s["n"])] for s in data if "n" in s]
-        ns = [a for a in ns if a.size]
-        if not ns and not hasattr(thrust, "thrust"):  # a constant thrust [N]: no shaft speed
-            return {"x_l": x_l, "thrust": thrust, "n": None}
-        if not ns:
-            raise IdentificationError(
-                "model 'threedof' needs the shaft speed: a channel 'n' [rps] in the logs, or "
-                "vessel.extra.shaft_speed_rps")
-        n = float(np.nanmedian(np.concatenate(ns)))
-    return {"x_l": x_l, "thrust": thrust, "n": n}
+    return {"x_l": x_l, **_fossen.thrust_particulars("threedof", vessel, data, options)}
 
 
 def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
@@ -256,14 +203,10 @@ def series(s: dict[str, np.ndarray], fixed: Mapping[str, Any]) -> None:
         return
     if "delta" not in s:
         raise IdentificationError("model 'threedof' needs channel 'delta' (thruster angle)")
-    if "thrust" in s:
-        T = s["thrust"]
-    else:
-        if "n" not in s:
-            raise IdentificationError("model 'threedof' needs channel 'n' [rps] (or tau_u/tau_r, "
-                                      "or a thrust channel)")
-        model = ThreeDOF(1.0, 1.0, 1.0, 0.0, 0.0, 0.0, x_l=0.0, thrust=fixed["thrust"])
-        T = model.thrust_at(s["u"], s["n"])
+    if "thrust" not in s and "n" not in s:
+        raise IdentificationError("model 'threedof' needs channel 'n' [rps] (or tau_u/tau_r, "
+                                  "or a thrust channel)")
+    T = _fossen.thrust_series("threedof", s, fixed)
     s["tau_u"] = T * np.cos(s["delta"])
     s["tau_r"] = fixed["x_l"] * T * np.sin(s["delta"])
 

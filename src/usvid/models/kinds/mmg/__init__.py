@@ -1,20 +1,22 @@
-"""MMG standard model, 3 DOF with speed varying (Yasukawa & Yoshimura 2015), as a model kind.
+"""MMG standard model, 3 DOF with speed varying (Yasukawa & Yoshimura 2015): the kind ``mmg``.
 
-The physics (hull, propeller, rudder, pod and twin-thruster force models, the equations of
+One package: the parameters declared once (:mod:`.params`, :data:`FIELDS`), the physics
+(:mod:`.physics`: hull, propeller, rudder, pod and twin-thruster force models, the equations of
 motion Y&Y 2015 eq. 4 about midship, the published KVLCC2 coefficients and the priors from the
-particulars) is :mod:`usvid.models.mmg`; this module makes it the kind ``mmg``: the parameter
-set (every field of :data:`usvid.models.mmg.FIELDS` with its unit, bounds and meaning, plus the
-nominal shaft speed ``n`` [rps] and, for twin thrusters, ``steer_gain`` [rps/rad]), the numba
-right-hand side the integration core runs, ``pack``, the straight-line speed, the particulars
-from a format spec's ``vessel`` block and the regression form of identification
-(:mod:`usvid.models.kinds._mmg_fit`).
+particulars; the K_T and pod thrust laws of :mod:`usvid.models.thrust`), the regression form of
+identification (:mod:`.fit`) and, here, the kind: the parameter set :class:`MMG` (every field
+of :data:`FIELDS` with its unit, bounds and meaning, plus the nominal shaft speed ``n`` [rps]
+and, for twin thrusters, ``steer_gain`` [rps/rad] and the PWM map), the numba right-hand side
+the integration core runs, ``pack``, the straight-line speed and the particulars from a format
+spec's ``vessel`` block. The physics API is re-exported here (``from usvid.models.kinds.mmg
+import kvlcc2``; :mod:`usvid.models.mmg` is the same API under its earlier name).
 
 States u, v [m/s] (v at midship), r [rad/s]; inputs delta [rad] (positive turns to starboard),
 n [rps] (NaN: the nominal ``n``), and for ``variant='twin'`` the thruster speeds n_port, n_stbd
 [rps] (NaN: ``n +- steer_gain delta``, more port thrust for a positive delta, which turns to
 starboard). Identification estimates the 17 hull coefficients (R_0, X_vv, ..., N_rrr), and
 output error also refines the rudder lift gradient f_alpha (rudder variant,
-:data:`usvid.models.kinds._mmg_fit.REFINED`); the particulars, added masses and the other
+:data:`usvid.models.kinds.mmg.fit.REFINED`); the particulars, added masses and the other
 propeller/rudder interaction coefficients are held.
 """
 
@@ -31,14 +33,47 @@ import numpy as np
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
-from usvid.models import mmg as _m
 from usvid.models.kind import (
+    REQUIRED,
     Dynamics,
     ModelKind,
     Regression,
     param,
 )
-from usvid.models.kinds import _mmg_fit
+from usvid.models.kinds.mmg import fit as _mmg_fit
+from usvid.models.kinds.mmg import physics as _m
+from usvid.models.kinds.mmg.physics import (
+    COMPONENTS,
+    CONFOUNDED,
+    FIELD_NAMES,
+    FIELDS,
+    HULL_COEFFICIENTS,
+    KVLCC2_COEFFICIENTS,
+    KVLCC2_HSVA_PARTICULARS,
+    KVLCC2_PAPER_PARTICULARS,
+    N_PACKED,
+    PACKED_NAMES,
+    PRIOR_SOURCES,
+    THRUST_LAWS,
+    VARIANTS,
+    WAKE_MODELS,
+    FieldInfo,
+    MMGParameters,
+    RegressionBlock,
+    accelerations,
+    forces,
+    fujii_f_alpha,
+    hull_regression,
+    kvlcc2,
+    mmg_accelerations,
+    mmg_accelerations_any,
+    mmg_accelerations_cs,
+    mmg_hull_accelerations,
+    mmg_pod_accelerations,
+    mmg_twin_accelerations,
+    pack_lanes,
+    priors,
+)
 
 #: Packed row of the nominal shaft speed [rps] (after the physics rows of :func:`mmg.pack`).
 IDX_N_NOM = _m.N_PACKED
@@ -55,12 +90,10 @@ N_ROWS = _m.N_PACKED + 5
 _POSITIVE = ("L", "B", "d", "m", "I_zG", "rho")
 
 
-def _field(f: _m.FieldInfo) -> tuple[str, Any, Any]:
-    default = getattr(_m.MMGParameters, f.name, dataclasses.MISSING) \
-        if f.name not in ("L", "B", "d", "m", "I_zG") else dataclasses.MISSING
-    kw: dict[str, Any] = {"fit": f.name in _m.HULL_COEFFICIENTS or f.name in _mmg_fit.REFINED}
-    if default is not dataclasses.MISSING:
-        kw["default"] = default
+def _field(f: FieldInfo) -> tuple[str, Any, Any]:
+    kw: dict[str, Any] = {"fit": f.name in HULL_COEFFICIENTS or f.name in _mmg_fit.REFINED}
+    if f.default is not REQUIRED:
+        kw["default"] = f.default
     if f.lo is not None:
         kw["gt" if f.name in _POSITIVE else "ge"] = f.lo
     if f.hi is not None:
@@ -70,8 +103,8 @@ def _field(f: _m.FieldInfo) -> tuple[str, Any, Any]:
     return f.name, Any, param(unit, meaning, **kw)
 
 
-def _choice(f: _m.FieldInfo) -> tuple[str, Any, Any]:
-    return f.name, "str", dataclasses.field(default=getattr(_m.MMGParameters, f.name))
+def _choice(f: FieldInfo) -> tuple[str, Any, Any]:
+    return f.name, "str", dataclasses.field(default=f.default)
 
 
 def _validate(self: Any) -> None:
@@ -93,20 +126,20 @@ def _lanes(self: Any) -> list[Any]:
     return out
 
 
-def _physics(self: Any) -> _m.MMGParameters:
-    """The :class:`usvid.models.mmg.MMGParameters` of a scalar parameter set (validated:
-    choices, bounds, a positive-definite mass matrix)."""
-    kw = {f.name: getattr(self, f.name) for f in _m.FIELDS}
-    for f in _m.FIELDS:
+def _physics(self: Any) -> Any:
+    """The :class:`MMGParameters` of a scalar parameter set (validated: choices, bounds, a
+    positive-definite mass matrix)."""
+    kw = {f.name: getattr(self, f.name) for f in FIELDS}
+    for f in FIELDS:
         if f.choices is None:
             kw[f.name] = float(kw[f.name])
-    return _m.MMGParameters(**kw)
+    return MMGParameters(**kw)
 
 
 #: The parameter set of kind ``mmg`` (keyword-only; L, B, d, m, I_zG required).
 MMG = dataclasses.make_dataclass(
     "MMG",
-    [_choice(f) if f.choices is not None else _field(f) for f in _m.FIELDS]
+    [_choice(f) if f.choices is not None else _field(f) for f in FIELDS]
     + [("n", Any, param("rps", "nominal shaft speed (standard manoeuvres; null: the speed "
                         "holding the approach speed)", fit=False, default=None, ge=0.0)),
        ("steer_gain", Any, param("rps/rad", "twin thrusters: differential shaft speed per "
@@ -128,14 +161,14 @@ MMG = dataclasses.make_dataclass(
                "held_names": staticmethod(_mmg_fit.held_names),
                "__doc__": "MMG model parameters (Yasukawa & Yoshimura 2015): particulars SI, "
                           "coefficients non-dimensional as in the paper "
-                          "(:mod:`usvid.models.mmg`)."},
+                          "(:mod:`usvid.models.kinds.mmg.params`)."},
     kw_only=True,
 )
 MMG.__module__ = __name__
 
 
-def from_physics(p: _m.MMGParameters, **extra: Any) -> Any:
-    """The kind's parameter set of an :class:`usvid.models.mmg.MMGParameters` (``extra``:
+def from_physics(p: Any, **extra: Any) -> Any:
+    """The kind's parameter set of an :class:`MMGParameters` (``extra``:
     ``n`` [rps], ``steer_gain`` [rps/rad])."""
     return MMG(**p.to_dict(), **extra)
 
@@ -159,35 +192,42 @@ def law_to_pwm(n: Any, neutral: float, span: float) -> Any:
 
 
 @numba.njit(cache=True, inline="always")
-def rhs(p, s0, s1, s2, s3, delta, cd, sd, n, n_port, n_stbd):  # noqa: ARG001 - kind contract
-    """Y&Y 2015 eq. 4 with the variant's actuator forces; returns (u, v, r, u', v', r', 0)."""
-    u = s0
-    v = s1
-    r = s2
+def rhs(p, s, a, f):
+    """Y&Y 2015 eq. 4 with the variant's actuator forces and the external force f = (X, Y, K,
+    N) [N, N, N m, N m] about midship (K unused: no roll); returns (u, v, r, (u', v', r'))."""
+    u = s[0]
+    v = s[1]
+    r = s[2]
+    delta = a[0]
+    n = a[3]
     nn = p[IDX_N_NOM] if np.isnan(n) else n
     var = p[_m.IDX_VARIANT]
     if var == 0.0:
-        du, dv, dr = _m.mmg_accelerations_cs(p, u, v, r, cd, sd, nn)
+        du, dv, dr = _m.mmg_accelerations_cs(p, u, v, r, a[1], a[2], nn)
     elif var == 1.0:
         du, dv, dr = _m.mmg_pod_accelerations(p, u, v, r, delta, nn)
     else:
-        npo = nn + p[IDX_STEER] * delta if np.isnan(n_port) else n_port
-        nst = nn - p[IDX_STEER] * delta if np.isnan(n_stbd) else n_stbd
+        npo = nn + p[IDX_STEER] * delta if np.isnan(a[4]) else a[4]
+        nst = nn - p[IDX_STEER] * delta if np.isnan(a[5]) else a[5]
         if p[IDX_PWM_K] > 0.0:
             npo = _pwm_n(npo, p[IDX_PWM0], p[IDX_PWM_K], 1.0 + p[IDX_ASYM])
             nst = _pwm_n(nst, p[IDX_PWM0], p[IDX_PWM_K], 1.0 - p[IDX_ASYM])
         du, dv, dr = _m.mmg_twin_accelerations(p, u, v, r, npo, nst)
-    return (u, v, r, du, dv, dr, 0.0)
+    # the external force through the inverse mass matrix of eq. 4 (the accelerations are linear
+    # in the forces)
+    return u, v, r, (du + p[_m.IDX_INV11] * f[0],
+                     dv + p[_m.IDX_INV22] * f[1] + p[_m.IDX_INV23] * f[3],
+                     dr + p[_m.IDX_INV23] * f[1] + p[_m.IDX_INV33] * f[3])
 
 
-def surge_acceleration(p: _m.MMGParameters, u: Any, n: Any) -> np.ndarray:
+def surge_acceleration(p: Any, u: Any, n: Any) -> np.ndarray:
     """du/dt [m/s^2] in straight running (v = r = delta = 0) at u [m/s], n [rps]."""
     if p.variant == "twin":
         return _m.accelerations(p, u, 0.0, 0.0, n_port=n, n_stbd=n)[0]
     return _m.accelerations(p, u, 0.0, 0.0, 0.0, n)[0]
 
 
-def equilibrium_rps(p: _m.MMGParameters, U: float) -> float:
+def equilibrium_rps(p: Any, U: float) -> float:
     """Shaft speed n [rps] at which the straight-running surge force is zero at U [m/s]
     (bisection on ``du/dt(U, n) = 0``; the thrust grows with n)."""
     lo, hi = 0.0, 1.0
@@ -205,7 +245,7 @@ def equilibrium_rps(p: _m.MMGParameters, U: float) -> float:
     return 0.5 * (lo + hi)
 
 
-def straight_speed_of(p: _m.MMGParameters, n: float) -> float:
+def straight_speed_of(p: Any, n: float) -> float:
     """Straight-running speed u [m/s] at n [rps] (bisection on ``du/dt(u, n) = 0``)."""
     if not n > 0.0:
         return 0.0
@@ -225,7 +265,7 @@ def straight_speed_of(p: _m.MMGParameters, n: float) -> float:
 
 
 def pack(d: Any, speed: Any) -> np.ndarray:
-    """Rows: :func:`usvid.models.mmg.pack` of each lane, then the nominal n [rps] (when not
+    """Rows: :func:`.physics.pack` of each lane, then the nominal n [rps] (when not
     given: the shaft speed holding ``speed`` [m/s]) and the steering gain [rps/rad]."""
     lanes = d.lanes()
     sp = np.broadcast_to(np.asarray(1.0 if speed is None else speed, float),
@@ -399,7 +439,7 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
         out["w_P0"] = get("wake_fraction")
     if get("thruster_spacing") is not None:
         out["y_P"] = get("thruster_spacing") / (2.0 * L)
-    given = {f.name for f in _m.FIELDS} & set(extra)
+    given = {f.name for f in FIELDS} & set(extra)
     for k in given:
         out[k] = extra[k] if k in ("variant", "thrust_law", "wake_model") else float(extra[k])
     generic = [k for k in GENERIC if k not in given and not (
@@ -521,5 +561,12 @@ KIND = ModelKind(
     state_estimation=True,
 )
 
-__all__ = ["EXTRA_KEYS", "GENERIC", "KIND", "MMG", "ParticularsWarning", "equilibrium_rps",
-           "from_physics", "straight_speed_of"]
+__all__ = ["COMPONENTS", "CONFOUNDED", "EXTRA_KEYS", "FIELDS", "FIELD_NAMES", "GENERIC",
+           "HULL_COEFFICIENTS", "KIND", "KVLCC2_COEFFICIENTS", "KVLCC2_HSVA_PARTICULARS",
+           "KVLCC2_PAPER_PARTICULARS", "MMG", "N_PACKED", "PACKED_NAMES", "PRIOR_SOURCES",
+           "THRUST_LAWS", "VARIANTS", "WAKE_MODELS", "FieldInfo", "MMGParameters",
+           "ParticularsWarning", "RegressionBlock", "accelerations", "equilibrium_rps", "forces",
+           "from_physics", "fujii_f_alpha", "hull_regression", "kvlcc2", "mmg_accelerations",
+           "mmg_accelerations_any", "mmg_accelerations_cs", "mmg_hull_accelerations",
+           "mmg_pod_accelerations", "mmg_twin_accelerations", "pack_lanes", "priors",
+           "straight_speed_of"]

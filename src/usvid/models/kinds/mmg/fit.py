@@ -1,17 +1,17 @@
 """Regression form of the MMG kind: hull coefficients from estimated states, regularised.
 
 Y&Y 2015 eq. 4 is linear in the 17 hull coefficients once the particulars, masses and the
-propeller/rudder models are held (:func:`usvid.models.mmg.hull_regression`): per equation
+propeller/rudder models are held (:func:`.physics.hull_regression`): per equation
 ``y = Phi theta`` on the smoothed (or state-estimated) u, v, r and their derivatives.
 
-Free-running manoeuvres do not separate all of them (:data:`usvid.models.mmg.CONFOUNDED`: the
+Free-running manoeuvres do not separate all of them (:data:`.physics.CONFOUNDED`: the
 cubic terms move together along a zig-zag, Y_r is only determined as Y_r - m' - m_x', the
 Y_r / Y_ur cancellation). The regression is therefore **regularised towards physical priors**
 (Tikhonov / ridge, Hoerl & Kennard 1970): every coefficient gets one pseudo-observation
 ``sqrt(w_k) theta_k = sqrt(w_k) prior_k`` with ``w_k = ALPHA sum_i Phi_ik^2`` -- the prior is
 worth the fraction ALPHA of the data's own information on that regressor, so a well-excited
 coefficient moves freely while a direction the data cannot see stays at its prior.
-Priors: Kijima et al. 1990 for Y_v, Y_r, N_v, N_r (:func:`usvid.models.mmg.priors`), R_0 the
+Priors: Kijima et al. 1990 for Y_v, Y_r, N_v, N_r (:func:`.physics.priors`), R_0 the
 ITTC 1957 friction line with form factor 1.3 (``R_0 = 1.3 C_F S / (L d)``, wetted surface by
 Denny-Mumford ``S = 1.7 L d + V / d``); the nonlinear terms 0.
 """
@@ -26,8 +26,8 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.models import mmg as _m
 from usvid.models.kind import Block
+from usvid.models.kinds.mmg import physics as _m
 
 #: Prior weight as a fraction of each regressor's sum of squares (module docstring).
 ALPHA = 1e-3

@@ -1,0 +1,204 @@
+"""The per-lane path of the integration core: one lane's step, integrated exactly as the
+reference (templates, specialised per kind by :mod:`usvid.sim.specialise`).
+
+A lane takes this path for a step with an event inside it (a dead-time command taking effect,
+the end of an ideal servo's ramp, a zig-zag reversal), for a step the vector path flags, and
+for every step with ``core.SIMD = False`` (the reference the vector path is tested against).
+The step is split into sub-steps ending at the events (:func:`_substeps`), each one classical
+RK4 step (:func:`_rk4`) of the joint derivative (:func:`_deriv`: the kinematics, the servo, the
+disturbance filter and the kind's right-hand side). :func:`_lstep` is the C callback the chunk
+driver calls: it reads the lane's joint state from its rows of the chunk array and writes the
+step's result to the per-lane result rows (``VN``).
+
+Globals the specialisation sets (:mod:`usvid.sim.layout`, :func:`usvid.sim.specialise.kernel`):
+the kind's ``rhs``, ``TRIG``, the layout constants (``VP``, ``VN``, ``VROWS``, ...) and the
+generated joint-state helpers (``_ztup``, ``_zput``, ``_states``, ``_joint``, ``_axpy``,
+``_rk4sum``, ``_with_dl``, ``_ptup``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from usvid.sim.layout import (
+    CH,
+    DIST_A0,
+    DIST_A1,
+    DIST_B,
+    JDD,
+    JDL,
+    JPSI,
+    JW1,
+    JW2,
+    NOF,
+    VF,
+    VNOISE,
+    VS,
+    VT,
+)
+from usvid.sim.scalar import _clip, _rot, _start_ramp
+
+# -- set by the specialisation (placeholders) --------------------------------------------------
+TRIG = False  # the kind reads cos/sin of the steering angle
+ENV = True  # the batch has an environment (force or current series): else compiled away
+VN = 0  # first row of the per-lane step's result
+VROWS = 1  # rows of the chunk array
+rhs = _ztup = _zput = _states = _joint = _with_dl = _axpy = _rk4sum = _ptup = None
+
+
+def _inputs(V, j):
+    """Lane j's servo values, input series and trig bases from ``V``."""
+    o = VS * CH + j
+    srv = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+           V[o + 6 * CH])
+    o = VF * CH + j
+    fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+          V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
+          V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH], V[o + 15 * CH],
+          V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH], V[o + 19 * CH])
+    o = VT * CH + j
+    tr = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH])
+    return srv, fs, tr
+
+
+def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
+    """Time derivative of a lane's joint-state tuple ``z`` (x, y, psi, servo angle and rate,
+    disturbance filter, the kind's states: :mod:`usvid.sim.layout`) at the fraction ``tau`` of
+    the current step.
+
+    ``p`` the lane's parameter tuple, ``srv`` its servo values (max angle, max rate, T or
+    omega_n, zeta, gain, delay, 1/T) blended with the batch's 0/1 weights w0 (ideal: ramp
+    rate ``ramp``), w1 (first order), w2 (second order) driven by ``cmdin``; ``noise`` the
+    step's white-noise sample; ``fs`` the first-order-hold series (start and end values of
+    :data:`usvid.sim.layout.SERIES`: delta, n, n_port, n_stbd (NaN when absent), the external
+    force X, Y, K, N and the current north, east (0 when absent)); ``tr`` the trig bases (psi0,
+    cos, sin, de0, cos, sin) of the step start. Scalars and tuples only.
+
+    The environment enters here, once for every kind: the kind's right-hand side takes the
+    external force ``f`` and its states are its velocities through the water; the kinematics
+    add the current (the velocity over ground, Fossen 2021 ch. 10.3).
+    """
+    zdl = z[JDL]
+    ma = srv[0]
+    mr = srv[1]
+    d = _clip(zdl, ma)
+    w = z[JDD]
+    rate = w1 * _clip((cmdin - zdl) * srv[6], mr) + w2 * _clip(w, mr)
+    if (zdl >= ma and rate > 0.0) or (zdl <= -ma and rate < 0.0):
+        rate = 0.0
+    wn = srv[2]
+    w2d = z[JW2]
+    fd = fs[0] + tau * (fs[10] - fs[0])
+    de = (d if np.isnan(fd) else fd) + DIST_B * w2d
+    cd = 1.0
+    sd = 0.0
+    if TRIG:
+        cd, sd = _rot(de, tr[3], tr[4], tr[5])
+    f = NOF  # calm water: the -0.0 forces vanish in the kind's sums
+    cx = 0.0
+    cy = 0.0
+    if ENV:
+        f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
+             fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
+        cx = fs[8] + tau * (fs[18] - fs[8])
+        cy = fs[9] + tau * (fs[19] - fs[9])
+    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[11] - fs[1]),
+                                      fs[2] + tau * (fs[12] - fs[2]),
+                                      fs[3] + tau * (fs[13] - fs[3])), f)
+    cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
+    k0 = u * cps - v * sps
+    k1 = u * sps + v * cps
+    if ENV:  # the velocity over ground: through the water plus the current
+        k0 += cx
+        k1 += cy
+    return _joint(k0, k1, r, w0 * ramp + rate,
+                  w2 * (wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w),
+                  w2d, -DIST_A0 * z[JW1] - DIST_A1 * w2d + noise, ds)
+
+
+def _rk4(p, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
+    """One classical RK4 step of length h [s] from z, covering the fractions tau0 .. tau0 +
+    frac of the current step (for the first-order-hold series)."""
+    k1 = _deriv(p, tau0, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z)
+    tm = tau0 + 0.5 * frac
+    k2 = _deriv(p, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k1))
+    k3 = _deriv(p, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k2))
+    k4 = _deriv(p, tau0 + frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, h, k3))
+    return _rk4sum(z, h / 6.0, k1, k2, k3, k4)
+
+
+def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt, qv, b, qh,
+              qn):
+    """Lane j's step from t to t1 [s] on the per-lane path: sub-steps ending at the events
+    inside it (dead-time queue of lane b, end of an ideal servo's ramp), one RK4 call site.
+    Returns (z, cmdin, ramp, rend, qh, qn)."""
+    p = _ptup(V, j)
+    srv, fs, tr = _inputs(V, j)
+    noise = V[VNOISE * CH + j]
+    ma = srv[0]
+    mr = srv[1]
+    cap = qt.shape[1]
+    tc = t
+    while True:
+        tb = t1
+        what = 0
+        if qn > 0 and qt[b, qh] < tb:
+            tb = qt[b, qh]
+            what = 1
+        if rend < tb:
+            tb = rend
+            what = 2
+        if tb > tc + eps:
+            te = min(tb, t1)
+            z = _rk4(p, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
+                     cmdin, ramp, noise, fs, tr)
+            tc = te
+        if what == 1 and tb <= t1 + eps:
+            cmdin = qv[b, qh]
+            qh = (qh + 1) % cap
+            qn -= 1
+            if skind == 0:
+                dl, ramp, rend = _start_ramp(tb, _clip(cmdin, ma), z[JDL], mr)
+                z = _with_dl(z, dl)
+        elif what == 2 and tb <= t1 + eps:
+            z = _with_dl(z, _clip(cmdin, ma))
+            ramp = 0.0
+            rend = math.inf
+        if what == 0 or tb >= t1 - eps:
+            break
+    return z, cmdin, ramp, rend, qh, qn
+
+
+def _lstep(Vp, qtp, qvp, outp, cap, b, j, skind, qh, qn, t, t1, eps, idt, cmdin, ramp, rend):
+    """Lane slot j's (lane b's) step from t to t1 [s] (a C callback, :data:`LSIG`): from its
+    joint state in the rows VZ.. of the chunk array ``Vp`` into the rows VN.. (:func:`_substeps`
+    with the servo kind ``skind``, the command in force, ramp rate and ramp end, and the
+    dead-time queue ``qtp``/``qvp`` (lanes x ``cap``, head ``qh``, length ``qn``)); the new
+    command, ramp rate, ramp end, queue head and length go to ``outp[0..4]``."""
+    V = numba.carray(Vp, VROWS * CH)
+    qt = numba.carray(qtp, (b + 1, cap))
+    qv = numba.carray(qvp, (b + 1, cap))
+    out = numba.carray(outp, 5)
+    w0 = 1.0 if skind == 0 else 0.0
+    w1 = 1.0 if skind == 1 else 0.0
+    w2 = 1.0 if skind == 2 else 0.0
+    z, cmdin, ramp, rend, qh, qn = _substeps(V, j, _ztup(V, j), t, t1, eps, idt, w0, w1, w2,
+                                             skind, cmdin, ramp, rend, qt, qv, b, qh, qn)
+    _zput(V, VN * CH + j, z)
+    out[0] = cmdin
+    out[1] = ramp
+    out[2] = rend
+    out[3] = qh
+    out[4] = qn
+    return 0.0
+
+
+_f8 = numba.types.float64
+_i8 = numba.types.int64
+_pf8 = numba.types.CPointer(_f8)
+#: C signature of :func:`_lstep`.
+LSIG = _f8(_pf8, _pf8, _pf8, _pf8, _i8, _i8, _i8, _i8, _i8, _i8, _f8, _f8, _f8, _f8, _f8, _f8,
+           _f8)

@@ -1,0 +1,247 @@
+"""Compilation of the integration core: the chunk driver once, each kind's code on first use.
+
+The core's numba functions are *templates* (:mod:`usvid.sim.chunk`, :mod:`usvid.sim.lane`,
+:mod:`usvid.sim.vector`): re-created with the globals of a specialisation and compiled under
+a name that carries what they were specialised for, so that numba's on-disk cache of one
+specialisation is never taken for another's:
+
+* the chunk driver (:func:`driver`), the same for every kind, named for the core's sources
+  (:func:`core_digest`);
+* per kind (:func:`kernel`): its per-lane step (a C callback: the kind's right-hand side out of
+  line once, RK4, the sub-steps at events), named for the kind, a hash of its sources and the
+  core's; with an environment (force or current series, :func:`lane_step`) a second one;
+* per kind and variant (:func:`vector_step`): its vector step (a C callback, the right-hand
+  side inlined four times), compiled only for the variants a batch needs.
+
+The joint-state and parameter helpers of a kind are generated from its state names
+(:mod:`usvid.sim.layout`) and compiled into these functions (LLVM inlines them).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import types
+from dataclasses import dataclass
+from typing import Any
+
+import numba
+import numpy as np
+
+import usvid.jitcache  # noqa: F401 - numba's cache written best effort
+from usvid.models.kind import ModelKind
+from usvid.sim import chunk as _chunk_mod
+from usvid.sim import lane as _lane_mod
+from usvid.sim import layout as _layout
+from usvid.sim import scalar as _scalar
+from usvid.sim import vector as _vector_mod
+from usvid.sim.scalar import _FM
+
+#: Kinds with more parameters than this keep one out-of-line copy of their right-hand side in
+#: the vector step instead of four inlined ones per RK4 step (an MMG model's rhs inlined eight
+#: times took minutes to compile; its lanes gain little from SIMD), and one vector-step variant
+#: per switch value.
+INLINE_MAX_PARAMS = 40
+
+#: The per-lane path's templates (:mod:`usvid.sim.lane`); the C callback :func:`lane._lstep`.
+LANE_TEMPLATES = ("_inputs", "_deriv", "_rk4", "_substeps")
+#: The vector path's templates (:mod:`usvid.sim.vector`); the C callback :func:`vector._vstep`.
+VECTOR_TEMPLATES = ("_steer", "_vderiv", "_vrk4")
+#: The generated joint-state helpers of a vector-step variant (:func:`layout.joint_helpers`).
+VARIANT_HELPERS = ("_vaxpy", "_vrk4sum", "_vput")
+#: Templates inlined by LLVM where they are called (tuples only: no reference counting; numba's
+#: own inlining, inline="always", copies the IR at every call site, most of the compile time).
+#: ``_deriv`` stays out of line in the per-lane step (integrating only the steps with an event
+#: inside, or lanes the vector step does not take): a quarter of the compile work.
+_FORCEINLINE = ("_rk4", "_inputs", "_substeps", "_steer", "_vderiv", "_vrk4", "_chval",
+                "_finite_rows")
+
+_MODULES = (_scalar, _layout, _lane_mod, _vector_mod, _chunk_mod)
+
+
+@functools.cache
+def core_digest() -> str:
+    """A hash of the core's sources (the modules whose code the templates compile)."""
+    h = hashlib.sha256()
+    for path in [m.__file__ for m in _MODULES] + [__file__]:
+        with open(path, "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()[:10]
+
+
+def _globals() -> dict[str, Any]:
+    """The templates' common globals: every name of the core's modules."""
+    g: dict[str, Any] = {}
+    for mod in _MODULES:
+        g.update({k: v for k, v in vars(mod).items() if not k.startswith("__")})
+    g["__builtins__"] = __builtins__
+    return g
+
+
+def _template(name: str) -> Any:
+    for mod in (_chunk_mod, _lane_mod, _vector_mod):
+        if name in vars(mod):
+            return vars(mod)[name]
+    raise KeyError(name)
+
+
+def _specialise(g: dict[str, Any], name: str, qual: str, sig: Any = None, *,
+                forceinline: bool | None = None, nogil: bool = False) -> Any:
+    """Compile the template ``name`` with the globals ``g`` under the name ``qual`` into g
+    (``sig``: as a C callback of that signature, compiled now); returns it."""
+    template = _template(name)
+    code = template.__code__.replace(co_name=qual, co_qualname=qual)
+    fn = types.FunctionType(code, g, qual, template.__defaults__)
+    fn.__qualname__ = qual
+    fn.__module__ = template.__module__
+    opts: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": _FM}
+    if nogil:
+        opts["nogil"] = True
+    if forceinline if forceinline is not None else name in _FORCEINLINE:
+        opts["forceinline"] = True
+    g[name] = numba.cfunc(sig, **opts)(fn) if sig is not None else numba.njit(**opts)(fn)
+    return g[name]
+
+
+def _helper(fn: Any) -> Any:
+    """Compile a generated joint-state helper (inlined by LLVM; not cached on disk: it is
+    compiled only into the cached functions, which carry it)."""
+    return numba.njit(error_model="numpy", fastmath=_FM, forceinline=True)(fn)
+
+
+_DRIVER: list[Any] = []
+
+
+def driver() -> Any:
+    """The chunk driver (:func:`usvid.sim.chunk._chunk`), specialised once for every kind."""
+    if not _DRIVER:
+        g = _globals()
+        key = f"core_{core_digest()}"
+        for name in _chunk_mod.TEMPLATES:
+            _specialise(g, name, f"{name}__{key}", nogil=name == "_chunk")
+        _DRIVER.append(g["_chunk"])
+    return _DRIVER[0]
+
+
+@dataclass(frozen=True)
+class KindCode:
+    """A kind's compiled code: its ``layout``, ``kinfo`` (int64 array, :data:`layout.KINFO`),
+    the address of its per-lane step ``lstep``, its switch row and values (``swr``: -1 none,
+    ``swv`` the values with vector steps of their own; the last vector step, index
+    ``len(swv)``, is the generic one), the specialisation's ``key`` and globals ``g``."""
+
+    layout: _layout.Layout
+    kinfo: np.ndarray
+    lstep: int
+    swr: int
+    swv: tuple[float, ...]
+    key: str
+    g: dict[str, Any]
+    env: dict[str, int] = dataclasses.field(default_factory=dict)
+
+    def chunk_switch(self, P: np.ndarray, lo: int, hi: int) -> int:
+        """The vector step index of the lanes lo..hi-1 of the (lanes x rows) parameters P: the
+        index of their common value of the switch row in ``swv``, else the generic one."""
+        if self.swr < 0:
+            return len(self.swv)
+        seg = P[lo:hi, self.swr]
+        if np.any(seg != seg[0]) or float(seg[0]) not in self.swv:
+            return len(self.swv)
+        return self.swv.index(float(seg[0]))
+
+
+_KINDS: dict[str, KindCode] = {}
+_VSTEPS: dict[tuple[Any, ...], Any] = {}  # the compiled vector steps, by kind key and variant
+
+
+def kernel_key(kind: ModelKind) -> str:
+    """The name of a kind's specialisation: the kind, a hash of its sources (its module and
+    :mod:`usvid.models`, :mod:`usvid.models.registry`) and the core's (:func:`core_digest`)."""
+    return f"{kind.name}_{kind.source_hash or 'x'}_{core_digest()}"
+
+
+def kernel(kind: ModelKind) -> KindCode:
+    """The code of ``kind`` (its per-lane step compiled at first call, cached on disk)."""
+    key = kernel_key(kind)
+    if key in _KINDS:
+        return _KINDS[key]
+    lay = _layout.Layout(kind.n_states, kind.n_params)
+    js = _layout.JS
+    phi, p = kind.state_row("phi"), kind.state_row("p")
+    pos = {"zu": js + kind.body[0] if kind.body[0] >= 0 else -1,
+           "zv": js + kind.body[1] if kind.body[1] >= 0 else -1,
+           "zr": js + kind.body[2], "zphi": js + phi if phi >= 0 else -1,
+           "zp": js + p if p >= 0 else -1}
+    g = _globals()
+    g.update(lay.constants())
+    g.update(rhs=kind.rhs, TRIG=bool(kind.uses_trig), ZR=pos["zr"], ENV=False)
+    for name, fn in _layout.joint_helpers(lay, g).items():
+        g[name] = _helper(fn)
+    g["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, g))
+    lstep = _lane_step(dict(g), key, "")
+    values = tuple(float(v) for v in kind.switch_values) if kind.switch_row >= 0 else ()
+    if len(values) > 3:
+        raise ValueError(f"kind {kind.name}: at most 3 switch values")
+    code = KindCode(layout=lay, kinfo=np.array(lay.kinfo(
+        speed_row=kind.speed_row, trig=bool(kind.uses_trig), **pos), dtype=np.int64),
+        lstep=lstep.address, swr=kind.switch_row if values else -1, swv=values, key=key, g=g)
+    _KINDS[key] = code
+    return code
+
+
+def _lane_step(g: dict[str, Any], key: str, tag: str) -> Any:
+    """The per-lane step (:func:`usvid.sim.lane._lstep`) of the globals ``g``."""
+    for name in LANE_TEMPLATES:
+        _specialise(g, name, f"{name}{tag}__{key}",
+                    forceinline=False if name == "_deriv" else None)
+    return _specialise(g, "_lstep", f"_lstep{tag}__{key}", _lane_mod.LSIG)
+
+
+def lane_step(kind: ModelKind, env: bool) -> int:
+    """Address of the per-lane step of ``kind``: calm water, or (``env``) with the environment
+    series (external force, current); the latter compiled at first use."""
+    code = kernel(kind)
+    if not env:
+        return code.lstep
+    if "lstep" not in code.env:
+        code.env["lstep"] = _lane_step(dict(code.g, ENV=True), code.key, "e").address
+    return code.env["lstep"]
+
+
+def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
+                generic: bool = False) -> int:
+    """Address of the vector step (:func:`usvid.sim.vector._vstep`, a C callback) of ``kind``
+    for the switch value ``swi`` (index into the kind's switch values; the last: generic), the
+    servo kind ``sk``, without disturbance and input series (``nod``), with x and y (``xy``);
+    compiled at first use (cached on disk), only the variants a batch needs.
+
+    One variant per combination keeps the vector code free of the others' branches: the
+    servo's blend of the three kinds, the disturbance filter, the first-order-hold series and,
+    when neither x nor y is recorded, the position and the heading's rotation (the quiet lanes'
+    x and y then stay as they were: nothing reads them). The switch row of the parameters is a
+    literal in the variant of a switch value (e.g. one thrust law in the code, not all). A kind
+    whose right-hand side is not inlined (:data:`INLINE_MAX_PARAMS`: its lane loop is not
+    vectorised, the variants would gain little), and every kind with ``generic``, has one
+    variant per switch value: any servo kind (``sk`` -1: the per-lane path's blend),
+    disturbance, series, x and y."""
+    code = kernel(kind)
+    lay = code.layout
+    if lay.npk > INLINE_MAX_PARAMS or generic:
+        sk, nod, xy = -1, False, True
+    vk = (code.key, swi, sk, bool(nod), bool(xy))
+    if vk in _VSTEPS:
+        return _VSTEPS[vk].address
+    const = {code.swr: code.swv[swi]} if code.swr >= 0 and swi < len(code.swv) else {}
+    gv = dict(code.g, SK=sk, NOD=bool(nod), XY=bool(xy))
+    gv["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, gv, const))
+    helpers = _layout.joint_helpers(lay, gv, xy=bool(xy), nod=bool(nod))
+    for name in VARIANT_HELPERS:
+        gv[name] = _helper(helpers[name])
+    tag = f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
+    for name in VECTOR_TEMPLATES:
+        _specialise(gv, name, f"{name}{tag}__{code.key}",
+                    forceinline=False if (name == "_vderiv" and lay.npk > INLINE_MAX_PARAMS)
+                    else None)
+    _VSTEPS[vk] = _specialise(gv, "_vstep", f"_vstep{tag}__{code.key}", _vector_mod.VSIG)
+    return _VSTEPS[vk].address

@@ -1,0 +1,300 @@
+"""The vector path of the integration core: one step of all lanes of a chunk, vectorised
+across the lanes (templates, specialised per kind and variant by :mod:`usvid.sim.specialise`).
+
+:func:`_vstep` is a C callback (one per kind and variant, called by the chunk driver through
+its address): the trig bases, one RK4 step (:func:`_vrk4` of :func:`_vderiv`) and the end of
+the step of every lane slot, with the lane loop innermost so that LLVM vectorises it (SIMD);
+the right-hand side of the kind is inlined. A variant fixes at compile time the servo kind
+(``SK``), the absence of disturbance and input series (``NOD``), whether x and y are
+integrated (``XY``) and, for a kind with a switch row, its value (a literal in ``_ptup``).
+
+Globals the specialisation sets: the kind's ``rhs``, ``TRIG``, the layout constants (``VB``,
+``NT``, ``VROWS``, ``ZR``), the variant's constants and the generated joint-state helpers
+(``_ztup``, ``_zput``, ``_states``, ``_joint``, ``_finite``, ``_vaxpy``, ``_vrk4sum``,
+``_vput``, ``_ptup``).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from usvid.sim.layout import (
+    CH,
+    DIST_A0,
+    DIST_A1,
+    DIST_B,
+    JDD,
+    JDL,
+    JPSI,
+    JW1,
+    JW2,
+    LACT,
+    LCUR,
+    LFLAG,
+    LMAXD,
+    LOVMAX,
+    LPSI0,
+    LQ,
+    LSW,
+    LZZN,
+    NOF,
+    R_MAX,
+    RDL,
+    RPSI,
+    RW2,
+    VCMD,
+    VF,
+    VL,
+    VNOISE,
+    VRAMP,
+    VS,
+    VT,
+)
+from usvid.sim.scalar import _clip, _rot_nan, _rotv
+
+# -- set by the specialisation (placeholders) --------------------------------------------------
+#: Variant constants: servo kind (0 ideal, 1 first order, 2 second order, -1 any: the blend of
+#: the per-lane path); no disturbance and no input series in the batch (the disturbance filter
+#: stays at rest and the steering angle is the servo's); x and y integrated (not when neither is
+#: recorded: no other quantity depends on them, and with them goes the heading's rotation).
+SK, NOD, XY = 2, False, True
+TRIG = False  # the kind reads cos/sin of the steering angle
+VB = 0  # first scratch row
+NT = 1  # joint-state length
+VROWS = 1  # rows of the chunk array
+ZR = 0  # position of r in the joint-state tuple
+rhs = _ztup = _zput = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _ptup = None
+
+
+def _steer(V, j):
+    """Lane j's steering angle at the step start [rad]: the measured one, else the servo's
+    (limited), plus the disturbance."""
+    fd = V[VF * CH + j]
+    # every value loaded whatever fd and the clip written as selects (:func:`_clip`): no
+    # branch, no conditional load, so that the lane loop of :func:`_vbases` vectorises
+    x = V[RDL * CH + j]
+    ma = V[VS * CH + j]
+    d = ma if x > ma else (-ma if x < -ma else x)
+    return (d if np.isnan(fd) else fd) + DIST_B * V[RW2 * CH + j]
+
+
+def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
+    """:func:`_deriv` for the vector step, with the variant's constants :data:`SK`,
+    :data:`NOD`, :data:`XY` (the branches of the other variants vanish at compile time); returns
+    (the derivative, the largest |angle - base angle| of its rotations). ``first``: the step
+    start (stage 1), where the angles are the bases' own (no rotation)."""
+    zdl = z[JDL]
+    ma = srv[0]
+    mr = srv[1]
+    d = _clip(zdl, ma)
+    w = z[JDD]
+    if SK == 0:  # the ramp (not limited: it ends at the target)
+        rate = ramp
+    else:
+        if SK == 1:
+            rate = _clip((cmdin - zdl) * srv[6], mr)
+        elif SK == 2:
+            rate = _clip(w, mr)
+        else:  # any servo kind: the blend of the per-lane flavour (weights w0, w1, w2 in srv)
+            rate = srv[8] * _clip((cmdin - zdl) * srv[6], mr) + srv[9] * _clip(w, mr)
+        if (zdl >= ma and rate > 0.0) or (zdl <= -ma and rate < 0.0):
+            rate = 0.0
+        if SK < 0:
+            rate = srv[7] * ramp + rate
+    if NOD:  # no series: calm water (-0.0 forces vanish in the kind's sums), no current
+        de = d
+        n0 = np.nan
+        n1 = np.nan
+        n2 = np.nan
+        f = NOF
+        cx = 0.0
+        cy = 0.0
+    else:
+        fd = fs[0] + tau * (fs[10] - fs[0])
+        de = (d if np.isnan(fd) else fd) + DIST_B * z[JW2]
+        n0 = fs[1] + tau * (fs[11] - fs[1])
+        n1 = fs[2] + tau * (fs[12] - fs[2])
+        n2 = fs[3] + tau * (fs[13] - fs[3])
+        f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
+             fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
+        cx = fs[8] + tau * (fs[18] - fs[8])
+        cy = fs[9] + tau * (fs[19] - fs[9])
+    cd = 1.0
+    sd = 0.0
+    hm = 0.0
+    if TRIG:
+        if first and NOD:  # the steering angle is its base's
+            cd = tr[4]
+            sd = tr[5]
+        else:
+            cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
+    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), f)
+    k0 = 0.0
+    k1 = 0.0
+    if XY:
+        cps = tr[1]
+        sps = tr[2]
+        if not first:
+            cps, sps, hp = _rotv(z[JPSI], tr[0], tr[1], tr[2])
+            hm = max(hm, hp)
+        k0 = u * cps - v * sps
+        k1 = u * sps + v * cps
+        if not NOD:  # the velocity over ground: through the water plus the current
+            k0 += cx
+            k1 += cy
+    acc = 0.0
+    if SK == 2 or SK < 0:
+        wn = srv[2]
+        acc = wn * wn * (srv[4] * cmdin - zdl) - 2.0 * srv[3] * wn * w
+        if SK < 0:
+            acc = srv[9] * acc
+    k5 = 0.0
+    k6 = 0.0
+    if not NOD:
+        k5 = z[JW2]
+        k6 = -DIST_A0 * z[JW1] - DIST_A1 * z[JW2] + noise
+    return _joint(k0, k1, r, rate, acc, k5, k6, ds), hm
+
+
+def _vrk4(p, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
+    """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``); the heading
+    is NaN when an angle moved more than 0.05 rad from its base (the lane is then flagged)."""
+    k1, m1 = _vderiv(p, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
+    tm = 0.5 * frac
+    k2, m2 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
+    k3, m3 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
+    k4, m4 = _vderiv(p, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
+    far = max(max(m1, m2), max(m3, m4)) > 0.05
+    return _vrk4sum(z, h / 6.0, k1, k2, k3, k4, far)
+
+
+def _vstep(Vp, h, frac, zig, sk):
+    """One step of all :data:`CH` lane slots of a chunk, vectorised across lanes (the lane loop
+    innermost; a C callback, see :func:`vector_step`): the step's trig bases, one RK4 step of
+    length h [s] (the fraction ``frac`` of the step), and the end of the step of the quiet
+    lanes (row LQ); returns the number of active lanes flagged (row LFLAG = 1) for the per-lane
+    branch of :func:`_chunk`. The trip count is the constant CH whatever the chunk's number of
+    lanes (unused slots hold zeros or stale values and are ignored): every lane is computed by
+    the same vector code, so a lane's result does not depend on its position or on the
+    chunking.
+
+    ``Vp`` points to the chunk's work array ``V`` (rows: joint state, servo values, command /
+    ramp rate / noise, input series, trig bases, logic variables, parameters, scratch;
+    :mod:`usvid.sim.layout`): one array, so that LLVM knows every access's offset and needs
+    no alias checks. Per lane slot:
+
+    * trig bases: the heading's (with :data:`XY`) and, for a TRIG kind, the steering angle's,
+      rotated from the previous step's (:func:`_rot_nan`) and renormalised; NaN where the angle
+      moved more than 0.05 rad (the lane is then flagged, and its bases are computed by the
+      library before the per-lane step);
+    * max |delta| of the quiet lanes at the step start;
+    * the RK4 step (:func:`_vrk4`; the heading NaN where an angle moved more than 0.05 rad from
+      its base within the step);
+    * the end of the step, the same arithmetic as the per-lane branch of :func:`_chunk`: the
+      servo limits, the zig-zag overshoot tracker (``zig``: the logic is a zig-zag); a lane is
+      flagged when its step must go the per-lane way: not quiet, a state not finite, a zig-zag
+      reversal inside the step, or divergence (:data:`R_MAX`).
+
+    The new rows (joint state, overshoot) of every lane slot go into ``V``, the old ones into
+    the scratch rows ``zb``, from which :func:`_chunk` restores the flagged and the inactive
+    lanes (:func:`_restore`): a blend stored in place (``V[o] = new if fast else V[o]``)
+    compiles to masked stores, microcoded on AMD Zen; for the same reason the new max |delta|
+    and overshoot (a select of the old value) go to scratch rows and are copied afterwards.
+    """
+    V = numba.carray(Vp, VROWS * CH)
+    w0 = 1.0 if sk == 0.0 else 0.0  # the servo blend's weights (variant SK = -1)
+    w1 = 1.0 if sk == 1.0 else 0.0
+    w2 = 1.0 if sk == 2.0 else 0.0
+    nslow = 0.0
+    for j in range(CH):
+        a = V[RPSI * CH + j]
+        c0 = 1.0
+        s0 = 0.0
+        if XY:
+            o = VT * CH + j
+            c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
+            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+            c0 = c_ * g_
+            s0 = s_ * g_
+            V[o] = a
+            V[o + CH] = c0
+            V[o + 2 * CH] = s0
+        x7 = V[RDL * CH + j]
+        ma = V[VS * CH + j]
+        d = ma if x7 > ma else (-ma if x7 < -ma else x7)  # _clip, as selects
+        a3 = 0.0
+        c3 = 1.0
+        s3 = 0.0
+        if TRIG:
+            o = (VT + 3) * CH + j
+            a3 = d if NOD else _steer(V, j)
+            c_, s_ = _rot_nan(a3, V[o], V[o + CH], V[o + 2 * CH])
+            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+            c3 = c_ * g_
+            s3 = s_ * g_
+            V[o] = a3
+            V[o + CH] = c3
+            V[o + 2 * CH] = s3
+        tr = (a, c0, s0, a3, c3, s3)
+        o = VS * CH + j
+        srv = (ma, V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+               V[o + 6 * CH], w0, w1, w2)
+        if NOD:
+            fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
+                  np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan)
+        else:
+            o = VF * CH + j
+            fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+                  V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
+                  V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH],
+                  V[o + 15 * CH], V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH],
+                  V[o + 19 * CH])
+        z = _ztup(V, j)
+        y = _vrk4(_ptup(V, j), z, h, frac, srv, V[VCMD * CH + j], V[VRAMP * CH + j],
+                  V[VNOISE * CH + j], fs, tr)
+        quiet = V[(VL + LQ) * CH + j] > 0.0
+        # max |delta| of the quiet lanes at the step start (the measured angle is absent on
+        # the quiet path: the servo's, limited)
+        V[(VB + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(d) if quiet else 0.0)
+        # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
+        # every load unconditional, clips as selects: no masked loads and stores)
+        ok = _finite(y)
+        cur = V[(VL + LCUR) * CH + j]
+        cur = cur if zig > 0.0 else 0.0
+        sw = V[(VL + LSW) * CH + j]
+        dev1 = y[JPSI] - V[(VL + LPSI0) * CH + j]
+        cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
+        ovmax = V[(VL + LOVMAX) * CH + j]
+        ov = -cur * dev1 - sw
+        upd = (cur != 0.0) & (V[(VL + LZZN) * CH + j] >= 1.0) & (np.isnan(ovmax) | (ov > ovmax))
+        dl = y[JDL]
+        dd = y[JDD]
+        if SK != 0:
+            above = dl > ma
+            below = dl < -ma
+            dd2 = min(dd, 0.0) if above else (max(dd, 0.0) if below else dd)
+            dl2 = ma if above else (-ma if below else dl)
+            if SK == 2 or SK < 0:
+                mr = srv[1]
+                dd3 = mr if dd2 > mr else (-mr if dd2 < -mr else dd2)
+                dd2 = dd3 if (SK == 2 or sk == 2.0) else dd2
+            dl = dl2 if (SK > 0 or sk != 0.0) else dl
+            dd = dd2 if (SK > 0 or sk != 0.0) else dd
+        fast = quiet & ok & (not cross) & (abs(y[ZR]) <= R_MAX)
+        flag = 0.0 if fast else 1.0
+        V[(VL + LFLAG) * CH + j] = flag
+        nslow += flag * V[(VL + LACT) * CH + j]  # (a product: a select would load it masked)
+        _zput(V, VB * CH + j, z)
+        V[(VB + NT) * CH + j] = ovmax
+        V[(VB + NT + 2) * CH + j] = ov if upd else ovmax
+        _vput(V, j, y, dl, dd)
+    for j in range(CH):
+        V[(VL + LMAXD) * CH + j] = V[(VB + NT + 1) * CH + j]
+        V[(VL + LOVMAX) * CH + j] = V[(VB + NT + 2) * CH + j]
+    return nslow
+
+
+_f8 = numba.types.float64
+#: C signature of :func:`_vstep`: (V, h, frac, zig, servo kind) -> number of flagged lanes.
+VSIG = _f8(numba.types.CPointer(_f8), _f8, _f8, _f8, _f8)
