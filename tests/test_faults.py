@@ -43,6 +43,7 @@ import yaml
 
 from usvid import Trial
 from usvid.cli import main
+from usvid.commands.identify import kind_names
 from usvid.files import RUN_MARKER, check_outputs, claim_output_dir, move_into, write_atomic
 from usvid.io import read_trial
 from usvid.io.modelfile import load_model
@@ -1126,8 +1127,13 @@ def test_resource_cases_are_bounded_in_time_and_memory(ws: WS, tmp_path) -> None
 
 def test_fault_matrix_size() -> None:
     # the campaign found 61 internal errors, 2 hangs and the path cases; the matrix
-    # generates every one of them over every command that can meet it
-    assert len(CASES) >= 450
+    # generates every one of them over every command that can meet it; the third round adds
+    # degenerate data for every identify kind, audit error findings and uncertainty blocks
+    assert len(CASES) >= 720
+    assert {c[0] for c in CASES} >= {f"identify-degenerate-{v}-{k}" for k in IDENTIFY_KINDS
+                                     for v in ("psi-noise", "psi-constant", "psi-nan",
+                                               "psi-missing", "actuator-constant")}
+    assert set(IDENTIFY_KINDS) == set(kind_names())  # a kind added later must be covered
     commands = {c[0].split("-")[0] for c in CASES}
     assert commands >= {"audit", "metrics", "identify", "zigzag", "turning", "course",
                         "autopilot", "fit", "demo", "report", "montecarlo", "batch",
