@@ -43,6 +43,7 @@ import yaml
 
 from usvid import Trial
 from usvid.cli import main
+from usvid.commands.identify import kind_names
 from usvid.files import RUN_MARKER, check_outputs, claim_output_dir, move_into, write_atomic
 from usvid.io import read_trial
 from usvid.io.modelfile import load_model
@@ -111,8 +112,9 @@ class WS:
         return str(p)
 
 
-def _zigzag_trial() -> Trial:
-    res, _ = run_zigzag(load_model(EXAMPLES / "lanxin.json"), 10.0, 10.0, t_end=40.0, dt=0.05)
+def _zigzag_trial(model: str = "lanxin.json") -> Trial:
+    """A 40 s 10/10 zig-zag of an example model, sampled at 20 Hz."""
+    res, _ = run_zigzag(load_model(EXAMPLES / model), 10.0, 10.0, t_end=40.0, dt=0.05)
     return res.to_trial()
 
 
@@ -210,7 +212,7 @@ def _xlsx_bomb(ws: WS, old: bytes = b'<row r="4"', new: bytes = b'<row r="1e308"
 # ----------------------------------------------------------------------------------------------
 # the cases: (id, build(ws) -> (argv, culprit)); culprit is a text the error line must contain
 # ----------------------------------------------------------------------------------------------
-Case = tuple[str, Callable[[WS], tuple[list[str], str]]]
+Case = tuple[str, Callable[[WS], tuple]]  # (argv, culprit[, Expect]): see test_fault_matrix
 CASES: list[Case] = []
 
 
@@ -783,6 +785,161 @@ def _numeric_option_cases() -> None:
 
 _numeric_option_cases()
 
+
+# ----------------------------------------------------------------------------------------------
+# third round: degenerate data for identify, audit errors, hostile uncertainty blocks
+# ----------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Expect:
+    """A case whose answer is not exit 2 (or 0): the exit ``code`` and, for ``usvid audit
+    --json``, the ``finding`` code of severity "error" its JSON must hold."""
+
+    code: int
+    finding: str = ""
+
+
+#: The zig-zag logs the degenerate cases are made from: name -> (model file it is simulated
+#: from, the vessel particulars the format spec adds for the kinds that need them [m]).
+DEGENERATE_BASES = {
+    "rudder": ("lanxin_threedof.json", {  # psi, r, u, v, delta, n
+        "x_l": 3.5, "propeller_diameter": 0.46, "propeller_pitch_ratio": 0.3,
+        "propeller_disk_ratio": 0.516, "thrust_deduction": 0.05, "wake_fraction": 0.04}),
+    "thrusters": ("catamaran.json", {"thruster_arm": 0.25}),  # psi, r, u, v, n_port, n_stbd
+}
+#: Every kind ``usvid identify --model`` offers and the log it is identified from.
+IDENTIFY_KINDS = {"nomoto1": "rudder", "nomoto2": "rudder", "nomoto2_nonlinear": "rudder",
+                  "norrbin": "rudder", "threedof": "rudder", "mmg": "rudder",
+                  "catamaran": "thrusters"}
+
+
+def _zigzag_log(ws: WS, base: str) -> tuple[pd.DataFrame, dict]:
+    """The 40 s 10/10 zig-zag of a base (:data:`DEGENERATE_BASES`) as a table and its format
+    spec (with the particulars its kinds need), written once per module."""
+    csv, spec = ws.p(f"zz_{base}.csv"), ws.p(f"zz_{base}.yaml")
+    if not csv.exists():
+        model, extra = DEGENERATE_BASES[base]
+        write_csv(_zigzag_trial(model), csv, spec_path=spec)
+        d = yaml.safe_load(spec.read_text())
+        d["vessel"]["extra"] = extra
+        spec.write_text(yaml.safe_dump(d))
+    return pd.read_csv(csv), yaml.safe_load(spec.read_text())
+
+
+def _degenerate(ws: WS, base: str, variant: str) -> tuple[str, str]:
+    """A copy of a base zig-zag log (and its spec) made degenerate: ``psi-noise`` (the heading
+    white noise, 0.3 rad SD, seeded), ``psi-constant``, ``psi-nan`` (every heading empty),
+    ``psi-missing`` (no heading nor yaw-rate column), ``actuator-constant`` (the rudder and its
+    command, or both shaft speeds, held at one value), ``position-jump`` (the positions jump
+    1000 km in one sample: 20,000 km/s), ``time-backwards`` (the clock set back 30 s in the
+    middle). Returns (log, spec)."""
+    log, spec = ws.p(f"dg_{base}_{variant}.csv"), ws.p(f"dg_{base}_{variant}.yaml")
+    if not log.exists():
+        d, s = _zigzag_log(ws, base)
+        n, k = len(d), len(d) // 2
+        if variant == "psi-noise":
+            d["psi"] = np.random.default_rng(28).normal(0.0, 0.3, n)
+        elif variant == "psi-constant":
+            d["psi"] = 0.3
+        elif variant == "psi-nan":
+            d["psi"] = np.nan
+        elif variant == "psi-missing":
+            d = d.drop(columns=["psi", "r"])
+            s["columns"] = {c: v for c, v in s["columns"].items() if c not in ("psi", "r")}
+        elif variant == "actuator-constant":
+            for c in ("delta", "delta_cmd", "n_port", "n_stbd"):
+                if c in d:
+                    d[c] = d[c].mean() if c.startswith("n_") else 0.05
+            if "n_port" in d:
+                d["n_stbd"] = d["n_port"]
+        elif variant == "position-jump":
+            d.loc[k:, "x"] += 1.0e6
+        elif variant == "time-backwards":
+            d.loc[k:, "t"] -= 30.0
+        else:
+            raise AssertionError(variant)
+        d.to_csv(log, index=False)
+        spec.write_text(yaml.safe_dump(s))
+    return str(log), str(spec)
+
+
+def _third_round() -> None:
+    add = CASES.append
+    # identify on degenerate data, every kind: refused, naming the channel and the statistic
+    # (a tuple of culprits: every one must be in the error line)
+    culprits = {"psi-noise": ("'psi'", "autocorrelation"), "psi-constant": ("'psi'", "range"),
+                "psi-nan": ("'psi'", "no finite sample"), "psi-missing": ("psi",),
+                "actuator-constant": ("constant",)}
+    for kind, base in IDENTIFY_KINDS.items():
+        for variant, culprit in culprits.items():
+            if variant == "actuator-constant":
+                culprit = ("'delta'", "std") if base == "rudder" else ("'n_port'", "std")
+            add((f"identify-degenerate-{variant}-{kind}", lambda ws, k=kind, b=base, v=variant,
+                 c=culprit: (["identify", *_degenerate(ws, b, v)[:1], "--format",
+                              _degenerate(ws, b, v)[1], "--model", k, "--out",
+                              str(ws.out / "m.json")], c)))
+    # the audit: error findings (exit 3, the README's code for them) in its --json output
+    for variant, finding in (("position-jump", "position_jump"),
+                             ("actuator-constant", "actuator_constant"),
+                             ("time-backwards", "time_backwards")):
+        for base in DEGENERATE_BASES:
+            add((f"audit-error-{variant}-{base}", lambda ws, b=base, v=variant, f=finding: (
+                ["audit", _degenerate(ws, b, v)[0], "--format", _degenerate(ws, b, v)[1],
+                 "--json"], "", Expect(3, f))))
+    # hostile uncertainty blocks in a model file, over every command that loads one
+    cov = "identification.covariance"
+    hostile = {
+        "covariance-wrong-shape": (_set(cov, {"names": ["K", "T"], "matrix": [[1e-4, 0, 0],
+                                                                              [0, 1e-4, 0]]}),
+                                   ("covariance.matrix[0]", "row of 2")),
+        "covariance-ragged": (_set(cov, {"names": ["K", "T"], "matrix": [[1e-4], [0, 1e-4]]}),
+                              ("covariance.matrix[0]", "row of 2")),
+        "covariance-nan": (_set(cov, {"names": ["K", "T"], "matrix": [[math.nan, 0],
+                                                                      [0, 1e-4]]}),
+                           ("covariance.matrix[0][0]", "finite")),
+        "covariance-negative-variance": (_set(cov, {"names": ["K", "T"], "matrix": [
+            [-1e-4, 0], [0, 1e-4]]}), ("covariance.matrix[0][0]", "variance of K")),
+        "covariance-not-symmetric": (_set(cov, {"names": ["K", "T"], "matrix": [
+            [1e-4, 5e-5], [0, 1e-4]]}), ("covariance.matrix", "not symmetric")),
+        "covariance-not-positive-definite": (_set(cov, {"names": ["K", "T"], "matrix": [
+            [1e-4, 2e-4], [2e-4, 1e-4]]}), ("covariance.matrix", "semi-definite")),
+        "covariance-unknown-name": (_set(cov, {"names": ["K", "bogus"], "matrix": [
+            [1e-4, 0], [0, 1e-4]]}), ("covariance.names[1]", "bogus")),
+        "covariance-duplicate-name": (_set(cov, {"names": ["K", "K"], "matrix": [
+            [1e-4, 0], [0, 1e-4]]}), ("covariance.names", "'K' twice")),
+        "covariance-strings": (_set(cov, {"names": ["K", "T"], "matrix": [["a", "b"],
+                                                                          ["c", "d"]]}),
+                               ("covariance.matrix[0][0]", "number")),
+        "covariance-names-string": (_set(cov, {"names": "K", "matrix": [[1e-4]]}),
+                                    ("covariance.names", "list")),
+        "covariance-list": (_set(cov, [1, 2]), ("identification.covariance", "object")),
+        "covariance-string": (_set(cov, "x"), ("identification.covariance", "object")),
+        "std-errors-negative": (_set("identification.std_errors", {"K": -0.01}),
+                                ("std_errors.K", ">= 0")),
+        "std-errors-nan": (_set("identification.std_errors", {"K": math.nan}),
+                           ("std_errors.K", "finite")),
+        "std-errors-string": (_set("identification.std_errors", {"K": "0.01"}),
+                              ("std_errors.K", "number")),
+        "std-errors-unknown-name": (_set("identification.std_errors", {"bogus": 0.01}),
+                                    ("std_errors.bogus", "not a parameter")),
+        "std-errors-list": (_set("identification.std_errors", [0.01]),
+                            ("identification.std_errors", "object")),
+    }
+    commands = {
+        "zigzag": lambda ws, m: ["simulate", "zigzag", m],
+        "montecarlo": lambda ws, m: ["montecarlo", m, "--manoeuvre", "zigzag", "--runs", "2",
+                                     "--from-uncertainty", "--out", str(ws.out / "mc.parquet")],
+        "validate": lambda ws, m: ["validate", m, str(ws.p("log.csv")), "--format",
+                                   str(ws.p("spec.yaml"))],
+        "autopilot": lambda ws, m: ["autopilot", m, "--samples", "0"],
+    }
+    for hid, (edit, culprit) in hostile.items():
+        for cmd, build in commands.items():
+            add((f"{cmd}-model-{hid}", lambda ws, h=hid, e=edit, b=build, c=culprit: (
+                b(ws, _model(ws, f"unc_{h}.json", edit=e)), c)))
+
+
+_third_round()
+
 def _leftovers(root: Path) -> list[str]:
     return [str(p) for p in root.rglob("*") if p.name.endswith(".tmp")
             or p.name.startswith(".usvid-probe")]
@@ -827,7 +984,8 @@ def _peak() -> int:
 
 @pytest.mark.parametrize("cid,build", CASES, ids=[c[0] for c in CASES])
 def test_fault_matrix(ws: WS, cid: str, build) -> None:
-    argv, culprit = build(ws)
+    argv, culprit, *expect = build(ws)  # an Expect third: another exit code, its finding
+    culprits = (culprit,) if isinstance(culprit, str) else culprit
     before = _tree(ws.root)
     types = _types(ws.root)
     outs_before = _tree(ws.out)
@@ -835,7 +993,7 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
     previous = signal.signal(signal.SIGALRM, _timeout)
     signal.alarm(LIMIT_S)  # a hang (a FIFO opened for reading blocks) fails the case
     try:
-        code, _, err = run_cli(argv)
+        code, out, err = run_cli(argv)
     except CaseTimeout:
         pytest.fail(f"{cid}: no answer within {LIMIT_S} s")
     finally:
@@ -848,13 +1006,21 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
     assert {k: v for k, v in _types(ws.root).items() if k in types} == types, \
         f"{cid}: a file changed type (a device node or FIFO replaced?)"
     lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert code in (0, 2), f"{cid}: exit {code}\n{err[-3000:]}"
+    if expect:  # e.g. an audit with error findings: exit 3, its complete JSON on stdout
+        assert code == expect[0].code, f"{cid}: exit {code}\n{err[-3000:]}"
+        assert "Traceback" not in err, err[-3000:]
+        codes = {f["code"] for f in json.loads(out)["findings"] if f["severity"] == "error"}
+        assert expect[0].finding in codes, f"{cid}: {expect[0].finding} not in {codes}"
+        assert _tree(ws.out) == outs_before, f"{cid}: an audit wrote a file"
+    else:
+        assert code in (0, 2), f"{cid}: exit {code}\n{err[-3000:]}"
     if code == 2:
         assert len(lines) == 1 and lines[0].startswith("usvid: error: "), err[-3000:]
         assert len(lines[0]) < 2000
         # refused before any work: no process was started for it (a Dask cluster, ...)
         assert _children_cpu() == kids0, f"{cid}: child processes ran before the refusal"
-        assert culprit.lower() in lines[0].lower(), f"{cid}: {culprit!r} not in {lines[0]!r}"
+        for c in culprits:
+            assert c.lower() in lines[0].lower(), f"{cid}: {c!r} not in {lines[0]!r}"
         # a refused command writes nothing
         assert _tree(ws.out) == outs_before, f"{cid}: output written despite exit 2"
     after = _tree(ws.root)
@@ -961,8 +1127,13 @@ def test_resource_cases_are_bounded_in_time_and_memory(ws: WS, tmp_path) -> None
 
 def test_fault_matrix_size() -> None:
     # the issue's campaign found 61 internal errors, 2 hangs and the path cases; the matrix
-    # generates every one of them over every command that can meet it
-    assert len(CASES) >= 450
+    # generates every one of them over every command that can meet it; the third round adds
+    # degenerate data for every identify kind, audit error findings and uncertainty blocks
+    assert len(CASES) >= 720
+    assert {c[0] for c in CASES} >= {f"identify-degenerate-{v}-{k}" for k in IDENTIFY_KINDS
+                                     for v in ("psi-noise", "psi-constant", "psi-nan",
+                                               "psi-missing", "actuator-constant")}
+    assert set(IDENTIFY_KINDS) == set(kind_names())  # a kind added later must be covered
     commands = {c[0].split("-")[0] for c in CASES}
     assert commands >= {"audit", "metrics", "identify", "zigzag", "turning", "course",
                         "autopilot", "fit", "demo", "report", "montecarlo", "batch",

@@ -180,3 +180,32 @@ def test_quasi_static_rudder_warns_poorly_determined():
     with warnings.catch_warnings():
         warnings.simplefilter("error", IdentificationWarning)
         ModelEstimator("nomoto1", "ls").fit(nomoto_zoh_zigzag())
+
+
+def test_heading_autocorrelation_hand_values():
+    """Lag-1 circular autocorrelation: a heading alternating between two values, N = 4
+    samples, has deviations +-d about the mean: rho = 3 (-d^2) / (4 d^2) = -0.75; a slow
+    ramp is ~1; a constant heading NaN; white noise (any scale, seeded) within 4/sqrt(N) of 0."""
+    from usvid.identify.checks import heading_autocorrelation
+
+    assert heading_autocorrelation(np.array([0.0, 0.4, 0.0, 0.4])) == pytest.approx(-0.75)
+    # 0.001 rad per sample over 1000 samples: 1 - rho ~ 3/N for a ramp (the last sample's
+    # share of the variance, (N/2)^2 / (N^3/12)): 0.003
+    assert heading_autocorrelation(np.arange(1000) * 1e-3) == pytest.approx(0.997, abs=5e-4)
+    assert math.isnan(heading_autocorrelation(np.full(50, 0.3)))
+    assert math.isnan(heading_autocorrelation(np.array([0.1, np.nan, 0.2])))
+    rng = np.random.default_rng(5)
+    for psi in (rng.normal(0.0, 0.3, 2000), rng.uniform(0.0, 2 * np.pi, 2000)):
+        assert abs(heading_autocorrelation(psi)) < 4 / math.sqrt(2000)
+    # a compass's 2 deg noise on the zig-zag's heading, sampled at 1 Hz: still a measurement
+    tr = _nomoto_trial(n=2000)
+    psi = tr["psi"][::10] + np.radians(2.0) * rng.standard_normal(200)
+    assert heading_autocorrelation(psi) > 0.9
+
+
+def test_white_noise_heading_is_refused_naming_the_statistic():
+    tr = _nomoto_trial(name="noise.csv")
+    tr.data["psi"] = np.random.default_rng(9).normal(0.0, 0.3, len(tr.data))
+    with pytest.raises(IdentificationError,
+                       match=r"trial noise\.csv: channel 'psi' is noise \(lag-1 autocorrelation"):
+        ModelEstimator("nomoto1").fit(tr)

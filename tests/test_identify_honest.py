@@ -72,8 +72,13 @@ def test_pure_noise_is_refused(tmp_path, capsys):
                        "delta": rng.normal(0, 0.2, t.size), "U": np.full(t.size, 2.0)})
     log, spec = _write(tmp_path, "noise", df)
     code, err = _identify(capsys, log, spec, "nomoto1", tmp_path)
-    assert code == 2 and err.strip().splitlines()[-1].startswith("usvid: error:"), err
-    # the Norrbin model can take any sign: it is refused by its checks
+    line = err.strip().splitlines()[-1]
+    assert code == 2 and line.startswith("usvid: error:"), err
+    assert "'psi' is noise (lag-1 autocorrelation" in line  # refused before the fit
+    # a heading that moves like one (the integral of the noisy yaw rate) but that the noisy
+    # rudder does not explain: the Norrbin model can take any sign, it is refused by its checks
+    df["psi"] = np.cumsum(df["r"]) * 0.1
+    log, spec = _write(tmp_path, "noise", df)
     code, err = _identify(capsys, log, spec, "norrbin", tmp_path)
     line = err.strip().splitlines()[-1]
     assert code == 2 and line.startswith("usvid: error:") and "checks" in line

@@ -11,7 +11,11 @@ trial, the channel and the statistic) when
   (``vessel.speed``): a bench or dock record with a moving rudder looks the same as a basin's
   rudder and heading record; the user who knows it was under way says so by its speed;
 * the heading does not respond: it stays within :data:`MIN_HEADING_RANGE` [rad] over the whole
-  trial (a constant heading, a compass stuck at one value).
+  trial (a constant heading, a compass stuck at one value);
+* the heading is noise: its lag-1 circular autocorrelation (:func:`heading_autocorrelation`)
+  is below :data:`MIN_HEADING_AUTOCORR` (successive samples of a measured heading follow the
+  vessel's inertia; white noise, a random compass, or another quantity mapped as the heading
+  do not).
 
 The needed channels missing or without a finite sample, and a constant rudder (no excitation),
 are refused where the series are built (:mod:`usvid.identify.series`) and by the estimator.
@@ -54,10 +58,15 @@ from usvid.sim.simulate import approach_speed, simulate
 from usvid.trial import Trial
 
 __all__ = ["Check", "ChecksFailed", "Envelope", "MIN_HEADING_RANGE", "MIN_R2", "MIN_SPEED",
-           "check_data", "check_model", "envelope", "failed", "refusal", "trial_speed"]
+           "MIN_HEADING_AUTOCORR", "check_data", "check_model", "envelope", "failed",
+           "heading_autocorrelation", "refusal", "trial_speed"]
 
 #: Smallest range of the heading [rad] over a trial that responds to its steering (0.5 deg).
 MIN_HEADING_RANGE = math.radians(0.5)
+#: Smallest lag-1 circular autocorrelation of a heading that is a measurement, not noise [-]
+#: (white noise: 0 +- 2/sqrt(N); a zig-zag's heading at 1-50 Hz with a compass's 1 deg noise:
+#: above 0.9; below 0.3 most of the heading's variance changes from one sample to the next).
+MIN_HEADING_AUTOCORR = 0.3
 #: Smallest share of the heading's variance the windowed replays of the training data must
 #: explain (R^2 of the heading).
 MIN_R2 = 0.5
@@ -100,6 +109,25 @@ def trial_speed(trial: Trial) -> tuple[float | None, str]:
     return uw.median_speed, uw.source if uw.known else ""
 
 
+def heading_autocorrelation(psi: np.ndarray) -> float:
+    """Lag-1 autocorrelation [-] of a heading ``psi`` [rad] as the unit vector
+    ``z_k = (cos psi_k, sin psi_k)`` (free of wrapping: a compass that jumps at random is no
+    smooth unwrapped walk):
+    ``rho = sum_k (z_k - zbar).(z_{k+1} - zbar) / sum_k |z_k - zbar|^2`` (the sample
+    autocorrelation at lag 1, Box and Jenkins 1976, of a vector series). NaN samples are
+    dropped; NaN when fewer than three remain or the heading is constant."""
+    psi = np.asarray(psi, dtype=float)
+    psi = psi[np.isfinite(psi)]
+    if psi.size < 3:
+        return math.nan
+    z = np.stack([np.cos(psi), np.sin(psi)])
+    z -= z.mean(axis=1, keepdims=True)
+    den = float(np.sum(z * z))
+    if den <= 1e-24 * psi.size:  # deviations below 1e-12: rounding of a constant heading
+        return math.nan
+    return float(np.sum(z[:, 1:] * z[:, :-1]) / den)
+
+
 def check_data(trials: Sequence[Trial], kind_name: str) -> None:
     """Refuse trials that cannot be identified from (module docstring): not under way, or a
     heading that does not respond. Raises :class:`IdentificationError` naming the trial, the
@@ -129,6 +157,13 @@ def check_data(trials: Sequence[Trial], kind_name: str) -> None:
                     f"deg over {len(psi)} samples): the heading does not respond to the "
                     "steering, nothing to identify (check the heading's column and sign in the "
                     "format spec)")
+            rho = heading_autocorrelation(psi)
+            if rho < MIN_HEADING_AUTOCORR:
+                raise IdentificationError(
+                    f"trial {name}: channel 'psi' is noise (lag-1 autocorrelation {rho:.2f} "
+                    f"over {len(psi)} samples, below {MIN_HEADING_AUTOCORR:g}): successive "
+                    "headings are unrelated, as no vessel's heading is; nothing to identify "
+                    "(check the heading's column and unit in the format spec)")
 
 
 # -- after the fit -------------------------------------------------------------------------------

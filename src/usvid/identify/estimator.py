@@ -467,19 +467,31 @@ class ModelEstimator(FittedAttributes):
         return make_windows(dec, series[0].h * m, window_s, overlap)
 
     def _check_excitation(self, series: Sequence[Series]) -> None:
+        """Refuse steering inputs that do not move: the rudder angle of a response model, or
+        or thrust angle of a kind with a surge equation steered by it (mmg, threedof; not
+        one steered by a thruster pair), with a standard deviation below
+        :data:`MIN_DELTA_STD` (a yaw moment computed from a constant angle still varies with
+        the speed); a constant yaw moment."""
         kind = self.kind_
-        if kind.constant_speed:
+        rudder = kind.constant_speed or (
+            all("delta" in s for s in series) and not any("n_port" in s for s in series))
+        if rudder:
             d = np.concatenate([s["delta"] for s in series])
             if np.std(d) < MIN_DELTA_STD:
                 raise IdentificationError(
-                    "no excitation: the rudder angle is constant (std "
+                    "no excitation: the rudder angle 'delta' is constant (std "
                     f"{math.degrees(np.std(d)):.3f} deg over {', '.join(s.name for s in series)}"
-                    "); a response model needs rudder changes (zig-zag, turning entry)")
+                    f"); a {self.kind} model needs rudder changes (zig-zag, turning entry)")
         elif all("tau_r" in s for s in series):
             tr = np.concatenate([s["tau_r"] for s in series])
             if np.std(tr) <= 1e-12 * max(np.max(np.abs(tr)), 1e-300):
-                raise IdentificationError("no excitation: the yaw moment input is constant; "
-                                          "the yaw equation cannot be identified")
+                chs = [c for c in ("n_port", "n_stbd", "delta", "n") if c in series[0]]
+                raise IdentificationError(
+                    "no excitation: the yaw moment input"
+                    + (f" (from {', '.join(repr(c) for c in chs)})" if chs else "")
+                    + f" is constant (std {np.std(tr):.3g} over "
+                    f"{', '.join(s.name for s in series)}); the yaw equation cannot be "
+                    "identified")
 
     # -- fitting ---------------------------------------------------------------------------------
     def fit(self, trials: Any, *, turning: Any = None,
