@@ -239,3 +239,29 @@ def test_cross_current_turning_imo_estimate():
     assert est.speed_m_s == pytest.approx(0.5, abs=0.005)
     assert est.dir_deg == pytest.approx(90.0, abs=0.5)
     assert imo_current(calm.t, calm["x"][0], calm["y"][0], calm["psi"][0]).speed_m_s < 0.005
+
+
+#: Final x, y [m], psi [rad] of calm 10/10-style runs (zig-zag 10 and 20 deg, 35 deg turn; 60 s,
+#: dt = 0.05 s) of the example models, by the integration core before the wind entered it
+#: (every recorded array of these runs was bit-identical after; 1e-9 leaves room for the
+#: compiler's FMA contraction on another machine).
+KERNEL_CALM = {
+    ("lanxin_threedof", "zigzag"): (296.1552145659834, 4.9284919455438665, -0.40145518535126046),
+    ("lanxin_threedof", "turning"): (18.94171389800022, 19.103594603074043, 28.013625977995563),
+    ("lanxin", "zigzag"): (298.38197973763994, 8.390257668381592, -0.2378742779938716),
+    ("lanxin", "turning"): (9.2419275419354, 1.3320176524881935, 24.805737951739115),
+}
+
+
+@pytest.mark.parametrize("name, manoeuvre", sorted(KERNEL_CALM))
+def test_calm_runs_are_the_kernel_numbers(name, manoeuvre):
+    from pathlib import Path
+
+    from usvid.io.modelfile import load_model
+
+    model = load_model(Path(__file__).resolve().parents[1] / "examples" / f"{name}.json")
+    amp = np.radians([10.0, 20.0])
+    logic = ZigZag(amp, amp) if manoeuvre == "zigzag" else Turning(np.radians(35.0), 0.0)
+    res = simulate(model, logic, t_end=60.0, dt=0.05)
+    got = tuple(float(res[c][0, -1]) for c in ("x", "y", "psi"))
+    assert got == pytest.approx(KERNEL_CALM[(name, manoeuvre)], rel=1e-9, abs=1e-9)
