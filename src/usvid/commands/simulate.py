@@ -11,6 +11,11 @@ JSON object whose keys are the ``ARCHITECTURE.md`` contract, followed by extras)
 - ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s] over the horizon ``horizon_s``
   (= ``--t-end``, the run is 0 .. t_end), ``max_rudder_deg``.
 
+Every manoeuvre takes the environment (:func:`usvid.commands._common.environment_of`):
+``--wind-speed`` [m/s], ``--wind-dir-deg`` (from), ``--current-speed`` [m/s],
+``--current-dir-deg`` (towards), ``--hs`` [m], ``--tp`` [s], ``--wave-dir-deg`` (from); ``--json``
+echoes it as ``environment`` (null in calm water).
+
 The runs are :mod:`usvid.sim.runs`; metric definitions :mod:`usvid.manoeuvres.metrics`; IMO
 criteria :mod:`usvid.manoeuvres.imo`.
 """
