@@ -146,16 +146,36 @@ def _env_json(res: Any) -> dict[str, Any] | None:
     return res.meta.get("environment")
 
 
+def _env_rows(env: dict[str, Any] | None) -> list[tuple[str, Any, str]]:
+    """Table rows of the environment (none in calm water)."""
+    if not env:
+        return []
+    w, c, s = env.get("wind") or {}, env.get("current") or {}, env.get("waves")
+    rows: list[tuple[str, Any, str]] = [
+        ("wind speed (from)", f"{_fmt(w.get('speed_m_s'))} ({_fmt(w.get('direction_from_deg'))}"
+         " deg)", "m/s"),
+        ("current speed (towards)", f"{_fmt(c.get('speed_m_s'))} "
+         f"({_fmt(c.get('direction_towards_deg'))} deg)", "m/s")]
+    if w.get("model"):
+        rows.append(("wind-load model", f"{w['model']}: {w['reason']}", ""))
+        rows += [("assumed", a, "") for a in w.get("assumed", [])]
+    if s:
+        rows.append(("waves Hs, Tp (from)", f"{_fmt(s['hs_m'])} m, {_fmt(s['tp_s'])} s "
+                     f"({_fmt(s['direction_from_deg'])} deg)", ""))
+    return rows
+
+
 def _output(out: dict[str, Any], as_json: bool, title: str, rows: list[tuple[str, Any, str]],
             check: Any = None) -> None:
     """Print the command's result: ``out`` as one JSON object, or ``rows`` (plus the IMO
-    criteria of ``check``) as a table."""
+    criteria of ``check`` and the environment) as a table."""
     from usvid.commands._common import emit_json
 
     if as_json:
         emit_json(out)
         return
-    _print_table(title, rows + (_imo_rows(check) if check else []))
+    _print_table(title, rows + (_imo_rows(check) if check else [])
+                 + _env_rows(out.get("environment")))
 
 
 def _print_table(title: str, rows: list[tuple[str, Any, str]]) -> None:
