@@ -20,10 +20,18 @@ import numpy as np
 
 from usvid.errors import SimulationError, UsvidError
 from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
+from usvid.models.environment import (
+    drift_coefficients,
+    rudder_equivalent,
+    wave_components,
+    wave_motion,
+)
+from usvid.models.environment.wind_loads import WIND_PACK, wind_load_model
 from usvid.models.kind import S0, ModelKind, batch_size
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.sim import core
+from usvid.sim.layout import NENV, NWIND
 from usvid.sim.result import SimResult
 
 #: Channels recorded by default (a kind's unused inputs are left out).
@@ -219,10 +227,6 @@ class Environment:
         :func:`~usvid.models.environment.rudder_equivalent` for the wind when not given) and
         what was chosen and assumed (:meth:`describe`'s ``wind`` and ``waves`` entries).
         SimulationError naming the missing particular when the vessel lacks one."""
-        from usvid.models.environment import drift_coefficients, rudder_equivalent
-        from usvid.models.environment.wind_loads import WIND_PACK, wind_load_model
-        from usvid.sim.layout import NENV, NWIND
-
         assert NWIND == WIND_PACK
         blk = np.zeros((NENV, 1))
         info: dict[str, Any] = {}
@@ -662,8 +666,6 @@ def _add_wave_motion(env: Environment, model: VesselModel, t: np.ndarray,
     (:func:`usvid.models.environment.wave_motion` along the recorded track; run b draws its
     components from (wave_seed, b)); needs x, y and psi recorded (the phases follow the
     position, the response the heading)."""
-    from usvid.models.environment import wave_components, wave_motion
-
     if not all(k in chans for k in ("x", "y", "psi")):
         raise SimulationError("simulate: the first-order wave motion needs the channels x, y "
                               "and psi recorded (or Environment(wave_motion=False))")
