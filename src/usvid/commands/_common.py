@@ -150,6 +150,74 @@ def check_gain(value: float | None, option: str) -> float | None:
     return check_number(value, option, lo=-MAX_GAIN, hi=MAX_GAIN)
 
 
+#: Ranges of the environment options: wind [m/s] up to hurricane force (Beaufort 12 starts at
+#: 32.7 m/s), currents [m/s] up to the fastest tidal races (~8 m/s), significant wave height
+#: [m] and peak period [s] beyond the largest sea states recorded, directions [deg] one turn
+#: either way.
+WIND_RANGE = (0.0, 100.0)
+CURRENT_RANGE = (0.0, 20.0)
+HS_RANGE = (0.0, 30.0)
+TP_RANGE = (0.0, 60.0)
+DIR_RANGE_DEG = (-360.0, 360.0)
+
+
+WindSpeedOpt = Annotated[float | None, typer.Option(
+    "--wind-speed", help="True wind speed [m/s] (loads from the vessel's windage: "
+    "vessel.frontal_area, lateral_area; default: calm).")]
+WindDirOpt = Annotated[float | None, typer.Option(
+    "--wind-dir-deg", help="Direction the true wind comes FROM [deg, clockwise from north].")]
+CurrentSpeedOpt = Annotated[float | None, typer.Option(
+    "--current-speed", help="Current speed [m/s] (default: none).")]
+CurrentDirOpt = Annotated[float | None, typer.Option(
+    "--current-dir-deg", help="Direction the current flows TOWARDS [deg, clockwise from north].")]
+HsOpt = Annotated[float | None, typer.Option(
+    "--hs", help="Significant wave height [m] of a JONSWAP sea (with --tp; default: none).")]
+TpOpt = Annotated[float | None, typer.Option("--tp", help="Peak wave period [s] (with --hs).")]
+WaveDirOpt = Annotated[float | None, typer.Option(
+    "--wave-dir-deg", help="Direction the waves come FROM [deg, clockwise from north].")]
+
+
+def environment_of(wind_speed: float | None = None, wind_dir_deg: float | None = None,
+                   current_speed: float | None = None, current_dir_deg: float | None = None,
+                   hs: float | None = None, tp: float | None = None,
+                   wave_dir_deg: float | None = None) -> Any:
+    """The :class:`usvid.sim.Environment` of the options ``--wind-speed`` [m/s],
+    ``--wind-dir-deg`` (true, from, clockwise from north), ``--current-speed`` [m/s],
+    ``--current-dir-deg`` (towards), ``--hs`` [m], ``--tp`` [s], ``--wave-dir-deg`` (from),
+    each checked (:func:`check_number`, the option named); None when none is given (calm water:
+    the runs of today). A direction needs its speed, ``--hs`` and ``--tp`` go together."""
+    check_number(wind_speed, "--wind-speed", lo=WIND_RANGE[0], hi=WIND_RANGE[1], unit="m/s")
+    check_number(current_speed, "--current-speed", lo=CURRENT_RANGE[0], hi=CURRENT_RANGE[1],
+                 unit="m/s")
+    check_number(hs, "--hs", lo=HS_RANGE[0], hi=HS_RANGE[1], lo_open=True, unit="m")
+    check_number(tp, "--tp", lo=TP_RANGE[0], hi=TP_RANGE[1], lo_open=True, unit="s")
+    for opt, v in (("--wind-dir-deg", wind_dir_deg), ("--current-dir-deg", current_dir_deg),
+                   ("--wave-dir-deg", wave_dir_deg)):
+        check_number(v, opt, lo=DIR_RANGE_DEG[0], hi=DIR_RANGE_DEG[1], unit="deg")
+    for opt, v, need, given in (("--wind-dir-deg", wind_dir_deg, "--wind-speed", wind_speed),
+                                ("--current-dir-deg", current_dir_deg, "--current-speed",
+                                 current_speed), ("--wave-dir-deg", wave_dir_deg, "--hs and --tp",
+                                                  hs)):
+        if v is not None and given is None:
+            raise UsvidError(f"{opt} needs {need}")
+    if (hs is None) != (tp is None):
+        raise UsvidError("--hs and --tp go together (the sea state's significant wave height "
+                         "[m] and peak period [s])")
+    if all(v is None for v in (wind_speed, current_speed, hs)):
+        return None
+    from usvid.models.environment import SeaState
+    from usvid.sim.simulate import Environment
+
+    sea = None
+    if hs is not None:
+        sea = SeaState(hs=float(hs), tp=float(tp),  # type: ignore[arg-type]
+                       direction=math.radians(wave_dir_deg or 0.0))
+    return Environment(current_speed=float(current_speed or 0.0),
+                       current_dir=math.radians(current_dir_deg or 0.0),
+                       wind_speed=float(wind_speed or 0.0),
+                       wind_dir=math.radians(wind_dir_deg or 0.0), sea=sea)
+
+
 class Controller(StrEnum):
     """``--controller`` of the course-keeping autopilot (autopilot, simulate course-keeping)."""
     pd = "pd"

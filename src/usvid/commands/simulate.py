@@ -11,6 +11,11 @@ JSON object whose keys are the ``ARCHITECTURE.md`` contract, followed by extras)
 - ``course-keeping``: ``itae`` [rad s^2], ``iae`` [rad s] over the horizon ``horizon_s``
   (= ``--t-end``, the run is 0 .. t_end), ``max_rudder_deg``.
 
+Every manoeuvre takes the environment (:func:`usvid.commands._common.environment_of`):
+``--wind-speed`` [m/s], ``--wind-dir-deg`` (from), ``--current-speed`` [m/s],
+``--current-dir-deg`` (towards), ``--hs`` [m], ``--tp`` [s], ``--wave-dir-deg`` (from); ``--json``
+echoes it as ``environment`` (null in calm water).
+
 The runs are :mod:`usvid.sim.runs`; metric definitions :mod:`usvid.manoeuvres.metrics`; IMO
 criteria :mod:`usvid.manoeuvres.imo`.
 """
@@ -26,6 +31,13 @@ import typer
 
 from usvid.commands._common import (
     Controller,
+    CurrentDirOpt,
+    CurrentSpeedOpt,
+    HsOpt,
+    TpOpt,
+    WaveDirOpt,
+    WindDirOpt,
+    WindSpeedOpt,
     check_disturbance_deg,
     check_dt,
     check_gain,
@@ -37,6 +49,7 @@ from usvid.commands._common import (
     check_steps,
     check_t_end,
     check_target_deg,
+    environment_of,
 )
 from usvid.errors import SimulationError, UsvidError
 
@@ -126,16 +139,43 @@ def _no_metrics(model_path: Path, what: str, t_end: float | None, te: float) -> 
     return SimulationError(f"{model_path.name}: {what}; {fix}")
 
 
+def _env_json(res: Any) -> dict[str, Any] | None:
+    """The ``environment`` key of ``--json``: the environment the run had (its inputs, the wind
+    model chosen with its reason and assumptions, the rudder equivalent of a response kind, the
+    sea state's drift coefficients), None in calm water."""
+    return res.meta.get("environment")
+
+
+def _env_rows(env: dict[str, Any] | None) -> list[tuple[str, Any, str]]:
+    """Table rows of the environment (none in calm water)."""
+    if not env:
+        return []
+    w, c, s = env.get("wind") or {}, env.get("current") or {}, env.get("waves")
+    rows: list[tuple[str, Any, str]] = [
+        ("wind speed (from)", f"{_fmt(w.get('speed_m_s'))} ({_fmt(w.get('direction_from_deg'))}"
+         " deg)", "m/s"),
+        ("current speed (towards)", f"{_fmt(c.get('speed_m_s'))} "
+         f"({_fmt(c.get('direction_towards_deg'))} deg)", "m/s")]
+    if w.get("model"):
+        rows.append(("wind-load model", f"{w['model']}: {w['reason']}", ""))
+        rows += [("assumed", a, "") for a in w.get("assumed", [])]
+    if s:
+        rows.append(("waves Hs, Tp (from)", f"{_fmt(s['hs_m'])} m, {_fmt(s['tp_s'])} s "
+                     f"({_fmt(s['direction_from_deg'])} deg)", ""))
+    return rows
+
+
 def _output(out: dict[str, Any], as_json: bool, title: str, rows: list[tuple[str, Any, str]],
             check: Any = None) -> None:
     """Print the command's result: ``out`` as one JSON object, or ``rows`` (plus the IMO
-    criteria of ``check``) as a table."""
+    criteria of ``check`` and the environment) as a table."""
     from usvid.commands._common import emit_json
 
     if as_json:
         emit_json(out)
         return
-    _print_table(title, rows + (_imo_rows(check) if check else []))
+    _print_table(title, rows + (_imo_rows(check) if check else [])
+                 + _env_rows(out.get("environment")))
 
 
 def _print_table(title: str, rows: list[tuple[str, Any, str]]) -> None:
@@ -190,6 +230,13 @@ def zigzag_cmd(
     dt: DtOpt = 0.02,
     speed: SpeedOpt = None,
     rps: RpsOpt = None,
+    wind_speed: WindSpeedOpt = None,
+    wind_dir_deg: WindDirOpt = None,
+    current_speed: CurrentSpeedOpt = None,
+    current_dir_deg: CurrentDirOpt = None,
+    hs: HsOpt = None,
+    tp: TpOpt = None,
+    wave_dir_deg: WaveDirOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Zig-zag test: overshoot angles, period, initial turning time, time to check yaw."""
@@ -198,10 +245,12 @@ def zigzag_cmd(
 
     check_rudder_deg(delta_deg)
     check_psi_deg(psi_deg)
+    env = environment_of(wind_speed, wind_dir_deg, current_speed, current_dir_deg, hs, tp,
+                         wave_dir_deg)
     psi_deg = delta_deg if psi_deg is None else psi_deg
     model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps, delta_deg=delta_deg)
     res, m = run_zigzag(model, delta_deg, psi_deg, first=1 if first == Side.starboard else -1,
-                        t_end=t_end, dt=dt, u0=u0)
+                        t_end=t_end, dt=dt, u0=u0, environment=env)
     if not m.overshoot_deg:
         n = len(m.reversal_times_s or [])
         raise _no_metrics(model_path, f"no overshoot within the run: the zig-zag made {n} "
@@ -214,7 +263,7 @@ def zigzag_cmd(
     out.update(manoeuvre="zigzag", model=str(model_path), model_kind=model.kind,
                delta_deg=delta_deg, psi_deg=psi_deg, speed_m_s=u0,
                shaft_speed_rps=_rps_of(model),
-               imo=check.to_dict() if check else None)
+               imo=check.to_dict() if check else None, environment=_env_json(res))
     rows = [("overshoot angles (first 4)", m.overshoot_deg[:4], "deg"),
             ("period", m.period_s, "s"),
             ("initial turning time", m.initial_turning_time_s, "s"),
@@ -233,6 +282,13 @@ def turning_cmd(
     dt: DtOpt = 0.02,
     speed: SpeedOpt = None,
     rps: RpsOpt = None,
+    wind_speed: WindSpeedOpt = None,
+    wind_dir_deg: WindDirOpt = None,
+    current_speed: CurrentSpeedOpt = None,
+    current_dir_deg: CurrentDirOpt = None,
+    hs: HsOpt = None,
+    tp: TpOpt = None,
+    wave_dir_deg: WaveDirOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Turning circle: advance, transfer, tactical and steady diameters, steady yaw rate/speed."""
@@ -240,8 +296,10 @@ def turning_cmd(
     from usvid.sim.runs import run_turning
 
     check_rudder_deg(delta_deg, signed=True)
+    env = environment_of(wind_speed, wind_dir_deg, current_speed, current_dir_deg, hs, tp,
+                         wave_dir_deg)
     model, u0 = _setup(model_path, dt, speed, t_end=t_end, rps=rps, delta_deg=delta_deg)
-    res, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0)
+    res, m = run_turning(model, delta_deg, t_end=t_end, dt=dt, u0=u0, environment=env)
     missing = [k for k in ("advance_m", "transfer_m", "tactical_diameter_m")
                if not math.isfinite(getattr(m, k))]
     if missing:
@@ -255,7 +313,7 @@ def turning_cmd(
     check = imo_turning_check(m, L) if L and applies else None
     out.update(manoeuvre="turning", model=str(model_path), model_kind=model.kind,
                delta_deg=delta_deg, speed_m_s=u0, shaft_speed_rps=_rps_of(model),
-               imo=check.to_dict() if check else None)
+               imo=check.to_dict() if check else None, environment=_env_json(res))
     rows = [("advance", m.advance_m, "m"), ("transfer", m.transfer_m, "m"),
             ("tactical diameter", m.tactical_diameter_m, "m"),
             ("steady diameter", m.steady_diameter_m, "m"),
@@ -283,6 +341,13 @@ def course_cmd(
         "--t-end", help="Simulated time [s]: the horizon of ITAE and IAE.")] = 100.0,
     dt: DtOpt = 0.02,
     speed: SpeedOpt = None,
+    wind_speed: WindSpeedOpt = None,
+    wind_dir_deg: WindDirOpt = None,
+    current_speed: CurrentSpeedOpt = None,
+    current_dir_deg: CurrentDirOpt = None,
+    hs: HsOpt = None,
+    tp: TpOpt = None,
+    wave_dir_deg: WaveDirOpt = None,
     as_json: JsonOpt = False,
 ) -> None:
     """Course change 0 -> target with a PD/PID autopilot: ITAE, IAE, largest rudder angle."""
@@ -291,18 +356,20 @@ def course_cmd(
     check_seed(seed)
     check_disturbance_deg(noise, "--noise")
     check_target_deg(target_deg)
+    env = environment_of(wind_speed, wind_dir_deg, current_speed, current_dir_deg, hs, tp,
+                         wave_dir_deg)
     for opt, v in (("--kp", kp), ("--ki", ki), ("--kd", kd)):
         check_gain(v, opt)
     model, u0 = _setup(model_path, dt, speed, t_end=t_end)
-    _, m = run_course(model, controller=controller.value, kp=kp, ki=ki, kd=kd,
+    res, m = run_course(model, controller=controller.value, kp=kp, ki=ki, kd=kd,
                       target_deg=target_deg, noise_deg=noise, seed=seed, t_end=t_end, dt=dt,
-                      u0=u0)
+                      u0=u0, environment=env)
     out: dict[str, Any] = dict(m)
     out.update(manoeuvre="course-keeping", model=str(model_path), model_kind=model.kind,
                controller=controller.value, kp=kp,
                ki=ki if ki is not None else default_ki(controller.value),
                kd=kd, target_deg=target_deg, noise_deg=noise, seed=seed, t_end_s=t_end,
-               horizon_s=t_end, speed_m_s=u0)
+               horizon_s=t_end, speed_m_s=u0, environment=_env_json(res))
     _output(out, as_json, f"course change 0 -> {target_deg:g} deg, {controller.value.upper()}, "
             f"{model_path.name}",
             [(f"ITAE over 0 .. {t_end:g} s", m["itae"], "rad s^2"),

@@ -72,6 +72,7 @@ from usvid.sim.layout import (
     DIST_A0,
     DIST_A1,
     DIST_B,
+    KNPK,
     N_ZZ,
     NCH,
     NSER,
@@ -112,7 +113,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         Dq: np.ndarray, SER: np.ndarray, sidx: np.ndarray, Z: np.ndarray, nsteps: np.ndarray,
         dt: float, rec_every: int, slots: np.ndarray, rec: np.ndarray, acc: np.ndarray,
         zz: np.ndarray, zzt: np.ndarray, status: np.ndarray, qcap: int,
-        chunk: int = CH) -> None:
+        chunk: int = CH, wind: bool = False) -> None:
     """Integrate all lanes of ``Z`` (in place) and fill the outputs.
 
     Arrays are lane-major (a lane's parameters, state and work values contiguous): ``P``
@@ -124,7 +125,9 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     chunk's lanes); chunks run in parallel on a thread pool (the driver is compiled ``nogil``),
     as many threads as numba's thread count. The vector step's variant (:func:`vector_step`)
     follows from the batch: the servo kind, whether it has a disturbance or input series,
-    whether x or y is recorded, and each chunk's switch value.
+    whether x or y is recorded, and each chunk's switch value. ``wind``: ``P`` carries the
+    environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the kind's parameters; every
+    step is integrated the per-lane way (:func:`usvid.sim.specialise.wind_step`).
     """
     B, nz = Z.shape
     chunk = max(1, min(chunk, CH))
@@ -133,10 +136,18 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     drive = specialise.driver()
     code = kernel(kind)
     env = bool(np.any(sidx[SFORCE:NSER] >= 0))  # force or current series
-    lstep = specialise.lane_step(kind, env)
+    kinfo = code.kinfo
+    simd = bool(SIMD)
+    if wind:  # wind loads, wave drift: the per-lane step with the environment block in P
+        lstep, kinfo = specialise.wind_step(kind)
+        if P.shape[1] != kinfo[KNPK]:
+            raise ValueError(f"run: {P.shape[1]} parameter rows, the kind's and the environment "
+                             f"block need {int(kinfo[KNPK])}")
+        simd = False  # state-dependent loads: every step the per-lane way
+    else:
+        lstep = specialise.lane_step(kind, env)
     qt, qv = np.empty((B, qcap)), np.empty((B, qcap))
     sstride = 1 if SER.shape[1] > 1 else 0
-    simd = bool(SIMD)
     starts = list(range(0, B, chunk))
     vaddr = dict.fromkeys(starts, 0)
     if simd:
@@ -154,7 +165,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     def task(lo: int) -> None:
         drive(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,
               dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd, vaddr[lo],
-              lstep, code.kinfo)
+              lstep, kinfo)
 
     threads = min(numba.get_num_threads(), len(starts))
     if threads <= 1:

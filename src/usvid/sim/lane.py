@@ -23,6 +23,8 @@ import math
 import numba
 import numpy as np
 
+from usvid.models.environment.waves import mean_drift_scalar
+from usvid.models.environment.wind_loads import wind_load_true
 from usvid.sim.layout import (
     CH,
     DIST_A0,
@@ -44,9 +46,14 @@ from usvid.sim.scalar import _clip, _rot, _start_ramp
 # -- set by the specialisation (placeholders) --------------------------------------------------
 TRIG = False  # the kind reads cos/sin of the steering angle
 ENV = True  # the batch has an environment (force or current series): else compiled away
+WIND = True  # the batch has wind loads or wave drift (the environment block): else compiled away
+ZU = 0  # position of u in the joint-state tuple (-1: the constant speed, parameter SPEEDROW)
+ZV = 0  # position of v in the joint-state tuple (-1: none, zero)
+SPEEDROW = 0  # parameter row of the constant speed of a response kind
 VN = 0  # first row of the per-lane step's result
 VROWS = 1  # rows of the chunk array
 rhs = _ztup = _zput = _states = _joint = _with_dl = _axpy = _rk4sum = _ptup = None
+_etup = None
 
 
 def _inputs(V, j):
@@ -58,13 +65,48 @@ def _inputs(V, j):
     fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
           V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
           V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH], V[o + 15 * CH],
-          V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH], V[o + 19 * CH])
+          V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH], V[o + 19 * CH], V[o + 20 * CH],
+          V[o + 21 * CH], V[o + 22 * CH], V[o + 23 * CH])
     o = VT * CH + j
     tr = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH])
     return srv, fs, tr
 
 
-def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
+@numba.njit(cache=True, error_model="numpy")
+def _envload(pe, wx, wy, vn, ve, psi):
+    """The state-dependent environment loads (X, Y [N], K, N [N m], body axes) of the
+    environment block ``pe`` (:data:`usvid.sim.layout.ENVBLOCK`) for the true wind moving the
+    air with the velocity ``wx``, ``wy`` [m/s, north, east], the vessel's velocity over ground
+    ``vn``, ``ve`` [m/s] and heading ``psi`` [rad].
+
+    Wind: the loads of the apparent wind (the wind triangle and the coefficient model of
+    :func:`usvid.models.environment.wind_loads.wind_load_true`) less those of the still air the
+    vessel moves through, :math:`F(V_{A}) - F(V_{A,0})` with :math:`V_{A,0}` the apparent wind
+    of its own motion (the wind-resistance correction of ISO 15016:2015 and ITTC 7.5-04-01-01.1:
+    a model identified from trials holds the still-air load in its calm-water terms, so zero
+    true wind is calm water). The roll moment of a model without one (Fujiwara et al. 1998:
+    NaN) is taken as 0. Waves: the mean drift force
+    (:func:`usvid.models.environment.waves.mean_drift_scalar`, no yaw moment)."""
+    x = 0.0
+    y = 0.0
+    k = 0.0
+    n = 0.0
+    if pe[0] != 0.0 and (wx != 0.0 or wy != 0.0):
+        x1, y1, n1, k1, _, _ = wind_load_true(pe, math.hypot(wx, wy), math.atan2(-wy, -wx),
+                                              vn, ve, psi)
+        x0, y0, n0, k0, _, _ = wind_load_true(pe, 0.0, 0.0, vn, ve, psi)
+        x = x1 - x0
+        y = y1 - y0
+        n = n1 - n0
+        k = 0.0 if np.isnan(k1) else k1 - k0
+    if pe[16] != 0.0 or pe[17] != 0.0:
+        dx, dy = mean_drift_scalar(pe[16], pe[17], pe[18], psi)
+        x += dx
+        y += dy
+    return x, y, k, n
+
+
+def _deriv(p, pe, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
     """Time derivative of a lane's joint-state tuple ``z`` (x, y, psi, servo angle and rate,
     disturbance filter, the kind's states: :mod:`usvid.sim.layout`) at the fraction ``tau`` of
     the current step.
@@ -91,7 +133,7 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
         rate = 0.0
     wn = srv[2]
     w2d = z[JW2]
-    fd = fs[0] + tau * (fs[10] - fs[0])
+    fd = fs[0] + tau * (fs[12] - fs[0])
     de = (d if np.isnan(fd) else fd) + DIST_B * w2d
     cd = 1.0
     sd = 0.0
@@ -101,14 +143,20 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
     cx = 0.0
     cy = 0.0
     if ENV:
-        f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
-             fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
-        cx = fs[8] + tau * (fs[18] - fs[8])
-        cy = fs[9] + tau * (fs[19] - fs[9])
-    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[11] - fs[1]),
-                                      fs[2] + tau * (fs[12] - fs[2]),
-                                      fs[3] + tau * (fs[13] - fs[3])), f)
+        f = (fs[4] + tau * (fs[16] - fs[4]), fs[5] + tau * (fs[17] - fs[5]),
+             fs[6] + tau * (fs[18] - fs[6]), fs[7] + tau * (fs[19] - fs[7]))
+        cx = fs[8] + tau * (fs[20] - fs[8])
+        cy = fs[9] + tau * (fs[21] - fs[9])
     cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
+    if WIND:  # the loads of the stage's own velocity over ground and heading
+        uw = z[ZU] if ZU >= 0 else p[SPEEDROW]
+        vw = z[ZV] if ZV >= 0 else 0.0
+        fe = _envload(pe, fs[10] + tau * (fs[22] - fs[10]), fs[11] + tau * (fs[23] - fs[11]),
+                      uw * cps - vw * sps + cx, uw * sps + vw * cps + cy, z[JPSI])
+        f = (f[0] + fe[0], f[1] + fe[1], f[2] + fe[2], f[3] + fe[3])
+    u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[13] - fs[1]),
+                                      fs[2] + tau * (fs[14] - fs[2]),
+                                      fs[3] + tau * (fs[15] - fs[3])), f)
     k0 = u * cps - v * sps
     k1 = u * sps + v * cps
     if ENV:  # the velocity over ground: through the water plus the current
@@ -119,14 +167,14 @@ def _deriv(p, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
                   w2d, -DIST_A0 * z[JW1] - DIST_A1 * w2d + noise, ds)
 
 
-def _rk4(p, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
+def _rk4(p, pe, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
     """One classical RK4 step of length h [s] from z, covering the fractions tau0 .. tau0 +
     frac of the current step (for the first-order-hold series)."""
-    k1 = _deriv(p, tau0, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z)
+    k1 = _deriv(p, pe, tau0, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z)
     tm = tau0 + 0.5 * frac
-    k2 = _deriv(p, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k1))
-    k3 = _deriv(p, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k2))
-    k4 = _deriv(p, tau0 + frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, h, k3))
+    k2 = _deriv(p, pe, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k1))
+    k3 = _deriv(p, pe, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k2))
+    k4 = _deriv(p, pe, tau0 + frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, h, k3))
     return _rk4sum(z, h / 6.0, k1, k2, k3, k4)
 
 
@@ -136,6 +184,7 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
     inside it (dead-time queue of lane b, end of an ideal servo's ramp), one RK4 call site.
     Returns (z, cmdin, ramp, rend, qh, qn)."""
     p = _ptup(V, j)
+    pe = _etup(V, j)
     srv, fs, tr = _inputs(V, j)
     noise = V[VNOISE * CH + j]
     ma = srv[0]
@@ -153,7 +202,7 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
             what = 2
         if tb > tc + eps:
             te = min(tb, t1)
-            z = _rk4(p, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
+            z = _rk4(p, pe, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
                      cmdin, ramp, noise, fs, tr)
             tc = te
         if what == 1 and tb <= t1 + eps:

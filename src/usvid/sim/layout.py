@@ -43,14 +43,24 @@ COMMANDED, TURNING, ZIGZAG, COURSE = 0, 1, 2, 3
 #: First-order-hold input series (rows ``VF + i`` at the step start, ``VF + NSER + i`` at its
 #: end): the measured rudder angle [rad], shaft speed n [rps], thruster commands n_port, n_stbd
 #: (absent: NaN, the servo's angle and the kind's nominal); the environment: the external force
-#: on the hull in body axes X, Y [N], K, N [N m] and the current's velocity over ground, north
-#: and east [m/s] (absent: 0, calm water).
+#: on the hull in body axes X, Y [N], K, N [N m], the current's velocity over ground, north
+#: and east [m/s], and the true wind as the air's velocity over ground, north and east [m/s]
+#: (a wind from the north moves the air south: wind_x < 0) (absent: 0, calm water).
 SERIES = ("delta", "n", "n_port", "n_stbd", "force_X", "force_Y", "force_K", "force_N",
-          "current_x", "current_y")
+          "current_x", "current_y", "wind_x", "wind_y")
 NSER = len(SERIES)
-#: Positions in :data:`SERIES` of the external force (X, Y, K, N) and of the current (north,
-#: east); the series before :data:`SFORCE` are absent as NaN, the others as 0.
-SFORCE, SCUR = 4, 8
+#: Positions in :data:`SERIES` of the external force (X, Y, K, N), of the current (north,
+#: east) and of the wind (north, east); the series before :data:`SFORCE` are absent as NaN,
+#: the others as 0.
+SFORCE, SCUR, SWIND = 4, 8, 10
+#: The per-lane environment block of a batch with a state-dependent environment (wind loads,
+#: mean wave drift), rows after the kind's own parameters: the packed wind-load model
+#: (:data:`usvid.models.environment.wind_loads.WIND_PACK` entries, code 0: none), then the
+#: mean wave drift's coefficients fx0, fy0 [N] and the direction the waves travel towards chi
+#: [rad] (:func:`usvid.models.environment.waves.mean_drift_scalar`; fx0 = fy0 = 0: none).
+NWIND = 16
+ENVBLOCK = ("wind",) * NWIND + ("drift_fx0", "drift_fy0", "drift_chi")
+NENV = len(ENVBLOCK)
 #: Zig-zag overshoots tracked online.
 N_ZZ = 8
 #: Seed disturbance filter 0.42 s / (s^2 + 0.36 s + 0.37) (Mu et al. 2018, section 6.1).
@@ -238,3 +248,12 @@ def param_tuple(layout: Layout, g: Mapping[str, Any],
     items = [repr(float(const[i])) if i in const else f"V[{(layout.vp + i) * CH} + j]"
              for i in range(layout.npk)]
     return _function("_ptup", "V, j", [f"return {_tuple(items)}"], g)
+
+
+def env_tuple(layout: Layout, g: Mapping[str, Any], *, read: bool) -> Any:
+    """``_etup(V, j)``: lane slot j's environment block (:data:`ENVBLOCK`) from the rows after
+    the kind's parameters (``read``: a batch with wind loads or wave drift, whose chunk array
+    has :data:`NENV` more parameter rows), else zeros (literals: compiled away)."""
+    items = [f"V[{(layout.vp + layout.npk + i) * CH} + j]" if read else "0.0"
+             for i in range(NENV)]
+    return _function("_etup", "V, j", [f"return {_tuple(items)}"], g)

@@ -3,6 +3,7 @@ ITTC 7.5-04-02-01, Mu et al. 2018 section 6.1), each simulated with :func:`usvid
 measured with :mod:`usvid.manoeuvres.metrics`. ``usvid simulate`` and the demo call these.
 
 Arguments in SI units; angles in degrees at this edge, named ``*_deg``; inside radians.
+``environment``: an :class:`usvid.sim.Environment` (wind, current, waves; None: calm water).
 """
 
 from __future__ import annotations
@@ -54,11 +55,12 @@ def _approach_speed(model: Any, u0: float | None) -> float:
     return float(u)
 
 
-def _run(model: Any, logic: Any, t_end: float, dt: float, u0: float) -> SimResult:
+def _run(model: Any, logic: Any, t_end: float, dt: float, u0: float,
+         environment: Any = None) -> SimResult:
     """One simulation; :class:`SimulationError` when it diverged (a state not finite: an unstable
     model or an RK4 step ``dt`` [s] too large for the model's fastest mode) instead of metrics
     of a broken trajectory."""
-    res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0)
+    res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, environment=environment)
     finite = all(np.all(np.isfinite(res.channels[k])) for k in ("x", "y", "psi")
                  if k in res.channels)
     if not (res.success and finite):
@@ -69,8 +71,8 @@ def _run(model: Any, logic: Any, t_end: float, dt: float, u0: float) -> SimResul
 
 
 def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
-               t_end: float | None = None, dt: float = 0.02, u0: float | None = None
-               ) -> tuple[SimResult, ZigZagMetrics]:
+               t_end: float | None = None, dt: float = 0.02, u0: float | None = None,
+               environment: Any = None) -> tuple[SimResult, ZigZagMetrics]:
     """Zig-zag ``delta_deg/psi_deg`` (rudder amplitude / switching angle [deg]) to the ``first``
     side (+1 starboard), from a straight approach at ``u0`` [m/s] (default the model's
     ``vessel.speed``), step ``dt`` [s].
@@ -89,7 +91,7 @@ def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
     auto = t_end is None
     te = default_t_end(model, u0) if auto else float(t_end)
     while True:
-        res = _run(model, logic, te, dt, u0)
+        res = _run(model, logic, te, dt, u0, environment)
         m = res.zigzag_metrics()[0]
         if not auto or (len(m.reversal_times_s) >= 4 and len(m.overshoot_deg) >= 3) \
                 or te >= MAX_T_END:
@@ -98,7 +100,8 @@ def run_zigzag(model: Any, delta_deg: float, psi_deg: float, *, first: int = 1,
 
 
 def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt: float = 0.02,
-                u0: float | None = None) -> tuple[SimResult, TurningMetrics]:
+                u0: float | None = None, environment: Any = None
+                ) -> tuple[SimResult, TurningMetrics]:
     """Turning circle with the rudder at ``delta_deg`` [deg] (negative: to port) from a straight
     approach at ``u0`` [m/s] (default the model's ``vessel.speed``), step ``dt`` [s].
 
@@ -114,7 +117,7 @@ def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt:
     auto = t_end is None
     te = default_t_end(model, u0) if auto else float(t_end)
     while True:
-        res = _run(model, logic, te, dt, u0)
+        res = _run(model, logic, te, dt, u0, environment)
         psi = res["psi"][0]
         if not auto or abs(float(psi[-1] - psi[0])) >= 3 * math.pi or te >= MAX_T_END:
             return res, res.turning_metrics()[0]
@@ -123,8 +126,8 @@ def run_turning(model: Any, delta_deg: float, *, t_end: float | None = None, dt:
 
 def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float | None = None,
                kd: float = 1.0, target_deg: float = 100.0, noise_deg: float = 1.0,
-               seed: int = 1, t_end: float = 100.0, dt: float = 0.02, u0: float | None = None
-               ) -> tuple[SimResult, dict[str, float]]:
+               seed: int = 1, t_end: float = 100.0, dt: float = 0.02, u0: float | None = None,
+               environment: Any = None) -> tuple[SimResult, dict[str, float]]:
     """Course change 0 -> ``target_deg`` [deg] with a PD or PID autopilot (Mu et al. 2018
     section 6.1) from a straight approach at ``u0`` [m/s] (default the model's ``vessel.speed``),
     ``t_end`` [s] long, step ``dt`` [s].
@@ -144,5 +147,5 @@ def run_course(model: Any, *, controller: str = "pd", kp: float = 0.7, ki: float
     dist = Disturbance(intensity=math.radians(noise_deg), seed=seed) if noise_deg > 0 else None
     logic = CourseChange(target=math.radians(target_deg), controller=PID(kp=kp, ki=ki, kd=kd),
                          disturbance=dist)
-    res = _run(model, logic, t_end, dt, u0)
+    res = _run(model, logic, t_end, dt, u0, environment)
     return res, res.course_metrics()[0]

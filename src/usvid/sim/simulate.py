@@ -20,10 +20,18 @@ import numpy as np
 
 from usvid.errors import SimulationError, UsvidError
 from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
+from usvid.models.environment import (
+    drift_coefficients,
+    rudder_equivalent,
+    wave_components,
+    wave_motion,
+)
+from usvid.models.environment.wind_loads import WIND_PACK, wind_load_model
 from usvid.models.kind import S0, ModelKind, batch_size
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.sim import core
+from usvid.sim.layout import NENV, NWIND
 from usvid.sim.result import SimResult
 
 #: Channels recorded by default (a kind's unused inputs are left out).
@@ -102,26 +110,65 @@ def _series(t_grid: np.ndarray, t: np.ndarray, values: Any) -> np.ndarray:
 
 @dataclass
 class Environment:
-    """The environment of a simulation besides the rudder-equivalent noise: a current and an
-    external force on the hull (wind, waves), each a constant, one value per run ((B,)), or a
-    time series over ``t`` ((M,) or (B, M) values), linear between samples like the measured
-    inputs.
+    """The environment of a simulation besides the rudder-equivalent noise: a current, a true
+    wind, a sea state and an external force on the hull, each (but the sea state) a constant,
+    one value per run ((B,)), or a time series over ``t`` ((M,) or (B, M) values), linear
+    between samples like the measured inputs.
 
     ``current_speed`` [m/s] and ``current_dir`` [rad]: the current's speed and the direction it
     flows towards, from north, clockwise (constant over the area; the kinematics integrate the
     velocity over ground, the kind's states are its velocities through the water: Fossen 2021
-    ch. 10.3, exact for a constant irrotational current). ``force``: (X, Y [N], K, N [N m]) in
-    body axes (x forward, y starboard, z down; K heels to starboard, N turns to starboard),
-    what a wind or wave-drift model gives; the force kinds add it to their force balance, the
-    response kinds take N as the rudder-equivalent angle N / N_delta (their ``N_delta``
-    [N m/rad]). ``t`` [s]: the sample times of the series (None: constants). Zero current and
-    force are calm water: the same runs as without an environment.
+    ch. 10.3, exact for a constant irrotational current).
+
+    ``wind_speed`` [m/s] and ``wind_dir`` [rad]: the true wind's speed and the direction it
+    comes FROM, from north, clockwise (a series: e.g. :func:`usvid.models.environment.gust_series`
+    on ``t``; interpolated as the air's velocity, so that a direction through north is not
+    turned the long way). Its loads are computed inside the integration step, at every RK4
+    stage, from the apparent wind of the stage's velocity over ground and heading
+    (:func:`usvid.sim.lane._envload`: the load of the apparent wind less that of the still air,
+    so zero wind is calm water) through ``wind_model`` (a
+    :class:`~usvid.models.environment.WindLoadModel`; None: ``wind_load_model(model.vessel)``,
+    Fujiwara et al. 1998 or Blendermann 1994 from the vessel's windage particulars).
+
+    ``sea``: a :class:`~usvid.models.environment.SeaState` (constant): its mean wave drift force
+    (:func:`~usvid.models.environment.drift_coefficients` from the vessel's length, beam and
+    draft; :func:`~usvid.models.environment.mean_drift_scalar` at the stage's heading) inside
+    the step, and, with ``wave_motion``, the first-order wave-induced motion
+    (:func:`~usvid.models.environment.wave_motion`, ``wave_components`` components drawn with
+    ``wave_seed``, run b from the stream (wave_seed, b)) added to the recorded x, y, psi after
+    the run (Fossen 2021 ch. 10.2: eta = eta_LF + eta_WF; it does not feed back).
+
+    ``force``: (X, Y [N], K, N [N m]) in body axes (x forward, y starboard, z down; K heels to
+    starboard, N turns to starboard), a precomputed external load. The force kinds add the
+    loads to their force balance; the response kinds take N as the rudder-equivalent angle
+    N / N_delta (their ``N_delta`` [N m/rad]; for the wind, when not given, from
+    :func:`~usvid.models.environment.rudder_equivalent` of the kind and the vessel) and have no
+    use for X, Y, K. ``t`` [s]: the sample times of the series (None: constants). Zero current,
+    wind and force and no sea state are calm water: the same runs as without an environment.
     """
 
     current_speed: Any = 0.0
     current_dir: Any = 0.0
     force: Sequence[Any] | None = None
     t: Any = None
+    wind_speed: Any = 0.0
+    wind_dir: Any = 0.0
+    wind_model: Any = None
+    sea: Any = None
+    wave_motion: bool = True
+    wave_seed: int = 0
+    wave_components: int = 128
+
+    @property
+    def has_wind(self) -> bool:
+        """A true wind other than zero."""
+        a = np.asarray(self.wind_speed, dtype=float)
+        return bool(np.any(a != 0.0))
+
+    @property
+    def stateful(self) -> bool:
+        """Loads that depend on the state inside the step (wind, wave drift)."""
+        return self.has_wind or self.sea is not None
 
     def series(self, t_grid: np.ndarray, B: int) -> dict[str, np.ndarray]:
         """The core's series (:data:`usvid.sim.core.SERIES` names) on the step grid t_grid
@@ -151,10 +198,119 @@ class Environment:
             for name, v in zip(("force_X", "force_Y", "force_K", "force_N"), self.force,
                                strict=True):
                 out[name] = on_grid(v, "force")
+        if self.stateful:
+            ws = np.asarray(self.wind_speed, dtype=float)
+            wd = np.asarray(self.wind_dir, dtype=float)
+            for name, a in (("wind_speed", ws), ("wind_dir", wd)):
+                if not np.all(np.isfinite(a)):
+                    raise SimulationError(f"Environment.{name} must be finite")
+            if np.any(ws < 0.0):
+                raise SimulationError("Environment.wind_speed must be >= 0 [m/s]")
+            try:
+                ws, wd = np.broadcast_arrays(ws, wd)
+            except ValueError:
+                raise SimulationError(f"Environment.wind_speed and wind_dir: shapes {ws.shape} "
+                                      f"and {wd.shape} do not match") from None
+            # the air's velocity over ground (north, east): a wind from wd moves it towards
+            # wd + pi (usvid.models.environment.wind)
+            out["wind_x"] = on_grid(-ws * np.cos(wd), "wind_speed")
+            out["wind_y"] = on_grid(-ws * np.sin(wd), "wind_speed")
         for a in out.values():
             if a.shape[0] not in (1, B):
                 raise SimulationError(f"Environment: {a.shape[0]} runs' values for a batch of "
                                       f"{B}")
+        return out
+
+    def block(self, model: VesselModel, kind: ModelKind) -> tuple[np.ndarray, Any, dict]:
+        """The environment block of the core (:data:`usvid.sim.layout.ENVBLOCK`, (NENV, 1)),
+        the model's dynamics to simulate (a response kind's ``N_delta`` filled in from
+        :func:`~usvid.models.environment.rudder_equivalent` for the wind when not given) and
+        what was chosen and assumed (:meth:`describe`'s ``wind`` and ``waves`` entries).
+        SimulationError naming the missing particular when the vessel lacks one."""
+        assert NWIND == WIND_PACK
+        blk = np.zeros((NENV, 1))
+        info: dict[str, Any] = {}
+        dyn = model.dynamics
+        vessel = model.vessel
+        if self.has_wind:
+            wm = self.wind_model
+            try:
+                if wm is None:
+                    if vessel is None:
+                        raise UsvidError("wind loads need the vessel's windage particulars: the "
+                                         "model has no vessel block")
+                    wm = wind_load_model(vessel)
+                blk[:NWIND, 0] = wm.packed()
+            except UsvidError as exc:
+                raise SimulationError(f"simulate: {exc}") from None
+            w: dict[str, Any] = {"model": wm.name, "reason": wm.reason,
+                                 "assumed": list(wm.assumed), "wind_scale": wm.wind_scale,
+                                 "air_density_kg_m3": wm.air_density,
+                                 "particulars": dict(wm.particulars),
+                                 "loads": "apparent wind less still air (ISO 15016)"}
+            if wm.name == "fujiwara1998":
+                w["assumed"].append("roll moment K = 0 (Fujiwara et al. 1998 gives none here)")
+            if kind.constant_speed:
+                if getattr(dyn, "N_delta", None) is None:
+                    try:
+                        if vessel is None:
+                            raise UsvidError("the model has no vessel block (mass, length)")
+                        re = rudder_equivalent(kind.name, dyn.values(), vessel)
+                    except UsvidError as exc:
+                        raise SimulationError(
+                            f"simulate: a {kind.name} model takes the wind's yaw moment as a "
+                            f"rudder-equivalent angle N / N_delta and N_delta cannot be had: "
+                            f"{exc}; give its parameter N_delta [N m/rad]") from None
+                    dyn = dyn.replace(N_delta=re.N_delta)
+                    w["rudder_equivalent"] = re.to_dict()
+                else:
+                    w["rudder_equivalent"] = {"N_delta_N_m_per_rad": float(np.mean(
+                        np.asarray(dyn.N_delta, dtype=float))), "assumed": ["given"]}
+                w["assumed"].append(f"a {kind.name} model has no sway and constant speed: the "
+                                    "wind's X, Y and K are not represented, only N (as a "
+                                    "rudder angle)")
+            info["wind"] = w
+        if self.sea is not None:
+            missing = [f"vessel.{k}" for k in ("length", "beam", "draft")
+                       if vessel is None or getattr(vessel, k, None) is None]
+            if missing:
+                raise SimulationError(f"simulate: the mean wave drift needs {', '.join(missing)} "
+                                      "[m]")
+            try:
+                fx0, fy0 = drift_coefficients(self.sea, float(vessel.length),
+                                              float(vessel.beam), float(vessel.draft))
+            except UsvidError as exc:
+                raise SimulationError(f"simulate: {exc}") from None
+            blk[NWIND:, 0] = (fx0, fy0, self.sea.chi)
+            info["waves"] = {**self.sea.to_dict(), "drift_fx0_N": fx0, "drift_fy0_N": fy0,
+                             "first_order_motion": bool(self.wave_motion),
+                             "wave_seed": int(self.wave_seed),
+                             "wave_components": int(self.wave_components)}
+            if kind.constant_speed:
+                info["waves"]["assumed"] = [f"a {kind.name} model has no sway: the drift force "
+                                            "(no yaw moment) does not act on it"]
+        return blk, dyn, info
+
+    def describe(self) -> dict[str, Any]:
+        """The inputs, JSON-ready (angles in degrees, as named): ``current`` (speed [m/s],
+        direction towards [deg]), ``wind`` (speed [m/s], direction from [deg]), ``waves`` (the
+        sea state), ``force`` given or not; a series is described by its mean."""
+        def num(v: Any) -> Any:
+            a = np.asarray(v, dtype=float)
+            return float(a) if a.ndim == 0 else {"mean": float(np.mean(a)), "min":
+                                                 float(np.min(a)), "max": float(np.max(a))}
+
+        def deg(v: Any) -> Any:
+            a = np.degrees(np.asarray(v, dtype=float))
+            return num(a)
+
+        out: dict[str, Any] = {
+            "current": {"speed_m_s": num(self.current_speed),
+                        "direction_towards_deg": deg(self.current_dir)},
+            "wind": {"speed_m_s": num(self.wind_speed),
+                     "direction_from_deg": deg(self.wind_dir)},
+            "waves": None if self.sea is None else self.sea.to_dict(),
+            "external_force": self.force is not None, "series": self.t is not None}
         return out
 
 
@@ -185,7 +341,9 @@ class Lanes:
     external force in body axes, ``current_x``, ``current_y`` [m/s] the current's velocity
     north and east, :class:`Environment`); ``Dq`` (2 or 3, B) disturbance spectral density
     [1/s], seed and (optional) noise stream index (default: the lane index; lanes with equal
-    seed and stream see the same noise).
+    seed and stream see the same noise); ``env_block`` (NENV, 1 or B) the state-dependent
+    environment (:data:`usvid.sim.layout.ENVBLOCK`: the packed wind-load model and the mean
+    wave drift, :meth:`Environment.block`; None: none), with the series ``wind_x``, ``wind_y``.
     """
 
     kind: ModelKind
@@ -201,6 +359,7 @@ class Lanes:
     Dq: np.ndarray | None = None
     channels: Sequence[str] = ("psi", "r")
     record_every: int = 1
+    env_block: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -262,9 +421,16 @@ class Lanes:
         def c(a: Any, dtype: Any = float) -> np.ndarray:  # lane-major, C, writable
             return np.array(np.asarray(a, dtype=dtype).T, dtype=dtype, order="C")
 
-        core.run(self.kind, c(self.P), c(self.S), int(self.servo), int(self.logic), c(L),
+        P = np.asarray(self.P, dtype=float)
+        wind = self.env_block is not None
+        if wind:
+            eb = np.asarray(self.env_block, dtype=float)
+            P = np.vstack([np.broadcast_to(P, (P.shape[0], B)), np.broadcast_to(eb, (eb.shape[0],
+                                                                                     B))])
+        core.run(self.kind, c(P), c(self.S), int(self.servo), int(self.logic), c(L),
                  c(Dq), SER, sidx, Z, np.require(self.nsteps, np.int64, ("C", "W")),
-                 float(self.dt), int(self.record_every), slots, rec, acc, zz, zzt, status, qcap)
+                 float(self.dt), int(self.record_every), slots, rec, acc, zz, zzt, status, qcap,
+                 wind=wind)
         acc, zz, zzt, status = acc.T, zz.T, zzt.T, status.T
         return LaneResult(t=np.arange(nrec) * self.record_every * self.dt,
                           channels={n: rec[j] for j, n in enumerate(self.channels)},
@@ -379,6 +545,12 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
                                   "constant-speed response model)")
     speed = approach_speed(model, u0)
     dist = disturbance
+    env_block = None
+    env_info: dict[str, Any] = {}
+    if environment is not None and environment.stateful:
+        env_block, dyn, env_info = environment.block(model, kind)
+        if dyn is not model.dynamics:
+            model = VesselModel(dyn, servo=model.servo, vessel=model.vessel)
     lrows: list[Any] = [0.0] * 6
     lk = core.COMMANDED
     series: dict[str, Any] = {}
@@ -465,18 +637,45 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         raise SimulationError("simulate: channels must name at least one channel")
     lanes = Lanes(kind=kind, P=P, servo=skind, S=S, Z0=Z0, nsteps=np.full(B, nsteps),
                   dt=dt, logic=lk, L=L, series=series, Dq=Dq, channels=tuple(wanted),
-                  record_every=record_every)
+                  record_every=record_every, env_block=env_block)
     out = lanes.run()
     chans = out.channels
     _fill_inputs(kind, model.dynamics, chans, B)
+    meta: dict[str, Any] = {"nsteps": nsteps, "integrator": "rk4", "u0": speed,
+                            "kind": kind.name}
+    if environment is not None:
+        described = environment.describe()
+        for key, value in env_info.items():
+            described[key] = {**(described.get(key) or {}), **value}
+        meta["environment"] = described
+        if environment.sea is not None and environment.wave_motion:
+            _add_wave_motion(environment, model, out.t, chans, B)
     return SimResult(
         t=out.t, channels=chans,
         course={"itae": out.acc[0], "iae": out.acc[1], "max_rudder": out.acc[2]},
         zigzag_online={"overshoot": out.zz.T.copy(), "reversal_t": out.zzt.T.copy()},
         model=model, logic=logic, dt=float(dt), record_every=record_every,
         status=out.status[0].astype(int), t_fail=out.status[1],
-        meta={"nsteps": nsteps, "integrator": "rk4", "u0": speed, "kind": kind.name},
+        meta=meta,
     )
+
+
+def _add_wave_motion(env: Environment, model: VesselModel, t: np.ndarray,
+                     chans: dict[str, np.ndarray], B: int) -> None:
+    """The first-order wave-induced motion of ``env.sea`` added to the recorded x, y, psi
+    (:func:`usvid.models.environment.wave_motion` along the recorded track; run b draws its
+    components from (wave_seed, b)); needs x, y and psi recorded (the phases follow the
+    position, the response the heading)."""
+    if not all(k in chans for k in ("x", "y", "psi")):
+        raise SimulationError("simulate: the first-order wave motion needs the channels x, y "
+                              "and psi recorded (or Environment(wave_motion=False))")
+    L = float(model.vessel.length)
+    comps = wave_components(env.sea, n_components=int(env.wave_components),
+                            seed=int(env.wave_seed), n_batch=B, length=L)
+    wm = wave_motion(comps, env.sea, L, t, chans["x"], chans["y"], chans["psi"])
+    chans["x"] = chans["x"] + wm.north
+    chans["y"] = chans["y"] + wm.east
+    chans["psi"] = chans["psi"] + wm.psi
 
 
 def _fill_inputs(kind: ModelKind, dyn: Any, chans: dict[str, np.ndarray], B: int) -> None:

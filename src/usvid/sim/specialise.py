@@ -138,7 +138,7 @@ class KindCode:
     swv: tuple[float, ...]
     key: str
     g: dict[str, Any]
-    env: dict[str, int] = dataclasses.field(default_factory=dict)
+    env: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def chunk_switch(self, P: np.ndarray, lo: int, hi: int) -> int:
         """The vector step index of the lanes lo..hi-1 of the (lanes x rows) parameters P: the
@@ -175,10 +175,12 @@ def kernel(kind: ModelKind) -> KindCode:
            "zp": js + p if p >= 0 else -1}
     g = _globals()
     g.update(lay.constants())
-    g.update(rhs=kind.rhs, TRIG=bool(kind.uses_trig), ZR=pos["zr"], ENV=False)
+    g.update(rhs=kind.rhs, TRIG=bool(kind.uses_trig), ZR=pos["zr"], ENV=False, WIND=False,
+             ZU=pos["zu"], ZV=pos["zv"], SPEEDROW=kind.speed_row)
     for name, fn in _layout.joint_helpers(lay, g).items():
         g[name] = _helper(fn)
     g["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, g))
+    g["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(lay, g, read=False))
     lstep = _lane_step(dict(g), key, "")
     values = tuple(float(v) for v in kind.switch_values) if kind.switch_row >= 0 else ()
     if len(values) > 3:
@@ -207,6 +209,28 @@ def lane_step(kind: ModelKind, env: bool) -> int:
     if "lstep" not in code.env:
         code.env["lstep"] = _lane_step(dict(code.g, ENV=True), code.key, "e").address
     return code.env["lstep"]
+
+
+def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
+    """(address, kinfo) of the per-lane step of ``kind`` with the state-dependent environment
+    (wind loads from the apparent wind, mean wave drift; :func:`usvid.sim.lane._envload`) and
+    the environment series, compiled at first use. Its chunk array has the environment block
+    (:data:`usvid.sim.layout.NENV` rows) after the kind's parameters: the batch's parameters
+    carry it as their last rows, and its ``kinfo`` says so (the driver loads all of them)."""
+    code = kernel(kind)
+    if "wstep" not in code.env:
+        lay = code.layout
+        wide = _layout.Layout(lay.ns, lay.npk + _layout.NENV)
+        g = dict(code.g, ENV=True, WIND=True)
+        g.update(wide.constants())
+        g["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(lay, g, read=True))
+        k = code.kinfo.copy()
+        for i, v in ((_layout.KNPK, wide.npk), (_layout.KVB, wide.vb), (_layout.KVN, wide.vn),
+                     (_layout.KROWS, wide.rows)):
+            k[i] = v
+        code.env["wstep"] = _lane_step(g, code.key, "w").address
+        code.env["wkinfo"] = k  # type: ignore[assignment]
+    return code.env["wstep"], code.env["wkinfo"]  # type: ignore[return-value]
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,

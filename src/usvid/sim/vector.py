@@ -111,15 +111,15 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
         cx = 0.0
         cy = 0.0
     else:
-        fd = fs[0] + tau * (fs[10] - fs[0])
+        fd = fs[0] + tau * (fs[12] - fs[0])
         de = (d if np.isnan(fd) else fd) + DIST_B * z[JW2]
-        n0 = fs[1] + tau * (fs[11] - fs[1])
-        n1 = fs[2] + tau * (fs[12] - fs[2])
-        n2 = fs[3] + tau * (fs[13] - fs[3])
-        f = (fs[4] + tau * (fs[14] - fs[4]), fs[5] + tau * (fs[15] - fs[5]),
-             fs[6] + tau * (fs[16] - fs[6]), fs[7] + tau * (fs[17] - fs[7]))
-        cx = fs[8] + tau * (fs[18] - fs[8])
-        cy = fs[9] + tau * (fs[19] - fs[9])
+        n0 = fs[1] + tau * (fs[13] - fs[1])
+        n1 = fs[2] + tau * (fs[14] - fs[2])
+        n2 = fs[3] + tau * (fs[15] - fs[3])
+        f = (fs[4] + tau * (fs[16] - fs[4]), fs[5] + tau * (fs[17] - fs[5]),
+             fs[6] + tau * (fs[18] - fs[6]), fs[7] + tau * (fs[19] - fs[7]))
+        cx = fs[8] + tau * (fs[20] - fs[8])
+        cy = fs[9] + tau * (fs[21] - fs[9])
     cd = 1.0
     sd = 0.0
     hm = 0.0
@@ -242,14 +242,16 @@ def _vstep(Vp, h, frac, zig, sk):
                V[o + 6 * CH], w0, w1, w2)
         if NOD:
             fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
-                  np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan)
+                  np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
+                  np.nan, np.nan, np.nan, np.nan)
         else:
             o = VF * CH + j
             fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
                   V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
                   V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH],
                   V[o + 15 * CH], V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH],
-                  V[o + 19 * CH])
+                  V[o + 19 * CH], V[o + 20 * CH], V[o + 21 * CH], V[o + 22 * CH],
+                  V[o + 23 * CH])
         z = _ztup(V, j)
         y = _vrk4(_ptup(V, j), z, h, frac, srv, V[VCMD * CH + j], V[VRAMP * CH + j],
                   V[VNOISE * CH + j], fs, tr)
