@@ -1,4 +1,4 @@
-"""Batch simulator benchmark: 10,000 zig-zag 10/10 runs of the seed-000 Lanxin 3-DOF model.
+"""Batch simulator benchmark: 10,000 zig-zag 10/10 runs of the Lanxin 3-DOF model (Mu et al. 2018).
 
 Model: Mu et al. 2018 eq. 37 (``mu2018_threedof``, x_l = 3.5 m, thrust holding 10 kn = 5.144 m/s)
 with the identified second-order servo 1.95/(s^2 + 2.38125 s + 1.95) e^{-s} (+-35 deg);
@@ -117,7 +117,7 @@ def main() -> None:
     ref_wall, ref_over = reference()
     per_run = wall / B
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"bench_sim: {B} zig-zag 10/10 runs, seed-000 3-DOF + 2nd-order servo, "
+    print(f"bench_sim: {B} zig-zag 10/10 runs, Lanxin 3-DOF + 2nd-order servo, "
           f"{T_END:.0f} s at dt={DT} s ({int(steps)} RK4 steps/run)")
     print(f"  numba threads: {numba.get_num_threads()}  (os.cpu_count() = {os.cpu_count()}, "
           f"load average {os.getloadavg()[0]:.1f} before, machine shared)")

@@ -1,5 +1,5 @@
 """Steady force balances of the Dalian twin-thruster USV's sine and circle runs: what the sine
-run can and cannot tell about the circle (README, twin-thruster USV; issue 9).
+run can and cannot tell about the circle (README, twin-thruster USV).
 
 Usage: ``python examples/usv_twin_balance.py DIR`` with DIR the folder of ``boat1_2_sin.xlsx``
 and ``boat1_2_circle.xlsx``. Both logs are read with the shipped ``twin_thruster_xlsx`` spec

@@ -33,7 +33,7 @@ from hypothesis import strategies as st
 
 from usvid.errors import UsvidError
 
-#: Hypothesis examples per loader in ``make test`` (issue 13: at least 10,000 each), the
+#: Hypothesis examples per loader in ``make test`` (at least 10,000 each), the
 #: costliest loaders' split over two files (:func:`halves`), the message-log formats one file
 #: each (tests/test_fuzz_messages.py). ``USVID_FUZZ_EXAMPLES`` sets the count for all.
 N_EXAMPLES = int(os.environ.get("USVID_FUZZ_EXAMPLES", "10000"))

@@ -163,7 +163,7 @@ def test_ls_reports_f_alpha_as_held_not_as_measured(capsys):
 
 
 def test_twin_thruster_spec_works_with_catamaran_and_no_negative_mass(twin_dir, tmp_path):
-    """Issue 9: the shipped twin-thruster spec with --model catamaran (PWM commands through the
+    """The shipped twin-thruster spec with --model catamaran (PWM commands through the
     declared thrust map) identifies a model; least squares gives a negative sway mass on the sine
     run (m22 < 0), which is never returned: the masses are constrained positive and the warning
     names the coefficient held at its bound."""
@@ -266,14 +266,14 @@ def test_hsva_held_out_zigzags(hsva_dir):
     from usvid.identify.validation import validate_trial
     from usvid.io import read_trial
 
-    # issue 9, "Real (HSVA)": trained on the 10/05, 15/05 and 20/05 zig-zags with default
-    # options (`usvid identify ... --model mmg --method oe`), the held-out 10/10 and 20/10
-    # zig-zags to port and starboard (simulated at their measured rudder amplitude with the
-    # identified helm, as `--validate`): first overshoots within 1.0 deg, second overshoots
-    # within 2.5 deg. Measured (the one validation: the measured approach speed and shaft
-    # speed, the smoothed measured heading): first +0.15, +0.12, -0.98, -0.73; second +0.71,
-    # -2.00, +1.31, -0.43 deg (with the former zig-zag check +0.16, +0.16, -0.95, -0.69 and
-    # +0.75, -1.96, +1.34, -0.41; the 10/10 S second overshoot was -3.6 with f_alpha held)
+    # the real-data check of the MMG kind (HSVA): trained on the 10/05, 15/05 and 20/05 zig-zags
+    # with default options (`usvid identify ... --model mmg --method oe`), the held-out 10/10 and
+    # 20/10 zig-zags to port and starboard (simulated at their measured rudder amplitude with the
+    # identified helm, as `--validate`): first overshoots within 1.0 deg, second overshoots within
+    # 2.5 deg. Measured (the one validation: the measured approach speed and shaft speed, the
+    # smoothed measured heading): first +0.15, +0.12, -0.98, -0.73; second +0.71, -2.00, +1.31,
+    # -0.43 deg (with the former zig-zag check +0.16, +0.16, -0.95, -0.69 and +0.75, -1.96, +1.34,
+    # -0.41; the 10/10 S second overshoot was -3.6 with f_alpha held)
     trials = [read_trial(hsva_dir / f"HSVA_CPMC_KVLCC2_Z_{n}.dat", "hsva_kvlcc2")
               for n in ("10_05", "15_05", "20_05")]
     with warnings.catch_warnings():

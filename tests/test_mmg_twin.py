@@ -1,4 +1,4 @@
-"""MMG twin-thruster variant on the Dalian twin-thruster USV (issue 9): the declared PWM thrust
+"""MMG twin-thruster variant on the Dalian twin-thruster USV: the declared PWM thrust
 map with its thrust asymmetry (hand values), the warning where a run holds nearly constant
 differential thrust, and the sine -> circle prediction of the model identified from the sine run
 (``examples/usv_twin_mmg.json``, written by ``usvid identify boat1_2_sin.xlsx --format
@@ -149,14 +149,14 @@ def test_sine_to_circle_prediction_as_measured(circle_replay):
     assert -0.30 < d_pred / d_meas - 1.0 < -0.18
 
 
-@pytest.mark.xfail(strict=True, reason="issue 9 acceptance not met: the sine-run model turns "
+@pytest.mark.xfail(strict=True, reason="sine -> circle not predicted: the sine-run model turns "
                    "too fast in the steady circle (diameter -24 %) and too slowly in its first "
                    "minute (heading RMS 27 deg in 60 s). The sine run (0.76-0.97 m/s) does not "
                    "fix how the yaw balance scales with speed (the MMG form 1/U predicts 2.3 "
                    "deg/s at the circle's 0.68 m/s, measured 1.7), and its own yaw bias moves "
                    "by 1 deg/s between its halves (examples/usv_twin_balance.py)")
 def test_sine_to_circle_acceptance(circle_replay):
-    """Issue 9: steady turning diameter within 10 %, heading within 10 deg RMS over the first
+    """Wanted: steady turning diameter within 10 %, heading within 10 deg RMS over the first
     60 s of free run."""
     rms60, d_pred, d_meas = circle_replay
     assert rms60 < 10.0 and abs(d_pred / d_meas - 1.0) < 0.10

@@ -1,4 +1,4 @@
-"""The identified model is the model file is the model that is simulated (issue: one model core).
+"""The identified model is the model file is the model that is simulated (one model core).
 
 For every registered kind: virtual trials are simulated from a known model, seen through noisy
 sensors, written as CSV logs with their format spec; ``usvid identify`` (the CLI) writes a model
@@ -166,7 +166,7 @@ def test_identified_file_predicts_the_truth_manoeuvres(identified, capsys):
     m_zz = _cli(capsys, "simulate", "zigzag", str(model_file), "--delta-deg", "20")
     # the issue's acceptance: tactical diameter and steady speed within 2 %, first overshoot
     # within 0.3 deg of the truth model's (identification from noisy virtual trials). MMG
-    # (issue 9, from zig-zags only): advance and tactical diameter within 3 %, the 20/20 first
+    # (from zig-zags only): advance and tactical diameter within 3 %, the 20/20 first
     # overshoot within 0.5 deg; the steady speed of a 35 deg turn extrapolates the surge terms
     # (X_vv, X_vr, X_rr; identified 0.10, 0.22, 0.08 against the truth's -0.040, 0.002, 0.011)
     # far beyond the drift of a 20 deg zig-zag: within 8 % (measured +7.4 %; +4.2 % when

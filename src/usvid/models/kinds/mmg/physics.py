@@ -45,7 +45,7 @@ Numerically safe forms used by the kernels (identical to the paper for u > 0, n 
   ``U_R^2 sin alpha_R = U_R (u_R sin delta - v_R cos delta)``: no J, no atan, no division.
 * gamma_R and C_2 are chosen by a select on the sign (compiled to a conditional move).
 
-Actuator variants (issue 9 item 1), each a scalar numba kernel with the same
+Actuator variants, each a scalar numba kernel with the same
 ``(p, u, v, r, ...)`` convention (``p`` one lane's packed parameters, a tuple or
 1-D array indexed by the ``IDX_*`` constants: the kind contract of :mod:`usvid.models.kind`):
 
