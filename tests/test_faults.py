@@ -113,8 +113,21 @@ class WS:
 
 
 def _zigzag_trial(model: str = "lanxin.json") -> Trial:
-    """A 40 s 10/10 zig-zag of an example model, sampled at 20 Hz."""
-    res, _ = run_zigzag(load_model(EXAMPLES / model), 10.0, 10.0, t_end=40.0, dt=0.05)
+    """A 40 s 10/10 zig-zag of an example model (a file of examples/, or ``"fourdof"``: the
+    2.4 m USV with roll of tests/test_fourdof.py), sampled at 20 Hz."""
+    if model == "fourdof":
+        from usvid.models import IdealServo, VesselModel
+        from usvid.models.kinds.fourdof import FourDOF
+        from usvid.models.thrust import PodThrust
+        from usvid.trial import Vessel
+
+        vm = VesselModel(FourDOF(m11=80.0, m22=130.0, m44=12.0, m66=30.0, d11=40.0, d22=150.0,
+                                 d44=15.0, d66=200.0, w_gm=120.0, x_l=0.5, z_l=0.15, m24=8.5,
+                                 mzg=-7.0, d42=-15.0, thrust=PodThrust(c=0.0, d=20.0), n=2.0),
+                         IdealServo(max_rate=math.radians(20.0)), Vessel(length=2.4, speed=2.0))
+    else:
+        vm = load_model(EXAMPLES / model)
+    res, _ = run_zigzag(vm, 10.0, 10.0, t_end=40.0, dt=0.05)
     return res.to_trial()
 
 
@@ -805,11 +818,13 @@ DEGENERATE_BASES = {
         "x_l": 3.5, "propeller_diameter": 0.46, "propeller_pitch_ratio": 0.3,
         "propeller_disk_ratio": 0.516, "thrust_deduction": 0.05, "wake_fraction": 0.04}),
     "thrusters": ("catamaran.json", {"thruster_arm": 0.25}),  # psi, r, u, v, n_port, n_stbd
+    "roll": ("fourdof", {"x_l": 0.5, "z_l": 0.15, "pod_c": 0.0,  # psi, r, u, v, delta, n,
+                         "pod_d": 20.0}),  # phi, p (T = 80 N at n = 2 rps)
 }
 #: Every kind ``usvid identify --model`` offers and the log it is identified from.
 IDENTIFY_KINDS = {"nomoto1": "rudder", "nomoto2": "rudder", "nomoto2_nonlinear": "rudder",
                   "norrbin": "rudder", "threedof": "rudder", "mmg": "rudder",
-                  "catamaran": "thrusters"}
+                  "catamaran": "thrusters", "fourdof": "roll"}
 
 
 def _zigzag_log(ws: WS, base: str) -> tuple[pd.DataFrame, dict]:
@@ -872,7 +887,7 @@ def _third_round() -> None:
     for kind, base in IDENTIFY_KINDS.items():
         for variant, culprit in culprits.items():
             if variant == "actuator-constant":
-                culprit = ("'delta'", "std") if base == "rudder" else ("'n_port'", "std")
+                culprit = (("'n_port'", "std") if base == "thrusters" else ("'delta'", "std"))
             add((f"identify-degenerate-{variant}-{kind}", lambda ws, k=kind, b=base, v=variant,
                  c=culprit: (["identify", *_degenerate(ws, b, v)[:1], "--format",
                               _degenerate(ws, b, v)[1], "--model", k, "--out",
