@@ -10,13 +10,13 @@ is used, not where it is extrapolated) from the approach speed, :data:`PROBE_S` 
 refuses a model
 
 * whose shaft speed ``n`` is not positive (the propeller runs astern: no turning test);
-* that turns to port: the heading, once it has changed by :data:`TURN_DEG`, has decreased
-  (usvid's convention: a positive rudder angle makes the yaw rate positive; e.g. K < 0 with a
-  course-stable T > 0);
+* that turns to port (e.g. K < 0 with a course-stable T > 0);
 * whose surge speed ends negative (it goes astern: negative thrust);
-* (``strict``, for the autopilot design) that diverges within the probe: a yaw rate beyond the
-  kernel's 100 rad/s, which no vessel reaches (e.g. K = 1e12, or a cubic damping n3 < 0 that
-  lets the turn run away).
+* (``strict``, for the autopilot design) that diverges within the probe (e.g. K = 1e12, or a
+  cubic damping n3 < 0 that lets the turn run away).
+
+The probe and what counts as turning to the wrong side, going astern and diverging are defined
+once, in :mod:`usvid.sim.physics` (identification's model checks read the same probe).
 """
 
 from __future__ import annotations
@@ -25,14 +25,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from usvid.errors import UsvidError
 
 #: Length of the probe [s].
 PROBE_S = 60.0
-#: Heading change [deg] that shows the side of the probe's turn.
-TURN_DEG = 1.0
 #: Parameters named in the hint when negative (gains, shaft speed, cubic damping).
 _SIGNED = ("K", "n", "n3")
 
@@ -59,8 +55,7 @@ def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
     changed the model (``"--rps 1e-06"``), named in the message. ``duration`` [s]: the run the
     model is wanted for; the probe is no longer (at most :data:`PROBE_S`). ``angle`` [rad]: the
     probe's rudder angle (default: 35 deg or the steering gear's limit)."""
-    from usvid.manoeuvres.logic import Turning
-    from usvid.sim.simulate import simulate
+    from usvid.sim.physics import turn_probe
 
     name = Path(path).name
     hint = _hint(model, setting)
@@ -72,29 +67,17 @@ def check_physics(model: Any, path: str | Path, u0: float, dt: float, *,
                            f"propeller runs astern; give n > 0 or --rps){hint}")
     limit = min(math.radians(35.0), float(model.servo.max_angle))
     angle = limit if angle is None else min(abs(angle), float(model.servo.max_angle))
-    with np.errstate(all="ignore"):
-        res = simulate(model, Turning(delta=angle), t_end=min(PROBE_S, duration), dt=dt,
-                       u0=u0)
-    t = np.asarray(res.t, float)
-    psi = np.asarray(res["psi"][0], float)
-    ok = np.isfinite(psi)
-    dpsi = psi[ok] - psi[0]
-    turned = np.flatnonzero(np.abs(dpsi) > math.radians(TURN_DEG))
-    probe = f"under a {math.degrees(angle):g} deg rudder step to starboard"
-    if turned.size and dpsi[turned[0]] < 0:
-        i = int(np.flatnonzero(ok)[turned[0]])
-        raise PhysicsError(f"{where}: {probe} it turns to port (heading "
-                           f"{math.degrees(psi[i] - psi[0]):+.1f} deg at t = {t[i]:.1f} s; a "
-                           f"positive rudder angle must make the yaw rate positive){hint}")
-    u = res.channels.get("u")
-    if u is not None:
-        ue = np.asarray(u[0], float)
-        ue = ue[np.isfinite(ue)]
-        if ue.size and ue[-1] < 0:
-            raise PhysicsError(f"{where}: {probe} it goes astern (surge speed {ue[-1]:.3g} m/s "
-                               f"after {t[-1]:g} s: negative thrust?){hint}")
-    if strict and not res.success:
-        bad = np.flatnonzero(~ok)
-        when = f" at t = {t[bad[0]]:.2f} s" if bad.size else ""
-        raise PhysicsError(f"{where}: {probe} it diverges{when} (yaw rate beyond 100 rad/s, "
+    probe = turn_probe(model, angle, u0, t_end=min(PROBE_S, duration), dt=dt)
+    step = f"under a {math.degrees(angle):g} deg rudder step to starboard"
+    if probe.wrong_side:
+        raise PhysicsError(f"{where}: {step} it turns to port (heading "
+                           f"{math.degrees(probe.side_turn):+.1f} deg at t = "
+                           f"{probe.side_at:.1f} s; a positive rudder angle must make the yaw "
+                           f"rate positive){hint}")
+    if probe.astern:
+        raise PhysicsError(f"{where}: {step} it goes astern (surge speed {probe.u_end:.3g} m/s "
+                           f"after {probe.t[-1]:g} s: negative thrust?){hint}")
+    if strict and probe.diverged:
+        when = f" at t = {probe.diverged_at:.2f} s" if probe.diverged_at is not None else ""
+        raise PhysicsError(f"{where}: {step} it diverges{when} (yaw rate beyond 100 rad/s, "
                            f"which no vessel reaches){hint}")

@@ -49,10 +49,11 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
-from usvid.manoeuvres.logic import Turning, ZigZag
+from usvid.manoeuvres.logic import ZigZag
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.prep.under_way import MIN_SPEED, under_way
+from usvid.sim.physics import turn_probe
 from usvid.sim.runs import default_t_end
 from usvid.sim.simulate import approach_speed, simulate
 from usvid.trial import Trial
@@ -219,30 +220,26 @@ def _manoeuvre_checks(model: VesselModel, env: Envelope) -> list[Check]:
         where = (f"the turning circle at {side * a_deg:+.1f} deg rudder (inside the training "
                  f"envelope: up to {a_deg:.1f} deg at {env.speed:.3g} m/s)")
         try:
-            res = _run(model, Turning(side * env.delta_max), env.speed)
+            probe = turn_probe(model, side * env.delta_max, env.speed,
+                               t_end=default_t_end(model, env.speed), dt=0.02)
         except UsvidError as exc:
             out.append(Check(name, False, f"{where} cannot be simulated ({exc})"))
             continue
-        psi = res["psi"][0]
-        finite = res.success and bool(np.all(np.isfinite(psi)))
-        if not finite:
-            t_bad = float(res.t[int(np.argmax(~np.isfinite(psi)))]) if not np.all(
-                np.isfinite(psi)) else math.nan
+        if probe.diverged:
+            t_bad = probe.diverged_at if probe.diverged_at is not None else math.nan
             out.append(Check(name, False, f"the model diverges in {where} after {t_bad:.0f} s"))
             continue
-        turn = float(psi[-1] - psi[0])
-        if side * turn <= 0:
+        if probe.wrong_side or (probe.side_turn is None and side * probe.turn <= 0):
             out.append(Check(name, False, (
                 f"with the rudder at {side * a_deg:+.1f} deg the model turns to the other side "
-                f"({math.degrees(turn):+.0f} deg): a positive rudder angle makes r positive")))
+                f"({math.degrees(probe.turn):+.0f} deg): a positive rudder angle makes r "
+                "positive")))
             continue
-        if not kind.constant_speed and "u" in res.channels:
-            u_end = float(res["u"][0][-1])
-            if not u_end > 0:
-                out.append(Check(name, False, f"the surge speed in {where} falls to "
-                                              f"{u_end:.3g} m/s: the model stops or runs "
-                                              "astern"))
-                continue
+        if not kind.constant_speed and probe.astern:
+            out.append(Check(name, False, f"the surge speed in {where} falls to "
+                                          f"{probe.u_end:.3g} m/s: the model stops or runs "
+                                          "astern"))
+            continue
         out.append(Check(name, True))
     amps = [a for a in (10.0, 20.0) if a <= a_deg + 1e-9] or [a_deg]
     for a in amps:
