@@ -56,10 +56,11 @@ SFORCE, SCUR, SWIND = 4, 8, 10
 #: The per-lane environment block of a batch with a state-dependent environment (wind loads,
 #: mean wave drift), rows after the kind's own parameters: the packed wind-load model
 #: (:data:`usvid.models.environment.wind_loads.WIND_PACK` entries, code 0: none), then the
-#: mean wave drift's coefficients fx0, fy0 [N] and the direction the waves travel towards chi
-#: [rad] (:func:`usvid.models.environment.waves.mean_drift_scalar`; fx0 = fy0 = 0: none).
+#: mean wave drift's coefficients fx0, fy0 [N] and the cosine and sine of the direction chi the
+#: waves travel towards (:func:`usvid.models.environment.waves.mean_drift_cs`; fx0 = fy0 = 0:
+#: none; cos and sin, not chi, so that the vector step calls no library function).
 NWIND = 16
-ENVBLOCK = ("wind",) * NWIND + ("drift_fx0", "drift_fy0", "drift_chi")
+ENVBLOCK = ("wind",) * NWIND + ("drift_fx0", "drift_fy0", "drift_cos_chi", "drift_sin_chi")
 NENV = len(ENVBLOCK)
 #: Zig-zag overshoots tracked online.
 N_ZZ = 8
