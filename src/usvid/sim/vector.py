@@ -6,7 +6,9 @@ its address): the trig bases, one RK4 step (:func:`_vrk4` of :func:`_vderiv`) an
 the step of every lane slot, with the lane loop innermost so that LLVM vectorises it (SIMD);
 the right-hand side of the kind is inlined. A variant fixes at compile time the servo kind
 (``SK``), the absence of disturbance and input series (``NOD``), whether x and y are
-integrated (``XY``) and, for a kind with a switch row, its value (a literal in ``_ptup``).
+integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the loads at every
+RK4 stage by :func:`usvid.sim.lane._envload`, no library call in it, so the lane loop still
+vectorises) and, for a kind with a switch row, its value (a literal in ``_ptup``).
 
 Globals the specialisation sets: the kind's ``rhs``, ``TRIG``, the layout constants (``VB``,
 ``NT``, ``VROWS``, ``ZR``), the variant's constants and the generated joint-state helpers
