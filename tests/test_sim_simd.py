@@ -166,7 +166,7 @@ def test_simd_path_equals_per_lane_path_in_wind_current_and_waves(kind, wind_mod
     lanes = np.arange(B)[:, None]
     env = Environment(t=t, wind_speed=6.0 + 2.0 * np.sin(0.4 * t + lanes),
                       wind_dir=2.0 * math.pi * lanes / B + 0.1 * np.cos(0.2 * t),
-                      current_speed=0.5, current_dir=1.2,
+                      current_speed=np.full(t.size, 0.5), current_dir=np.full(t.size, 1.2),
                       sea=SeaState(hs=1.0, tp=5.0, direction=2.0), wave_motion=False,
                       wind_model=wind_load_model(vessel, model=wind_model))
     amp = np.radians(np.linspace(8.0, 25.0, B))

@@ -164,10 +164,15 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
                 steps[swi] = vector_step(kind, swi, skind, nod, xy, wind)
             vaddr[lo] = steps[swi]
 
+    # the environment's series constant in time (and no other series): loaded once by the driver
+    used = [i for i in range(NSER) if sidx[i] >= 0]
+    sconst = bool(used) and min(used) >= SFORCE and all(
+        bool(np.all(SER[sidx[i]] == SER[sidx[i], :, :1])) for i in used)
+
     def task(lo: int) -> None:
         drive(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,
               dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd, vaddr[lo],
-              lstep, kinfo)
+              lstep, kinfo, sconst)
 
     threads = min(numba.get_num_threads(), len(starts))
     if threads <= 1:
