@@ -104,11 +104,11 @@ def kernel(kind: ModelKind) -> KindCode:
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool,
-                wind: bool = False) -> int:
+                wind: bool = False, wcode: int = -1) -> int:
     """Address of a vector-step variant of ``kind`` (:func:`usvid.sim.specialise.vector_step`;
     the generic one for every batch when :data:`FORCE_GENERIC`)."""
     return specialise.vector_step(kind, swi, sk, nod, xy, generic=bool(FORCE_GENERIC),
-                                  wind=wind)
+                                  wind=wind, wcode=wcode)
 
 
 def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: np.ndarray,
@@ -157,11 +157,15 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         nod = (not bool(np.any(sidx[:NSER] >= 0)) and not bool(np.any(Dq[:, 0] > 0.0))
                and not bool(np.any(Z[:, ID + 2:ID + 4] != 0.0)))
         xy = bool(slots[0] >= 0 or slots[1] >= 0)
+        wcode = -1  # the wind-load model's code of every lane: a literal in the variant
+        if wind:
+            codes = P[:, kind.n_params]
+            wcode = int(codes[0]) if bool(np.all(codes == codes[0])) else -1
         steps: dict[int, int] = {}
         for lo in starts:
             swi = code.chunk_switch(P, lo, min(B, lo + chunk))
             if swi not in steps:
-                steps[swi] = vector_step(kind, swi, skind, nod, xy, wind)
+                steps[swi] = vector_step(kind, swi, skind, nod, xy, wind, wcode)
             vaddr[lo] = steps[swi]
 
     # the environment's series constant in time (and no other series): loaded once by the driver

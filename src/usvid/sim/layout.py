@@ -251,10 +251,15 @@ def param_tuple(layout: Layout, g: Mapping[str, Any],
     return _function("_ptup", "V, j", [f"return {_tuple(items)}"], g)
 
 
-def env_tuple(layout: Layout, g: Mapping[str, Any], *, read: bool) -> Any:
+def env_tuple(layout: Layout, g: Mapping[str, Any], *, read: bool,
+              const: Mapping[int, float] | None = None) -> Any:
     """``_etup(V, j)``: lane slot j's environment block (:data:`ENVBLOCK`) from the rows after
     the kind's parameters (``read``: a batch with wind loads or wave drift, whose chunk array
-    has :data:`NENV` more parameter rows), else zeros (literals: compiled away)."""
-    items = [f"V[{(layout.vp + layout.npk + i) * CH} + j]" if read else "0.0"
+    has :data:`NENV` more parameter rows), else zeros (literals: compiled away); the rows of
+    ``const`` replaced by literals (the wind-load model's code in a vector-step variant: the
+    other model's branch compiled away)."""
+    const = const or {}
+    items = [repr(float(const[i])) if i in const else
+             f"V[{(layout.vp + layout.npk + i) * CH} + j]" if read else "0.0"
              for i in range(NENV)]
     return _function("_etup", "V, j", [f"return {_tuple(items)}"], g)

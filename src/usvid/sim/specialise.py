@@ -244,7 +244,7 @@ def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
-                generic: bool = False, wind: bool = False) -> int:
+                generic: bool = False, wind: bool = False, wcode: int = -1) -> int:
     """Address of the vector step (:func:`usvid.sim.vector._vstep`, a C callback) of ``kind``
     for the switch value ``swi`` (index into the kind's switch values; the last: generic), the
     servo kind ``sk``, without disturbance and input series (``nod``), with x and y (``xy``);
@@ -264,23 +264,31 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     drift; the chunk array of :func:`wind_step`, its ``kinfo``), the loads computed at every
     RK4 stage by the per-lane step's own function (:func:`usvid.sim.lane._envload`), with the
     series and x, y (the heading's rotation); without it the variants compile as if the
-    environment code did not exist (``WIND`` a compile-time False)."""
+    environment code did not exist (``WIND`` a compile-time False). ``wcode``: the wind-load
+    model's code (:mod:`usvid.models.environment.wind_loads`) common to the batch's lanes, a
+    literal in the variant (only that model's code compiled); -1: read per lane."""
     code = kernel(kind)
     lay = code.layout
     if lay.npk > INLINE_MAX_PARAMS or generic:
         sk, nod, xy = -1, False, True
     if wind:
         nod, xy = False, True
-    vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind))
+    else:
+        wcode = -1
+    vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode))
     if vk in _VSTEPS:
         return _VSTEPS[vk].address
     const = {code.swr: code.swv[swi]} if code.swr >= 0 and swi < len(code.swv) else {}
     gv = dict(_wind_globals(code) if wind else code.g, SK=sk, NOD=bool(nod), XY=bool(xy))
+    if wind and wcode >= 0:
+        gv["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(
+            lay, gv, read=True, const={0: float(wcode)}))
     gv["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, gv, const))
     helpers = _layout.joint_helpers(lay, gv, xy=bool(xy), nod=bool(nod))
     for name in VARIANT_HELPERS:
         gv[name] = _helper(helpers[name])
-    tag = f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}{'w' if wind else ''}"
+    tag = (f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
+           + (f"w{wcode if wcode >= 0 else 'g'}" if wind else ""))
     for name in VECTOR_TEMPLATES:
         _specialise(gv, name, f"{name}{tag}__{code.key}",
                     forceinline=False if (name == "_vderiv" and lay.npk > INLINE_MAX_PARAMS)

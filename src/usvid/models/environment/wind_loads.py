@@ -181,14 +181,15 @@ _MOREBITS = 6.123233995736765886130e-17
 
 
 @numba.njit(cache=True, error_model="numpy", forceinline=True)
-def atan_poly(x):
-    """arctan x [rad] for any x (inf included) without a library call (Cephes' ``atan``:
-    relative error about 1e-16), branches written as selects so that a loop over lanes that
-    calls it vectorises (the library's atan has no vector form here)."""
-    a = abs(x)
-    big = a > _T3P8
-    mid = a > 0.66
-    xr = -1.0 / a if big else ((a - 1.0) / (a + 1.0) if mid else a)
+def atan_ratio(y, x):
+    """arctan(y / x) [rad] for x >= 0 (x = 0: +-pi/2; not both 0) without a library call:
+    Cephes' ``atan`` (relative error about 1e-16) with its argument reduction written on the
+    ratio's terms, so that one division forms the reduced argument, and its branches as selects:
+    a loop over lanes that calls it vectorises (the library's atan has no vector form here)."""
+    a = abs(y)
+    big = a > _T3P8 * x  # y / x > tan(3 pi / 8): pi/2 + atan(-x / y)
+    mid = a > 0.66 * x  # pi/4 + atan((y - x) / (y + x))
+    xr = (-x if big else (a - x if mid else a)) / (a if big else (a + x if mid else x))
     y0 = 0.5 * math.pi if big else (0.25 * math.pi if mid else 0.0)
     extra = _MOREBITS if big else (0.5 * _MOREBITS if mid else 0.0)
     z = xr * xr
@@ -196,7 +197,7 @@ def atan_poly(x):
     den = ((((z + _ATAN_Q[0]) * z + _ATAN_Q[1]) * z + _ATAN_Q[2]) * z + _ATAN_Q[3]) * z \
         + _ATAN_Q[4]
     r = y0 + ((xr * (z * num / den) + xr) + extra)
-    return r if x >= 0.0 else -r
+    return r if y >= 0.0 else -r
 
 
 @numba.njit(cache=True, error_model="numpy", forceinline=True)
@@ -205,7 +206,7 @@ def wind_coefficients_cs(p, c, s):
     positive for a wind from port: minus the apparent wind angle) given by ``c`` = cos g and
     ``s`` = sin g; zeros for code 0 (calm). No library call (the multiple angles by their
     polynomials, cos 3g = 4c^3 - 3c, ...; Blendermann's |g| = pi/2 - arctan(c / |s|) by
-    :func:`atan_poly`): the integration core's vector step calls it for every lane."""
+    :func:`atan_ratio`): the integration core's vector step calls it for every lane."""
     code = int(p[0])
     if code == 0:
         return 0.0, 0.0, 0.0, 0.0
@@ -221,13 +222,13 @@ def wind_coefficients_cs(p, c, s):
         cn = p[13] * s + p[14] * sin2 + p[15] * sin3
         return cx, cy, cn, math.nan
     # Blendermann 1994: p[6:] = C_Dt, C_Dl,AF bow, stern, delta, kappa, A_T/A_L, s_L/L_OA,
-    # s_H/H_M
-    ag = 0.5 * math.pi - atan_poly(c / abs(s))  # |g| in [0, pi] (s = 0: c / 0 = +-inf)
+    # s_H/H_M. D = 1 - delta/2 (1 - C_Dl / C_Dt) sin^2 2g written as D' / C_Dt (one division
+    # for C_X and C_Y); |g| - pi/2 = -arctan(c / |s|) (s = 0: c / 0, +-pi/2)
     cdl_af = p[7] if c >= 0.0 else p[8]
-    den = 1.0 - 0.5 * p[9] * (1.0 - cdl_af * p[11] / p[6]) * sin2 * sin2
-    cx = -cdl_af * c / den
-    cy = p[6] * s / den
-    cn = (p[12] - 0.18 * (ag - 0.5 * math.pi)) * cy
+    rden = p[6] / (p[6] - 0.5 * p[9] * (p[6] - cdl_af * p[11]) * sin2 * sin2)  # 1 / D
+    cx = -cdl_af * c * rden
+    cy = p[6] * s * rden
+    cn = (p[12] + 0.18 * atan_ratio(c, abs(s))) * cy
     return cx, cy, cn, p[10] * p[13] * cy
 
 
