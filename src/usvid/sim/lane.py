@@ -93,13 +93,22 @@ def _envload(pe, wx, wy, vn, ve, cps, sps):
     No library call but square roots and every branch a select: the per-lane step and the
     vector step (:mod:`usvid.sim.vector`, vectorised over the lanes) call this one function,
     compiled without fast-math (the same arithmetic on both paths)."""
-    ax, ay = air_relative_body(wx, wy, vn, ve, cps, sps)
-    x1, y1, n1, k1 = wind_load_body(pe, ax, ay)
-    ax0, ay0 = air_relative_body(0.0, 0.0, vn, ve, cps, sps)
-    x0, y0, n0, k0 = wind_load_body(pe, ax0, ay0)
-    k = k1 - k0
+    x = 0.0
+    y = 0.0
+    k = 0.0
+    n = 0.0
+    if pe[0] != 0.0:  # a wind-load model (a literal in a vector-step variant: else compiled away)
+        ax, ay = air_relative_body(wx, wy, vn, ve, cps, sps)
+        x1, y1, n1, k1 = wind_load_body(pe, ax, ay)
+        ax0, ay0 = air_relative_body(0.0, 0.0, vn, ve, cps, sps)
+        x0, y0, n0, k0 = wind_load_body(pe, ax0, ay0)
+        x = x1 - x0
+        y = y1 - y0
+        k = k1 - k0
+        k = 0.0 if np.isnan(k) else k
+        n = n1 - n0
     dx, dy = mean_drift_cs(pe[16], pe[17], pe[18], pe[19], cps, sps)
-    return (x1 - x0) + dx, (y1 - y0) + dy, (0.0 if np.isnan(k) else k), n1 - n0
+    return x + dx, y + dy, k, n
 
 
 def _deriv(p, pe, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
