@@ -14,8 +14,11 @@ Printed: wall and CPU time, numba threads, load average, per-run times and their
 memory (tracemalloc peak of Python/numpy allocations during the batch, and the process max RSS);
 then a table of ns CPU per RK4 step per model kind for the SIMD kernel and for the per-lane path
 (``core.SIMD = False``: every step integrated lane by lane, the reference; its right-hand side
-is called out of line), with their ratio and the ratio to solve_ivp. The machine may be shared:
-CPU time per step is the figure to compare; wall time depends on the load.
+is called out of line), with their ratio and the ratio to solve_ivp; then the 3-DOF zig-zag in
+calm water and with a constant wind and current (:data:`WIND`: the wind loads of the apparent wind
+and the current at every RK4 stage, on the vector step's wind variant), the minimum of three
+runs each, interleaved (``--wind``: only that table). The machine may be shared: CPU time per
+step is the figure to compare; wall time depends on the load.
 """
 
 from __future__ import annotations
