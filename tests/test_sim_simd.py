@@ -22,8 +22,18 @@ from usvid.models import (
     mu2018_threedof,
     registry,
 )
+from usvid.models.environment import SeaState, wind_load_model
 from usvid.models.thrust import Propeller
-from usvid.sim import Commanded, Disturbance, Turning, ZigZag, core, simulate
+from usvid.sim import (
+    Commanded,
+    Disturbance,
+    Environment,
+    Turning,
+    ZigZag,
+    core,
+    simulate,
+    specialise,
+)
 from usvid.trial import Vessel
 
 B = core.CH + 8  # one full chunk and a partial one
@@ -125,3 +135,49 @@ def test_simd_path_equals_per_lane_path_threedof_coupling(coupled):
     a, b = _both(model, Turning(np.radians(np.linspace(-30.0, 30.0, B)),
                                 t_start=np.linspace(0.0, 3.0, B)), t_end=20.0, dt=0.02)
     _assert_same(a, b)
+
+
+#: A 7 m USV's windage: Blendermann's form needs A_T, A_L [m^2] and L; Fujiwara et al. (1998)
+#: also the superstructure's and the lateral centroid's (the Esso Osaka model's particulars
+#: scaled by 7.02 / 3: lengths by the ratio, areas by its square).
+_S = 7.02 / 3.0
+WINDAGE = dict(length=7.02, speed=5.14, beam=0.489 * _S, draft=0.32, mass=1500.0,
+               frontal_area=0.13544 * _S**2, lateral_area=0.52038 * _S**2,
+               extra=dict(superstructure_area=0.14230 * _S**2, lateral_centroid_x=-0.01299 * _S,
+                          lateral_centroid_height=0.10359 * _S, superstructure_x=-1.23339 * _S,
+                          superstructure_height=0.2940 * _S))
+
+
+@pytest.mark.parametrize(("kind", "wind_model"), [
+    ("threedof", "blendermann1994"), ("threedof", "fujiwara1998"), ("nomoto1", "blendermann1994"),
+])
+def test_simd_path_equals_per_lane_path_in_wind_current_and_waves(kind, wind_model):
+    """The wind loads and the mean wave drift, computed at every RK4 stage from the stage's
+    velocity over ground and heading, on the vector step (its wind variant, which the batch
+    must take) give the per-lane path's runs: a gusty wind series per run (every direction of
+    the apparent wind within the batch), a current, a sea state (mean drift), noise on some
+    lanes, zig-zags of both signs; a force kind and a response kind (the wind's yaw moment as a
+    rudder-equivalent angle), both published wind-load models."""
+    dyn = mu2018_threedof(x_l=3.5) if kind == "threedof" else registry.get(kind).dynamics.example()
+    vessel = Vessel(**WINDAGE)
+    model = VesselModel(dyn, servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5,
+                                                    max_rate=math.radians(20.0)), vessel=vessel)
+    t = np.linspace(0.0, 30.0, 61)
+    lanes = np.arange(B)[:, None]
+    env = Environment(t=t, wind_speed=6.0 + 2.0 * np.sin(0.4 * t + lanes),
+                      wind_dir=2.0 * math.pi * lanes / B + 0.1 * np.cos(0.2 * t),
+                      current_speed=np.full(t.size, 0.5), current_dir=np.full(t.size, 1.2),
+                      sea=SeaState(hs=1.0, tp=5.0, direction=2.0), wave_motion=False,
+                      wind_model=wind_load_model(vessel, model=wind_model))
+    amp = np.radians(np.linspace(8.0, 25.0, B))
+    dist = Disturbance(intensity=np.where(np.arange(B) % 3 == 0, 0.0, math.radians(1.0)), seed=4)
+    a, b = _both(model, ZigZag(amp, amp, first=np.where(np.arange(B) % 2 == 0, 1, -1)),
+                 t_end=30.0, dt=0.05, disturbance=dist, environment=env,
+                 psi0=np.linspace(-0.2, 0.2, B))
+    assert a.meta["environment"]["wind"]["model"] == wind_model
+    key = specialise.kernel_key(registry.get(kind))  # the batch took the wind variant
+    assert any(k[0] == key and k[5] for k in specialise._VSTEPS)
+    _assert_same(a, b)
+    calm = simulate(model, ZigZag(amp, amp, first=np.where(np.arange(B) % 2 == 0, 1, -1)),
+                    t_end=30.0, dt=0.05, disturbance=dist, psi0=np.linspace(-0.2, 0.2, B))
+    assert np.max(np.abs(a["psi"] - calm["psi"])) > 1e-3  # the environment acts

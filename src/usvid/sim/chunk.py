@@ -324,7 +324,7 @@ def _finite_rows(V, o, j, nt):
 
 
 def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots,
-           rec, acc, zz, zzt, status, qt, qv, simd, vaddr, laddr, ki):
+           rec, acc, zz, zzt, status, qt, qv, simd, vaddr, laddr, ki, sconst):
     """Integrate lanes lo..hi-1 (at most :data:`CH`) together: one task of
     :func:`usvid.sim.core.run` (module docstring).
 
@@ -332,7 +332,9 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     the work array ``V`` (a row per quantity, a column per lane: :mod:`usvid.sim.layout`).
     ``vaddr`` is the address of the kind's vector step for this chunk (0: none, every step the
     per-lane way), ``laddr`` that of its per-lane step, ``ki`` its
-    :data:`usvid.sim.layout.KINFO`.
+    :data:`usvid.sim.layout.KINFO`. ``sconst``: the input series are the environment's only
+    and constant in time (a constant current, wind, force): loaded once, at the start, so that
+    the lanes may be quiet (as in calm water) instead of taking phase 1 at every step.
     """
     ns = ki[KNS]
     npk = ki[KNPK]
@@ -359,6 +361,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     series = False
     for i in range(NSER):
         series = series or sidx[i] >= 0
+    if sconst:  # loaded once below: nothing acts at every step
+        series = False
     cap = qt.shape[1]
     eps = 1e-9 * dt
     idt = 1.0 / dt
@@ -370,6 +374,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             V[(ki[KVP] + i) * CH + j] = P[b, i]
         for i in range(SERVO_ROWS):
             V[(VS + i) * CH + j] = S[b, i]
+        if sconst:
+            _load_series(V, VF * CH + j, SER, sidx, b * sstride, 0, 0)
         ma = S[b, 0]
         for i in range(3):  # x, y, psi
             V[(VZ + i) * CH + j] = Z[b, i]

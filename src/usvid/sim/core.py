@@ -103,10 +103,12 @@ def kernel(kind: ModelKind) -> KindCode:
     return specialise.kernel(kind)
 
 
-def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool) -> int:
+def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool,
+                wind: bool = False, wcode: int = -1) -> int:
     """Address of a vector-step variant of ``kind`` (:func:`usvid.sim.specialise.vector_step`;
     the generic one for every batch when :data:`FORCE_GENERIC`)."""
-    return specialise.vector_step(kind, swi, sk, nod, xy, generic=bool(FORCE_GENERIC))
+    return specialise.vector_step(kind, swi, sk, nod, xy, generic=bool(FORCE_GENERIC),
+                                  wind=wind, wcode=wcode)
 
 
 def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: np.ndarray,
@@ -126,8 +128,9 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     as many threads as numba's thread count. The vector step's variant (:func:`vector_step`)
     follows from the batch: the servo kind, whether it has a disturbance or input series,
     whether x or y is recorded, and each chunk's switch value. ``wind``: ``P`` carries the
-    environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the kind's parameters; every
-    step is integrated the per-lane way (:func:`usvid.sim.specialise.wind_step`).
+    environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the kind's parameters: the
+    per-lane step of :func:`usvid.sim.specialise.wind_step` and the vector step's wind variant
+    (its loads at every RK4 stage, vectorised across the lanes like the rest of the step).
     """
     B, nz = Z.shape
     chunk = max(1, min(chunk, CH))
@@ -143,7 +146,6 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         if P.shape[1] != kinfo[KNPK]:
             raise ValueError(f"run: {P.shape[1]} parameter rows, the kind's and the environment "
                              f"block need {int(kinfo[KNPK])}")
-        simd = False  # state-dependent loads: every step the per-lane way
     else:
         lstep = specialise.lane_step(kind, env)
     qt, qv = np.empty((B, qcap)), np.empty((B, qcap))
@@ -155,17 +157,26 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         nod = (not bool(np.any(sidx[:NSER] >= 0)) and not bool(np.any(Dq[:, 0] > 0.0))
                and not bool(np.any(Z[:, ID + 2:ID + 4] != 0.0)))
         xy = bool(slots[0] >= 0 or slots[1] >= 0)
+        wcode = -1  # the wind-load model's code of every lane: a literal in the variant
+        if wind:
+            codes = P[:, kind.n_params]
+            wcode = int(codes[0]) if bool(np.all(codes == codes[0])) else -1
         steps: dict[int, int] = {}
         for lo in starts:
             swi = code.chunk_switch(P, lo, min(B, lo + chunk))
             if swi not in steps:
-                steps[swi] = vector_step(kind, swi, skind, nod, xy)
+                steps[swi] = vector_step(kind, swi, skind, nod, xy, wind, wcode)
             vaddr[lo] = steps[swi]
+
+    # the environment's series constant in time (and no other series): loaded once by the driver
+    used = [i for i in range(NSER) if sidx[i] >= 0]
+    sconst = bool(used) and min(used) >= SFORCE and all(
+        bool(np.all(SER[sidx[i]] == SER[sidx[i], :, :1])) for i in used)
 
     def task(lo: int) -> None:
         drive(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,
               dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd, vaddr[lo],
-              lstep, kinfo)
+              lstep, kinfo, sconst)
 
     threads = min(numba.get_num_threads(), len(starts))
     if threads <= 1:

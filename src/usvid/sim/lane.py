@@ -23,8 +23,9 @@ import math
 import numba
 import numpy as np
 
-from usvid.models.environment.waves import mean_drift_scalar
-from usvid.models.environment.wind_loads import wind_load_true
+from usvid.models.environment.waves import mean_drift_cs
+from usvid.models.environment.wind import air_relative_body
+from usvid.models.environment.wind_loads import wind_load_body
 from usvid.sim.layout import (
     CH,
     DIST_A0,
@@ -72,38 +73,42 @@ def _inputs(V, j):
     return srv, fs, tr
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _envload(pe, wx, wy, vn, ve, psi):
+@numba.njit(cache=True, error_model="numpy", forceinline=True)
+def _envload(pe, wx, wy, vn, ve, cps, sps):
     """The state-dependent environment loads (X, Y [N], K, N [N m], body axes) of the
     environment block ``pe`` (:data:`usvid.sim.layout.ENVBLOCK`) for the true wind moving the
     air with the velocity ``wx``, ``wy`` [m/s, north, east], the vessel's velocity over ground
-    ``vn``, ``ve`` [m/s] and heading ``psi`` [rad].
+    ``vn``, ``ve`` [m/s] and the cosine ``cps`` and sine ``sps`` of its heading.
 
-    Wind: the loads of the apparent wind (the wind triangle and the coefficient model of
-    :func:`usvid.models.environment.wind_loads.wind_load_true`) less those of the still air the
+    Wind: the loads of the apparent wind (the wind triangle in body axes,
+    :func:`usvid.models.environment.wind.air_relative_body`, and the coefficient model,
+    :func:`usvid.models.environment.wind_loads.wind_load_body`) less those of the still air the
     vessel moves through, :math:`F(V_{A}) - F(V_{A,0})` with :math:`V_{A,0}` the apparent wind
     of its own motion (the wind-resistance correction of ISO 15016:2015 and ITTC 7.5-04-01-01.1:
     a model identified from trials holds the still-air load in its calm-water terms, so zero
     true wind is calm water). The roll moment of a model without one (Fujiwara et al. 1998:
     NaN) is taken as 0. Waves: the mean drift force
-    (:func:`usvid.models.environment.waves.mean_drift_scalar`, no yaw moment)."""
+    (:func:`usvid.models.environment.waves.mean_drift_cs`, no yaw moment).
+
+    No library call but square roots and every branch a select: the per-lane step and the
+    vector step (:mod:`usvid.sim.vector`, vectorised over the lanes) call this one function,
+    compiled without fast-math (the same arithmetic on both paths)."""
     x = 0.0
     y = 0.0
     k = 0.0
     n = 0.0
-    if pe[0] != 0.0 and (wx != 0.0 or wy != 0.0):
-        x1, y1, n1, k1, _, _ = wind_load_true(pe, math.hypot(wx, wy), math.atan2(-wy, -wx),
-                                              vn, ve, psi)
-        x0, y0, n0, k0, _, _ = wind_load_true(pe, 0.0, 0.0, vn, ve, psi)
+    if pe[0] != 0.0:  # a wind-load model (a literal in a vector-step variant: else compiled away)
+        ax, ay = air_relative_body(wx, wy, vn, ve, cps, sps)
+        x1, y1, n1, k1 = wind_load_body(pe, ax, ay)
+        ax0, ay0 = air_relative_body(0.0, 0.0, vn, ve, cps, sps)
+        x0, y0, n0, k0 = wind_load_body(pe, ax0, ay0)
         x = x1 - x0
         y = y1 - y0
+        k = k1 - k0
+        k = 0.0 if np.isnan(k) else k
         n = n1 - n0
-        k = 0.0 if np.isnan(k1) else k1 - k0
-    if pe[16] != 0.0 or pe[17] != 0.0:
-        dx, dy = mean_drift_scalar(pe[16], pe[17], pe[18], psi)
-        x += dx
-        y += dy
-    return x, y, k, n
+    dx, dy = mean_drift_cs(pe[16], pe[17], pe[18], pe[19], cps, sps)
+    return x + dx, y + dy, k, n
 
 
 def _deriv(p, pe, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
@@ -152,7 +157,7 @@ def _deriv(p, pe, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
         uw = z[ZU] if ZU >= 0 else p[SPEEDROW]
         vw = z[ZV] if ZV >= 0 else 0.0
         fe = _envload(pe, fs[10] + tau * (fs[22] - fs[10]), fs[11] + tau * (fs[23] - fs[11]),
-                      uw * cps - vw * sps + cx, uw * sps + vw * cps + cy, z[JPSI])
+                      uw * cps - vw * sps + cx, uw * sps + vw * cps + cy, cps, sps)
         f = (f[0] + fe[0], f[1] + fe[1], f[2] + fe[2], f[3] + fe[3])
     u, v, r, ds = rhs(p, _states(z), (de, cd, sd, fs[1] + tau * (fs[13] - fs[1]),
                                       fs[2] + tau * (fs[14] - fs[2]),

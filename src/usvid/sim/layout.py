@@ -56,10 +56,11 @@ SFORCE, SCUR, SWIND = 4, 8, 10
 #: The per-lane environment block of a batch with a state-dependent environment (wind loads,
 #: mean wave drift), rows after the kind's own parameters: the packed wind-load model
 #: (:data:`usvid.models.environment.wind_loads.WIND_PACK` entries, code 0: none), then the
-#: mean wave drift's coefficients fx0, fy0 [N] and the direction the waves travel towards chi
-#: [rad] (:func:`usvid.models.environment.waves.mean_drift_scalar`; fx0 = fy0 = 0: none).
+#: mean wave drift's coefficients fx0, fy0 [N] and the cosine and sine of the direction chi the
+#: waves travel towards (:func:`usvid.models.environment.waves.mean_drift_cs`; fx0 = fy0 = 0:
+#: none; cos and sin, not chi, so that the vector step calls no library function).
 NWIND = 16
-ENVBLOCK = ("wind",) * NWIND + ("drift_fx0", "drift_fy0", "drift_chi")
+ENVBLOCK = ("wind",) * NWIND + ("drift_fx0", "drift_fy0", "drift_cos_chi", "drift_sin_chi")
 NENV = len(ENVBLOCK)
 #: Zig-zag overshoots tracked online.
 N_ZZ = 8
@@ -250,10 +251,15 @@ def param_tuple(layout: Layout, g: Mapping[str, Any],
     return _function("_ptup", "V, j", [f"return {_tuple(items)}"], g)
 
 
-def env_tuple(layout: Layout, g: Mapping[str, Any], *, read: bool) -> Any:
+def env_tuple(layout: Layout, g: Mapping[str, Any], *, read: bool,
+              const: Mapping[int, float] | None = None) -> Any:
     """``_etup(V, j)``: lane slot j's environment block (:data:`ENVBLOCK`) from the rows after
     the kind's parameters (``read``: a batch with wind loads or wave drift, whose chunk array
-    has :data:`NENV` more parameter rows), else zeros (literals: compiled away)."""
-    items = [f"V[{(layout.vp + layout.npk + i) * CH} + j]" if read else "0.0"
+    has :data:`NENV` more parameter rows), else zeros (literals: compiled away); the rows of
+    ``const`` replaced by literals (the wind-load model's code in a vector-step variant: the
+    other model's branch compiled away)."""
+    const = const or {}
+    items = [repr(float(const[i])) if i in const else
+             f"V[{(layout.vp + layout.npk + i) * CH} + j]" if read else "0.0"
              for i in range(NENV)]
     return _function("_etup", "V, j", [f"return {_tuple(items)}"], g)

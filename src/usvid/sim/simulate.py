@@ -281,7 +281,7 @@ class Environment:
                                               float(vessel.beam), float(vessel.draft))
             except UsvidError as exc:
                 raise SimulationError(f"simulate: {exc}") from None
-            blk[NWIND:, 0] = (fx0, fy0, self.sea.chi)
+            blk[NWIND:, 0] = (fx0, fy0, math.cos(self.sea.chi), math.sin(self.sea.chi))
             info["waves"] = {**self.sea.to_dict(), "drift_fx0_N": fx0, "drift_fy0_N": fy0,
                              "first_order_motion": bool(self.wave_motion),
                              "wave_seed": int(self.wave_seed),

@@ -211,14 +211,12 @@ def lane_step(kind: ModelKind, env: bool) -> int:
     return code.env["lstep"]
 
 
-def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
-    """(address, kinfo) of the per-lane step of ``kind`` with the state-dependent environment
-    (wind loads from the apparent wind, mean wave drift; :func:`usvid.sim.lane._envload`) and
-    the environment series, compiled at first use. Its chunk array has the environment block
-    (:data:`usvid.sim.layout.NENV` rows) after the kind's parameters: the batch's parameters
-    carry it as their last rows, and its ``kinfo`` says so (the driver loads all of them)."""
-    code = kernel(kind)
-    if "wstep" not in code.env:
+def _wind_globals(code: KindCode) -> dict[str, Any]:
+    """The globals of ``code`` with the state-dependent environment (``ENV``, ``WIND``): the
+    layout constants of the chunk array with the environment block
+    (:data:`usvid.sim.layout.NENV` rows) after the kind's parameters, and ``_etup`` reading
+    it (made once per kind)."""
+    if "g" not in code.env:
         lay = code.layout
         wide = _layout.Layout(lay.ns, lay.npk + _layout.NENV)
         g = dict(code.g, ENV=True, WIND=True)
@@ -228,13 +226,25 @@ def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
         for i, v in ((_layout.KNPK, wide.npk), (_layout.KVB, wide.vb), (_layout.KVN, wide.vn),
                      (_layout.KROWS, wide.rows)):
             k[i] = v
-        code.env["wstep"] = _lane_step(g, code.key, "w").address
-        code.env["wkinfo"] = k  # type: ignore[assignment]
+        code.env["g"] = g
+        code.env["wkinfo"] = k
+    return code.env["g"]
+
+
+def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
+    """(address, kinfo) of the per-lane step of ``kind`` with the state-dependent environment
+    (wind loads from the apparent wind, mean wave drift; :func:`usvid.sim.lane._envload`) and
+    the environment series, compiled at first use. Its chunk array has the environment block
+    (:data:`usvid.sim.layout.NENV` rows) after the kind's parameters: the batch's parameters
+    carry it as their last rows, and its ``kinfo`` says so (the driver loads all of them)."""
+    code = kernel(kind)
+    if "wstep" not in code.env:
+        code.env["wstep"] = _lane_step(dict(_wind_globals(code)), code.key, "w").address
     return code.env["wstep"], code.env["wkinfo"]  # type: ignore[return-value]
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
-                generic: bool = False) -> int:
+                generic: bool = False, wind: bool = False, wcode: int = -1) -> int:
     """Address of the vector step (:func:`usvid.sim.vector._vstep`, a C callback) of ``kind``
     for the switch value ``swi`` (index into the kind's switch values; the last: generic), the
     servo kind ``sk``, without disturbance and input series (``nod``), with x and y (``xy``);
@@ -248,21 +258,37 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     whose right-hand side is not inlined (:data:`INLINE_MAX_PARAMS`: its lane loop is not
     vectorised, the variants would gain little), and every kind with ``generic``, has one
     variant per switch value: any servo kind (``sk`` -1: the per-lane path's blend),
-    disturbance, series, x and y."""
+    disturbance, series, x and y.
+
+    ``wind``: the variant of a batch with the state-dependent environment (wind loads, wave
+    drift; the chunk array of :func:`wind_step`, its ``kinfo``), the loads computed at every
+    RK4 stage by the per-lane step's own function (:func:`usvid.sim.lane._envload`), with the
+    series and x, y (the heading's rotation); without it the variants compile as if the
+    environment code did not exist (``WIND`` a compile-time False). ``wcode``: the wind-load
+    model's code (:mod:`usvid.models.environment.wind_loads`) common to the batch's lanes, a
+    literal in the variant (only that model's code compiled); -1: read per lane."""
     code = kernel(kind)
     lay = code.layout
     if lay.npk > INLINE_MAX_PARAMS or generic:
         sk, nod, xy = -1, False, True
-    vk = (code.key, swi, sk, bool(nod), bool(xy))
+    if wind:
+        nod, xy = False, True
+    else:
+        wcode = -1
+    vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode))
     if vk in _VSTEPS:
         return _VSTEPS[vk].address
     const = {code.swr: code.swv[swi]} if code.swr >= 0 and swi < len(code.swv) else {}
-    gv = dict(code.g, SK=sk, NOD=bool(nod), XY=bool(xy))
+    gv = dict(_wind_globals(code) if wind else code.g, SK=sk, NOD=bool(nod), XY=bool(xy))
+    if wind and wcode >= 0:
+        gv["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(
+            lay, gv, read=True, const={0: float(wcode)}))
     gv["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, gv, const))
     helpers = _layout.joint_helpers(lay, gv, xy=bool(xy), nod=bool(nod))
     for name in VARIANT_HELPERS:
         gv[name] = _helper(helpers[name])
-    tag = f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
+    tag = (f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
+           + (f"w{wcode if wcode >= 0 else 'g'}" if wind else ""))
     for name in VECTOR_TEMPLATES:
         _specialise(gv, name, f"{name}{tag}__{code.key}",
                     forceinline=False if (name == "_vderiv" and lay.npk > INLINE_MAX_PARAMS)

@@ -6,7 +6,9 @@ its address): the trig bases, one RK4 step (:func:`_vrk4` of :func:`_vderiv`) an
 the step of every lane slot, with the lane loop innermost so that LLVM vectorises it (SIMD);
 the right-hand side of the kind is inlined. A variant fixes at compile time the servo kind
 (``SK``), the absence of disturbance and input series (``NOD``), whether x and y are
-integrated (``XY``) and, for a kind with a switch row, its value (a literal in ``_ptup``).
+integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the loads at every
+RK4 stage by :func:`usvid.sim.lane._envload`, no library call in it, so the lane loop still
+vectorises) and, for a kind with a switch row, its value (a literal in ``_ptup``).
 
 Globals the specialisation sets: the kind's ``rhs``, ``TRIG``, the layout constants (``VB``,
 ``NT``, ``VROWS``, ``ZR``), the variant's constants and the generated joint-state helpers
@@ -19,6 +21,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from usvid.sim.lane import _envload
 from usvid.sim.layout import (
     CH,
     DIST_A0,
@@ -59,12 +62,20 @@ from usvid.sim.scalar import _clip, _rot_nan, _rotv
 #: stays at rest and the steering angle is the servo's); x and y integrated (not when neither is
 #: recorded: no other quantity depends on them, and with them goes the heading's rotation).
 SK, NOD, XY = 2, False, True
+#: Variant constant: the batch has wind loads or wave drift (the environment block after the
+#: kind's parameters, ``_etup``; loads at every stage, :func:`usvid.sim.lane._envload`), with
+#: series (not NOD) and x, y (XY).
+WIND = False
+ZU = 0  # position of u in the joint-state tuple (-1: the constant speed, parameter SPEEDROW)
+ZV = 0  # position of v in the joint-state tuple (-1: none, zero)
+SPEEDROW = 0  # parameter row of the constant speed of a response kind
 TRIG = False  # the kind reads cos/sin of the steering angle
 VB = 0  # first scratch row
 NT = 1  # joint-state length
 VROWS = 1  # rows of the chunk array
 ZR = 0  # position of r in the joint-state tuple
 rhs = _ztup = _zput = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _ptup = None
+_etup = None
 
 
 def _steer(V, j):
@@ -79,9 +90,10 @@ def _steer(V, j):
     return (d if np.isnan(fd) else fd) + DIST_B * V[RW2 * CH + j]
 
 
-def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
+def _vderiv(p, pe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     """:func:`_deriv` for the vector step, with the variant's constants :data:`SK`,
-    :data:`NOD`, :data:`XY` (the branches of the other variants vanish at compile time); returns
+    :data:`NOD`, :data:`XY`, :data:`WIND` (the branches of the other variants vanish at compile
+    time; ``pe`` the lane's environment block, read only with WIND); returns
     (the derivative, the largest |angle - base angle| of its rotations). ``first``: the step
     start (stage 1), where the angles are the bases' own (no rotation)."""
     zdl = z[JDL]
@@ -129,6 +141,17 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             sd = tr[5]
         else:
             cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
+    if WIND:  # the loads of the stage's own velocity over ground and heading (as _deriv; the
+        # heading's rotation is the XY block's below, and so is its flag)
+        cpw = tr[1]
+        spw = tr[2]
+        if not first:
+            cpw, spw, _ = _rotv(z[JPSI], tr[0], tr[1], tr[2])
+        uw = z[ZU] if ZU >= 0 else p[SPEEDROW]
+        vw = z[ZV] if ZV >= 0 else 0.0
+        fe = _envload(pe, fs[10] + tau * (fs[22] - fs[10]), fs[11] + tau * (fs[23] - fs[11]),
+                      uw * cpw - vw * spw + cx, uw * spw + vw * cpw + cy, cpw, spw)
+        f = (f[0] + fe[0], f[1] + fe[1], f[2] + fe[2], f[3] + fe[3])
     u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), f)
     k0 = 0.0
     k1 = 0.0
@@ -157,14 +180,14 @@ def _vderiv(p, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     return _joint(k0, k1, r, rate, acc, k5, k6, ds), hm
 
 
-def _vrk4(p, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
+def _vrk4(p, pe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
     """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``); the heading
     is NaN when an angle moved more than 0.05 rad from its base (the lane is then flagged)."""
-    k1, m1 = _vderiv(p, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
+    k1, m1 = _vderiv(p, pe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
     tm = 0.5 * frac
-    k2, m2 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
-    k3, m3 = _vderiv(p, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
-    k4, m4 = _vderiv(p, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
+    k2, m2 = _vderiv(p, pe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
+    k3, m3 = _vderiv(p, pe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
+    k4, m4 = _vderiv(p, pe, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
     far = max(max(m1, m2), max(m3, m4)) > 0.05
     return _vrk4sum(z, h / 6.0, k1, k2, k3, k4, far)
 
@@ -253,8 +276,8 @@ def _vstep(Vp, h, frac, zig, sk):
                   V[o + 19 * CH], V[o + 20 * CH], V[o + 21 * CH], V[o + 22 * CH],
                   V[o + 23 * CH])
         z = _ztup(V, j)
-        y = _vrk4(_ptup(V, j), z, h, frac, srv, V[VCMD * CH + j], V[VRAMP * CH + j],
-                  V[VNOISE * CH + j], fs, tr)
+        y = _vrk4(_ptup(V, j), _etup(V, j), z, h, frac, srv, V[VCMD * CH + j],
+                  V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
         quiet = V[(VL + LQ) * CH + j] > 0.0
         # max |delta| of the quiet lanes at the step start (the measured angle is absent on
         # the quiet path: the servo's, limited)

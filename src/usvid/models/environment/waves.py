@@ -261,9 +261,18 @@ def wave_motion_scalar(comps, chi, length, t, x, y, psi):
 @numba.njit(cache=True)
 def mean_drift_scalar(fx0, fy0, chi, psi):
     """Mean wave drift force (X, Y) [N, body] of :func:`drift_coefficients`' ``fx0``, ``fy0``
-    [N] at heading ``psi`` [rad], waves travelling towards ``chi`` [rad]."""
-    beta = chi - psi
-    cb, sb = math.cos(beta), math.sin(beta)
+    [N] at heading ``psi`` [rad], waves travelling towards ``chi`` [rad]
+    (:func:`mean_drift_cs`)."""
+    return mean_drift_cs(fx0, fy0, math.cos(chi), math.sin(chi), math.cos(psi), math.sin(psi))
+
+
+@numba.njit(cache=True, error_model="numpy", forceinline=True)
+def mean_drift_cs(fx0, fy0, cchi, schi, cpsi, spsi):
+    """:func:`mean_drift_scalar` from the cosines and sines of the wave direction chi and the
+    heading psi: with the relative angle beta = chi - psi, (X, Y) = (fx0 cos beta |cos beta|,
+    fy0 sin beta |sin beta|). No library call: the integration core's vector step calls it."""
+    cb = cchi * cpsi + schi * spsi
+    sb = schi * cpsi - cchi * spsi
     return fx0 * cb * abs(cb), fy0 * sb * abs(sb)
 
 

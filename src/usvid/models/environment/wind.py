@@ -52,6 +52,19 @@ def _air_relative(vt, bt, vn, ve):
 _air_relative_jit = numba.njit(cache=True)(_air_relative)
 
 
+@numba.njit(cache=True, error_model="numpy", forceinline=True)
+def air_relative_body(w_north, w_east, v_north, v_east, cpsi, spsi):
+    r"""The air's velocity relative to the vessel in body axes (forward, starboard) [m/s] from
+    the air's velocity over ground ``w_north``, ``w_east`` [m/s] (a wind from beta moves the air
+    towards beta + pi), the vessel's ground velocity ``v_north``, ``v_east`` [m/s] and the cosine
+    and sine of its heading: :math:`a = R(\psi)^T (w - v)`. The apparent wind comes from
+    :math:`\gamma_A = \operatorname{atan2}(-a_y, -a_x)` off the bow, clockwise, with speed
+    :math:`|a|` (no library call: the integration core's vector step calls it)."""
+    a_n = w_north - v_north
+    a_e = w_east - v_east
+    return a_n * cpsi + a_e * spsi, a_e * cpsi - a_n * spsi
+
+
 @numba.njit(cache=True)
 def true_to_apparent_scalar(speed_true, dir_true, v_north, v_east, psi):
     """:func:`true_to_apparent` for one sample (numba, for the integration core): floats in,

@@ -168,21 +168,53 @@ FUJIWARA_NEEDS = ("frontal_area", "lateral_area", "superstructure_area", "latera
 # ---------------------------------------------------------------------------------------------
 # coefficients and loads of one sample (numba) - the one place of the formulas
 # ---------------------------------------------------------------------------------------------
-@numba.njit(cache=True)
-def wind_coefficients_scalar(p, angle):
-    """(C_X, C_Y, C_N, C_K) of the packed model ``p`` at the apparent wind angle ``angle`` [rad,
-    from the bow, clockwise, coming from]; zeros for code 0 (calm). One cosine and one sine per
-    call: the multiple angles by their polynomials (cos 3g = 4c^3 - 3c, ...)."""
+#: Cephes ``atan`` (Moshier 1984-2000, double precision: a rational approximation of degree
+#: 4/5 after reducing the argument to |x| <= 0.66): numerator and monic denominator coefficients
+#: (highest power first), tan(3 pi / 8) and the low bits of pi / 2.
+_ATAN_P = (-8.750608600031904122785e-1, -1.615753718733365076637e1,
+           -7.500855792314704667340e1, -1.228866684490136173410e2,
+           -6.485021904942025371773e1)
+_ATAN_Q = (2.485846490142306297962e1, 1.650270098316988542046e2, 4.328810604912902668951e2,
+           4.853903996359136964868e2, 1.945506571482613964425e2)
+_T3P8 = 2.41421356237309504880
+_MOREBITS = 6.123233995736765886130e-17
+
+
+@numba.njit(cache=True, error_model="numpy", forceinline=True)
+def atan_ratio(y, x):
+    """arctan(y / x) [rad] for x >= 0 (x = 0: +-pi/2; not both 0) without a library call:
+    Cephes' ``atan`` (relative error about 1e-16) with its argument reduction written on the
+    ratio's terms, so that one division forms the reduced argument, and its branches as selects:
+    a loop over lanes that calls it vectorises (the library's atan has no vector form here)."""
+    a = abs(y)
+    big = a > _T3P8 * x  # y / x > tan(3 pi / 8): pi/2 + atan(-x / y)
+    mid = a > 0.66 * x  # pi/4 + atan((y - x) / (y + x))
+    xr = (-x if big else (a - x if mid else a)) / (a if big else (a + x if mid else x))
+    y0 = 0.5 * math.pi if big else (0.25 * math.pi if mid else 0.0)
+    extra = _MOREBITS if big else (0.5 * _MOREBITS if mid else 0.0)
+    z = xr * xr
+    num = (((_ATAN_P[0] * z + _ATAN_P[1]) * z + _ATAN_P[2]) * z + _ATAN_P[3]) * z + _ATAN_P[4]
+    den = ((((z + _ATAN_Q[0]) * z + _ATAN_Q[1]) * z + _ATAN_Q[2]) * z + _ATAN_Q[3]) * z \
+        + _ATAN_Q[4]
+    r = y0 + ((xr * (z * num / den) + xr) + extra)
+    return r if y >= 0.0 else -r
+
+
+@numba.njit(cache=True, error_model="numpy", forceinline=True)
+def wind_coefficients_cs(p, c, s):
+    """(C_X, C_Y, C_N, C_K) of the packed model ``p`` at the published angle g (counter-clockwise,
+    positive for a wind from port: minus the apparent wind angle) given by ``c`` = cos g and
+    ``s`` = sin g; zeros for code 0 (calm). No library call (the multiple angles by their
+    polynomials, cos 3g = 4c^3 - 3c, ...; Blendermann's |g| = pi/2 - arctan(c / |s|) by
+    :func:`atan_ratio`): the integration core's vector step calls it for every lane."""
     code = int(p[0])
     if code == 0:
         return 0.0, 0.0, 0.0, 0.0
-    g = -angle  # the published angle: counter-clockwise, positive for a wind from port
-    c, s = math.cos(g), math.sin(g)
     c2, s2 = c * c, s * s
+    sin2 = 2.0 * s * c
     if code == 1:  # Fujiwara et al. 1998
         cos3 = c * (4.0 * c2 - 3.0)
         cos5 = c * (16.0 * c2 * c2 - 20.0 * c2 + 5.0)
-        sin2 = 2.0 * s * c
         sin3 = s * (3.0 - 4.0 * s2)
         sin5 = s * (16.0 * s2 * s2 - 20.0 * s2 + 5.0)
         cx = p[6] + p[7] * c + p[8] * cos3 + p[9] * cos5
@@ -190,15 +222,29 @@ def wind_coefficients_scalar(p, angle):
         cn = p[13] * s + p[14] * sin2 + p[15] * sin3
         return cx, cy, cn, math.nan
     # Blendermann 1994: p[6:] = C_Dt, C_Dl,AF bow, stern, delta, kappa, A_T/A_L, s_L/L_OA,
-    # s_H/H_M
-    ag = abs((g + math.pi) % (2.0 * math.pi) - math.pi)  # |g| in [0, pi]
+    # s_H/H_M. D = 1 - delta/2 (1 - C_Dl / C_Dt) sin^2 2g written as D' / C_Dt (one division
+    # for C_X and C_Y); |g| - pi/2 = -arctan(c / |s|) (s = 0: c / 0, +-pi/2)
     cdl_af = p[7] if c >= 0.0 else p[8]
-    sin2 = 2.0 * s * c
-    den = 1.0 - 0.5 * p[9] * (1.0 - cdl_af * p[11] / p[6]) * sin2 * sin2
-    cx = -cdl_af * c / den
-    cy = p[6] * s / den
-    cn = (p[12] - 0.18 * (ag - 0.5 * math.pi)) * cy
+    rden = p[6] / (p[6] - 0.5 * p[9] * (p[6] - cdl_af * p[11]) * sin2 * sin2)  # 1 / D
+    cx = -cdl_af * c * rden
+    cy = p[6] * s * rden
+    cn = (p[12] + 0.18 * atan_ratio(c, abs(s))) * cy
     return cx, cy, cn, p[10] * p[13] * cy
+
+
+@numba.njit(cache=True)
+def wind_coefficients_scalar(p, angle):
+    """(C_X, C_Y, C_N, C_K) of the packed model ``p`` at the apparent wind angle ``angle`` [rad,
+    from the bow, clockwise, coming from]; zeros for code 0 (calm). One cosine and one sine per
+    call (:func:`wind_coefficients_cs`)."""
+    return wind_coefficients_cs(p, math.cos(-angle), math.sin(-angle))
+
+
+@numba.njit(cache=True, error_model="numpy", forceinline=True)
+def _scaled(p, v2, cx, cy, cn, ck):
+    """The loads (X, Y, N, K) of the coefficients at the squared apparent speed v2 [m^2/s^2]."""
+    q = p[1] * v2
+    return p[2] * q * cx, p[3] * q * cy, p[4] * q * cn, p[5] * q * ck
 
 
 @numba.njit(cache=True)
@@ -208,8 +254,26 @@ def wind_load(p, speed, angle):
     if p[0] == 0.0 or speed == 0.0:
         return 0.0, 0.0, 0.0, 0.0
     cx, cy, cn, ck = wind_coefficients_scalar(p, angle)
-    v2 = p[1] * speed * speed
-    return p[2] * v2 * cx, p[3] * v2 * cy, p[4] * v2 * cn, p[5] * v2 * ck
+    return _scaled(p, speed * speed, cx, cy, cn, ck)
+
+
+@numba.njit(cache=True, error_model="numpy", forceinline=True)
+def wind_load_body(p, ax, ay):
+    """:func:`wind_load` from the air's velocity relative to the vessel in body axes ``ax``
+    (forward), ``ay`` (starboard) [m/s] (:func:`usvid.models.environment.wind.air_relative_body`:
+    the apparent wind comes from atan2(-ay, -ax), speed |a|): (X, Y, N, K), zeros for a still
+    apparent wind. No library call but a square root: the integration core's vector step calls
+    it for every lane."""
+    v2 = ax * ax + ay * ay
+    still = v2 == 0.0
+    va = math.sqrt(v2)
+    inv = 1.0 / (1.0 if still else va)
+    c = 1.0 if still else -ax * inv  # cos g = cos gamma_A, sin g = -sin gamma_A
+    s = ay * inv
+    cx, cy, cn, ck = wind_coefficients_cs(p, c, s)
+    x, y, n, k = _scaled(p, v2, cx, cy, cn, ck)
+    return (0.0 if still else x), (0.0 if still else y), (0.0 if still else n), \
+        (0.0 if still else k)
 
 
 @numba.njit(cache=True)
