@@ -540,6 +540,8 @@ def _parse_clean(path: Path, spec: FormatSpec, source: io.RawIOBase | io.Buffere
     d = spec.delimiter
     pos = _resolve(path, spec, names, ncols)
     usecols = sorted(set(pos.values()))
+    if usecols == list(range(ncols)):  # (every column: the same frame, without pandas' per-field
+        usecols = None                 # column selection, 4-15 % of its parse, measured)
     dates = {p for n, p in pos.items() if spec.columns[n].unit == DATETIME}
     try:
         with warnings.catch_warnings():
