@@ -1,6 +1,8 @@
 """usvid command-line interface: a thin typer layer over the library.
 
-Each command lives in ``usvid.commands.<name>`` and registers itself on :data:`app`. Every command
+Each command lives in ``usvid.commands.<name>`` and registers itself on :data:`app` when it is
+run or asked for its help (``usvid.commands.COMMANDS`` names its module and summary, from which
+``usvid --help`` lists the commands without importing one). Every command
 takes ``--json`` and then prints exactly one JSON object on stdout. Exit codes: 0 success,
 2 bad usage or bad input (one-line reason on stderr), 3 ``usvid audit`` found error-severity
 problems, 130 Ctrl-C (SIGINT) and 143 SIGTERM (both: temporary files removed, clusters shut
