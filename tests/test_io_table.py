@@ -318,6 +318,7 @@ def _fast_and_slow(monkeypatch, p, spec):
         fast = read_trial(p, spec)
     with monkeypatch.context() as m:
         m.setattr(table, "_read_clean", lambda *a: None)
+        m.setattr(table, "_read_clean_stream", lambda *a: None)
         slow = read_trial(p, spec)
     return fast, slow
 

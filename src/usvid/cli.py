@@ -1,6 +1,8 @@
 """usvid command-line interface: a thin typer layer over the library.
 
-Each command lives in ``usvid.commands.<name>`` and registers itself on :data:`app`. Every command
+Each command lives in ``usvid.commands.<name>`` and registers itself on :data:`app` when it is
+run or asked for its help (``usvid.commands.COMMANDS`` names its module and summary, from which
+``usvid --help`` lists the commands without importing one). Every command
 takes ``--json`` and then prints exactly one JSON object on stdout. Exit codes: 0 success,
 2 bad usage or bad input (one-line reason on stderr), 3 ``usvid audit`` found error-severity
 problems, 130 Ctrl-C (SIGINT) and 143 SIGTERM (both: temporary files removed, clusters shut
@@ -20,6 +22,7 @@ import os
 import signal
 import sys
 import threading
+from typing import Any
 
 
 def _exit_at_start_up(signum: int, frame: object) -> None:
@@ -42,10 +45,53 @@ from usvid.errors import (  # noqa: E402
     interrupt_exit_code,
     raised_by_interrupt,
 )
-from usvid.files import os_reason  # noqa: E402
+
+
+class _LazyGroup(typer.core.TyperGroup):
+    """usvid's command group: a command's module is imported when the command is run or asked
+    for its help, not before (``usvid --help`` lists the commands from
+    :data:`usvid.commands.COMMANDS` and imports none of them)."""
+
+    def list_commands(self, ctx: typer.Context) -> list[str]:
+        from usvid.commands import COMMANDS
+
+        return [*(n for n in self.commands if n not in COMMANDS), *COMMANDS]
+
+    def get_command(self, ctx: typer.Context, cmd_name: str) -> Any:
+        from usvid.commands import COMMANDS
+
+        if cmd_name not in self.commands and cmd_name in COMMANDS:
+            _load(COMMANDS[cmd_name][0])
+            self.commands.update(typer.main.get_command(app).commands)
+        return self.commands.get(cmd_name)
+
+    def resolve_command(self, ctx: typer.Context, args: list[str]) -> Any:
+        from usvid.commands import COMMANDS
+
+        if args and args[0] not in COMMANDS and args[0] not in self.commands:
+            for name in COMMANDS:  # an unknown command: typer's suggestions see every name
+                self.get_command(ctx, name)
+        return super().resolve_command(ctx, args)
+
+    def format_commands(self, ctx: typer.Context, formatter: Any) -> None:
+        """The commands and their summaries, as click lists them (the summary of a command not
+        imported made from its sentence in :data:`usvid.commands.COMMANDS`)."""
+        from usvid.commands import COMMANDS
+
+        names = self.list_commands(ctx)
+        limit = formatter.width - 6 - max(len(n) for n in names)
+        rows = []
+        for name in names:
+            cmd = self.commands.get(name) or typer.core.TyperCommand(name, help=COMMANDS[name][1])
+            if not cmd.hidden:
+                rows.append((name, cmd.get_short_help_str(limit)))
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
 
 app = typer.Typer(
     name="usvid",
+    cls=_LazyGroup,
     help="Identify, validate and simulate USV manoeuvring models from sea-trial logs.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
@@ -54,14 +100,18 @@ app = typer.Typer(
 )
 
 
-def _register_all() -> None:
+def _load(module_name: str) -> None:
+    """Import the command module ``usvid.commands.<module_name>`` and register its command."""
     import importlib
 
-    from usvid.commands import COMMAND_MODULES
-
-    for name in COMMAND_MODULES:
-        module = importlib.import_module(f"usvid.commands.{name}")
+    module = importlib.import_module(f"usvid.commands.{module_name}")
+    if module_name not in _LOADED:
+        _LOADED.add(module_name)
         module.register(app)
+
+
+#: Command modules registered on :data:`app`.
+_LOADED: set[str] = set()
 
 
 @app.command("version")
@@ -92,8 +142,6 @@ def _one_line_warning(message: Warning | str, category: type[Warning], filename:
     """Warnings on the command line: one clean line, no source location."""
     return f"usvid: warning: {' '.join(str(message).split())}\n"
 
-
-_register_all()
 
 for _sig, _handler in _START_UP.items():  # the CLI is imported: back to the usual handlers
     if _handler is None:  # (a handler not set from Python: Python's own defaults)
@@ -213,6 +261,8 @@ def _main(argv: list[str] | None) -> int:
             code = interrupt_exit_code(exc) or 130
             return done(code, _INTERRUPTED[code])
         if exc.filename is not None:
+            from usvid.files import os_reason  # (here: `usvid --help` does not import files)
+
             return done(2, f"usvid: error: {exc.filename}: {os_reason(exc)}")
         traceback.print_exc()
         return done(1, "usvid: internal error (please report with the traceback above)")

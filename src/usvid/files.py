@@ -38,13 +38,12 @@ import math
 import os
 import re
 import stat
+import sys
 import tempfile
 import time
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from usvid.errors import UsvidError
 
@@ -74,14 +73,16 @@ class OutputError(UsvidError):
 
 def jsonable(obj: Any) -> Any:
     """``obj`` with numpy scalars/arrays, paths and non-finite floats made JSON-ready
-    (NaN/inf -> null)."""
+    (NaN/inf -> null). numpy is not imported for this (``usvid --help`` spares it): without it
+    loaded there is no numpy object to convert."""
+    np = sys.modules.get("numpy")
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
+    if np is not None and isinstance(obj, np.ndarray):
         return jsonable(obj.tolist())
-    if isinstance(obj, np.generic):
+    if np is not None and isinstance(obj, np.generic):
         return jsonable(obj.item())
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
@@ -533,6 +534,8 @@ def _short(text: str, n: int = 80) -> str:
 def _json_depth(text: str) -> int:
     """Deepest bracket nesting of a JSON text (strings skipped)."""
     import re
+
+    import numpy as np
 
     stripped = re.sub(r'"(?:[^"\\]|\\.)*"', '""', text)
     b = np.frombuffer(stripped.encode("utf-8", "replace"), dtype=np.uint8)

@@ -22,12 +22,14 @@ Absent channels are simply absent columns.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from usvid.errors import UsvidError
+
+if TYPE_CHECKING:  # pandas is imported where a table is built: `import usvid.sim` spares it
+    import pandas as pd
 
 #: Channels of the Trial contract (and of simulation results) and their SI units; extensions
 #: may add more columns. ``dist`` is a simulated rudder-equivalent disturbance.
@@ -294,6 +296,8 @@ def merge_shared_stamp_rows(data: pd.DataFrame) -> tuple[pd.DataFrame, int]:
     """:func:`merge_shared_stamps` on a table whose column ``t`` [s] is in time order (stably
     sorted); the numeric columns are merged, the table keeps its column order. Returns the
     table and the number of rows merged away."""
+    import pandas as pd
+
     t = data["t"].to_numpy(dtype=float)
     if len(t) < 2 or not (t[1:] == t[:-1]).any():
         return data, 0

@@ -23,7 +23,6 @@ import time
 from pathlib import Path
 from typing import Annotated, Any
 
-import numpy as np
 import typer
 
 from usvid.commands._common import SchedulerOpt, WorkersOpt, check_seed, emit_json
@@ -69,6 +68,8 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     ``client``: an existing Dask client; else the runs stay in this process on a small machine
     (:func:`usvid.scale.montecarlo.use_dask`) or go to a cluster from ``scheduler``/``workers``.
     """
+    import numpy as np  # (here: `usvid --help` loads no numpy)
+
     from usvid.commands._common import check_steps
     from usvid.commands._physics import check_physics
     from usvid.files import check_outputs

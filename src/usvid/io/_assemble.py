@@ -292,6 +292,7 @@ def assemble(
     meta: dict | None = None,
     non_monotonic: str | None = None,
     streams: np.ndarray | None = None,
+    own: bool = False,
 ) -> Trial:
     """Build a Trial from records ``t`` [s] and ``channels`` (arrays of the same length, SI).
 
@@ -299,7 +300,9 @@ def assemble(
     and source address, ...): a sample superseded at a shared stamp is counted as lost only
     when the sample that wins is of the same stream (two sentences of one fix that round a
     position differently report one instant twice; one heading sender stamped in bursts loses
-    samples). Raises :class:`LogReadError` when no usable record remains.
+    samples). ``own``: ``t`` and the channel arrays are made for this call and referred to by
+    nothing else (see :func:`channel_frame`; a large trial then keeps them without a copy).
+    Raises :class:`LogReadError` when no usable record remains.
     """
     path = Path(path)
     rejected = dict(rejected or {})
@@ -375,7 +378,7 @@ def assemble(
         findings.append(shared_stamp_finding(path.name, superseded, chans))
         meta = {**(meta or {}), "superseded": dict(superseded)}
 
-    data = channel_frame({"t": t, **chans})
+    data = channel_frame({"t": t, **chans}, own=own)
     vessel = spec.vessel if spec is not None else Vessel()
     return Trial(
         data=data,
@@ -400,18 +403,33 @@ def _column_index(names: tuple[str, ...]) -> pd.Index:
     return pd.Index(list(names))
 
 
-def channel_frame(columns: dict[str, np.ndarray]) -> pd.DataFrame:
+#: Largest frame [bytes of values] that :func:`channel_frame` builds as one block from arrays it
+#: may take (``own``): a larger one takes them as its blocks, one per column, as
+#: ``pandas.read_csv`` returns a table. (The copy into one block needs fresh pages from the
+#: kernel for a large frame: for a 1e6 x 12 table 96 MB, 0.13-0.2 s of CPU at every read,
+#: mostly page faults; measured on the development machine.)
+MAX_BLOCK_BYTES = 32 * 2**20
+
+
+def channel_frame(columns: dict[str, np.ndarray], *, own: bool = False) -> pd.DataFrame:
     """``pd.DataFrame(columns)`` for float arrays of one length: the same frame (one float64
     block in column order, a RangeIndex, the labels' Index as pandas infers it), built from one
     2-D array and a kept Index of the labels (each frame gets its own ``Index.view()`` of it:
     pandas shares the immutable values and the lookup cache between views, the ``name`` is
     the view's own). Anything else (labels that are not all ``str``, arrays of another shape or
-    dtype) goes through ``pd.DataFrame(columns)`` itself."""
+    dtype) goes through ``pd.DataFrame(columns)`` itself.
+
+    ``own``: the arrays are the caller's to give (made for this frame, referred to by nothing
+    else): a frame of more than :data:`MAX_BLOCK_BYTES` takes the writeable ones without a copy,
+    one block per column."""
     arrays = list(columns.values())
     n = len(arrays[0]) if arrays else 0
     if not arrays or not all(type(k) is str for k in columns) or not all(
             type(a) is np.ndarray and a.dtype == np.float64 and a.shape == (n,) for a in arrays):
         return pd.DataFrame(columns)
+    if own and len(arrays) * n * 8 > MAX_BLOCK_BYTES:
+        return pd.DataFrame({k: a if a.flags.writeable and a.flags.c_contiguous else a.copy()
+                             for k, a in columns.items()}, copy=False)
     block = np.empty((len(arrays), n))
     for i, a in enumerate(arrays):
         block[i] = a

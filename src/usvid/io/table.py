@@ -219,6 +219,9 @@ def read_table(path: str | Path, spec: FormatSpec) -> Trial:
     not in the file (index out of range, header name not found).
     """
     path = Path(path)
+    fast = _read_clean_stream(path, spec)
+    if fast is not None:
+        return fast
     blob = read_log_bytes(path)
     check_line_length(path, blob)
     fast = _read_clean(path, spec, blob)
@@ -360,6 +363,132 @@ def _ws_fields(a: np.ndarray, breaks: np.ndarray, nrows: int) -> np.ndarray:
     return np.bincount(np.searchsorted(breaks, np.flatnonzero(start)), minlength=nrows)
 
 
+def _ascii_compatible(spec: FormatSpec) -> bool:
+    """True when the spec's delimiter is whitespace or one character other than the quote, and
+    its encoding writes the line feed and the delimiter as their ASCII bytes (the clean paths
+    look at the undecoded bytes)."""
+    d = spec.delimiter
+    if d is not None and (len(d) != 1 or d == '"'):
+        return False
+    try:
+        return "\n".encode(spec.encoding) == b"\n" and (
+            d is None or d.encode(spec.encoding) == d.encode("ascii"))
+    except (LookupError, UnicodeError):
+        return False
+
+
+#: Bytes of a table read at once by :func:`_read_clean_stream`: the first block (the lines
+#: before the data and the first data line must lie in it; a smaller file is read whole), then
+#: the blocks of the check (less than :data:`MAX_LINE_BYTES`: two line feeds in one block are
+#: closer than the line bound).
+_STREAM_HEAD, _STREAM_BLOCK = 1 << 20, 1 << 19
+
+
+def _read_clean_stream(path: Path, spec: FormatSpec) -> Trial | None:
+    """A large clean ASCII table with a one-character delimiter, checked block by block from
+    the file (a block of :data:`_STREAM_BLOCK` bytes in memory, no copy of the file) and then
+    parsed by pandas' C parser from the file; None when it is small, not plain ASCII, or not
+    clean (:func:`_scan_clean_blocks`): :func:`read_table` then reads its bytes, the way every
+    table was read before. A line longer than :data:`MAX_LINE_BYTES` is refused here as
+    :func:`check_line_length` refuses it, after reading about that much of it."""
+    d = spec.delimiter
+    if d is None or not _ascii_compatible(spec):
+        return None
+    comment = spec.comment.encode(spec.encoding) if spec.comment else b""
+    if len(comment) > 1:  # (a comment of one byte is searched block by block)
+        return None
+    try:
+        fh = open(path, "rb", buffering=0)  # read-only
+    except OSError:
+        return None  # (read_log_bytes says why)
+    with fh:
+        try:
+            head = fh.read(_STREAM_HEAD)
+        except OSError:
+            return None
+        if len(head) < _STREAM_HEAD or not head.strip():
+            return None  # a small file (read whole), or leading blanks: the bytes path
+        start = _data_start(spec, head, d)
+        if start is None:
+            return None
+        off, i, names = start
+        check_line_length(path, head[:off])
+        end = head.find(b"\n", off)
+        if end < 0:
+            return None
+        ncols = len(names) if names is not None else head.count(d.encode("ascii"), off, end) + 1
+        if ncols < 2:
+            return None
+        try:
+            found = _scan_clean_blocks(path, fh, off, i, d, comment, ncols)
+            if found is None:
+                return None
+            fh.seek(off)
+            return _parse_clean(path, spec, fh, i, names, ncols, *found)
+        except OSError:
+            return None  # (the bytes path reads the file again and says why it cannot)
+
+
+def _scan_clean_blocks(path: Path, fh: io.RawIOBase, off: int, i: int, d: str,
+                       comment: bytes, ncols: int) -> tuple[int, bool] | None:
+    """(data lines, a blank in them) of the file ``fh`` from byte ``off`` (line ``i + 1``) when
+    its data are clean as :func:`_clean_bytes` says (ASCII here: a byte above 127 returns
+    None), read block by block into one buffer: the counts of line feeds, delimiters and bytes
+    below 32 (numpy on the block), the search for a quote, DEL or the comment byte (C). A
+    line longer than :data:`MAX_LINE_BYTES` raises :class:`LogReadError` naming it."""
+    block = bytearray(min(_STREAM_BLOCK, MAX_LINE_BYTES))
+    fh.seek(off)
+    pos = line_start = off  # file offsets: of the block, of the current line
+    nl = nd = 0
+    blanks = cr_open = False
+    last = 10
+    dcode = ord(d)
+
+    def too_long() -> LogReadError:
+        return LogReadError(f"{path} line {i + nl + 1}: longer than {MAX_LINE_BYTES} bytes; a "
+                            f"table line has at most {MAX_LINE_BYTES} (is this a table?)")
+
+    while True:
+        n = fh.readinto(block)
+        if not n:
+            break
+        if (block.find(b'"', 0, n) >= 0 or block.find(b"\x7f", 0, n) >= 0
+                or (comment and block.find(comment, 0, n) >= 0)):
+            return None
+        blanks = blanks or block.find(b" ", 0, n) >= 0 or (
+            d != "\t" and block.find(b"\t", 0, n) >= 0)
+        a = np.frombuffer(block, dtype=np.uint8, count=n)
+        k = int(np.count_nonzero(a == 10))
+        nd += int(np.count_nonzero(a == dcode))
+        low = int(np.count_nonzero(a.view(np.int8) < 32))  # (bytes above 127 count: negative)
+        if cr_open and a[0] != 10:
+            return None  # a carriage return that does not end a line
+        cr_open = False
+        if low != k:  # carriage returns of CRLF line ends, tabs; else not clean
+            cr = np.flatnonzero(a == 13)
+            if len(cr) and cr[-1] == n - 1:
+                cr_open, cr = True, cr[:-1]  # (its line feed begins the next block)
+            if len(cr) and not (a[cr + 1] == 10).all():
+                return None
+            if low != k + np.count_nonzero(a == 13) + np.count_nonzero(a == 9):
+                return None
+        if k:
+            if pos + block.find(b"\n", 0, n) - line_start > MAX_LINE_BYTES:
+                raise too_long()
+            line_start = pos + block.rfind(b"\n", 0, n) + 1
+        elif pos + n - line_start > MAX_LINE_BYTES:
+            raise too_long()
+        nl += k
+        pos += n
+        last = block[n - 1]
+    if cr_open or pos == off:
+        return None
+    nrows = nl + (0 if last == 10 else 1)
+    if nd != (ncols - 1) * nrows:
+        return None
+    return nrows, blanks
+
+
 def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
     """The file parsed by pandas' C parser when its table is clean (see :func:`_clean_bytes`:
     an ASCII-compatible encoding, a one-character delimiter or whitespace (ASCII data), no
@@ -368,13 +497,7 @@ def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
     then reads it line by line, counting and reporting every bad line). Only the lines before
     the data are decoded; pandas is handed the bytes."""
     d = spec.delimiter
-    if d is not None and (len(d) != 1 or d == '"'):
-        return None
-    try:
-        if "\n".encode(spec.encoding) != b"\n" or (
-                d is not None and d.encode(spec.encoding) != d.encode("ascii")):
-            return None
-    except (LookupError, UnicodeError):
+    if not _ascii_compatible(spec):
         return None
     start = _data_start(spec, blob, d)
     if start is None or start[0] >= len(blob):
@@ -402,15 +525,28 @@ def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
     # (skipinitialspace costs pandas a quarter of its time; it is a no-op without blanks)
     blanks = d is not None and (blob.find(b" ", off) >= 0
                                 or (d != "\t" and blob.find(b"\t", off) >= 0))
+    buf = io.BytesIO(blob)
+    buf.seek(off)  # (pandas reads on from there: no copy of the data)
+    return _parse_clean(path, spec, buf, i, names, ncols, nrows, blanks)
+
+
+def _parse_clean(path: Path, spec: FormatSpec, source: io.RawIOBase | io.BufferedIOBase,
+                 i: int, names: list[str] | None, ncols: int, nrows: int, blanks: bool
+                 ) -> Trial | None:
+    """The clean data of ``source`` (a binary file positioned at the first data line, line
+    ``i + 1`` of the file; ``nrows`` lines of ``ncols`` fields, ``blanks``: a blank in them)
+    parsed by pandas' C parser, mapped and assembled; None when pandas does not read exactly
+    those lines as the line reader would (the caller then reads the file line by line)."""
+    d = spec.delimiter
     pos = _resolve(path, spec, names, ncols)
     usecols = sorted(set(pos.values()))
+    if usecols == list(range(ncols)):  # (every column: the same frame, without pandas' per-field
+        usecols = None                 # column selection, 4-15 % of its parse, measured)
     dates = {p for n, p in pos.items() if spec.columns[n].unit == DATETIME}
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
-            buf = io.BytesIO(blob)
-            buf.seek(off)  # (pandas reads on from there: no copy of the data)
-            df = pd.read_csv(buf, sep=d if d is not None else r"\s+", header=None,
+            df = pd.read_csv(source, sep=d if d is not None else r"\s+", header=None,
                              usecols=usecols, encoding=spec.encoding,
                              dtype={p: str for p in dates} or None, keep_default_na=False,
                              na_values=_NA, skipinitialspace=blanks, engine="c",
@@ -429,7 +565,8 @@ def _read_clean(path: Path, spec: FormatSpec, blob: bytes) -> Trial | None:
     findings: list[Finding] = []
     t, chans, meta = map_columns(path, spec, cols, rejected, where=i + 1 + np.arange(nrows),
                                  where_name="line", findings=findings)
-    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings)
+    return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings,
+                    own=True)  # (map_columns made every array: the unit conversion)
 
 
 def _frame_to_trial(path: Path, spec: FormatSpec, df: pd.DataFrame, header: bool,

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import linalg, signal
 
 from usvid.errors import IdentificationError
 
@@ -71,6 +70,8 @@ def d2c_ss(A: Any, B: Any, C: Any, D: Any, dt: float, method: str = "zoh"
         M[:n, :n] = Ad
         M[:n, n:] = Bd
         M[n:, n:] = np.eye(mi)
+        from scipy import linalg  # (on first use: importing the model kinds spares scipy)
+
         L = linalg.logm(M)
         if np.iscomplexobj(L):
             if np.max(np.abs(L.imag)) > 1e-8 * max(1.0, np.max(np.abs(L.real))):
@@ -197,6 +198,8 @@ def d2c(num: Any, den: Any, dt: float, method: str = "zoh", *, variable: str = "
         C = np.zeros((1, 0))
         D = np.array([[b[-1] / a[0]]])
         return ContinuousTF(np.array([D[0, 0]]), np.ones(1), d, d * dt, float(dt), m, A, B, C, D)
+    from scipy import signal  # (on first use, as in d2c_ss)
+
     Ad, Bd, Cd, Dd = signal.tf2ss(b, a)
     A, B, C, D = d2c_ss(Ad, Bd, Cd, Dd, dt, m)
     numc, denc = signal.ss2tf(A, B, C, D)

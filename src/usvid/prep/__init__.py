@@ -6,9 +6,18 @@ body velocities, the one-call :func:`prepare` (a :class:`PreparedTrial`, made on
 command), the channel :func:`audit` and merging the logs of
 several loggers (:func:`merge_trials`). Finding and measuring manoeuvres in a log is one layer up,
 in :mod:`usvid.manoeuvres`.
+
+The modules of the heavy libraries load on first use of their names (PEP 562): the channel
+audit (pandas, scipy.signal), the state estimation (pandas, numba) and the merge of loggers
+(pandas); importing a light module of the package (``usvid.prep.filters``, as
+:mod:`usvid.manoeuvres` and :mod:`usvid.sim` do) loads neither pandas nor scipy. ``prepare``
+and ``resample`` share their names with their modules and are imported here at once (their
+modules are light).
 """
 
-from usvid.prep.channel_audit import audit, position_scale
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from usvid.prep.filters import (
     lowpass,
     savgol_derivative,
@@ -24,11 +33,36 @@ from usvid.prep.kinematics import (
     body_velocity_from_positions,
     earth_to_body,
 )
-from usvid.prep.merge import merge_trials
 from usvid.prep.prepare import PreparedTrial, as_prepared, prepare, sort_time
 from usvid.prep.resample import infer_rate, resample
 from usvid.prep.stale import StaleReport, detect_stale, drop_stale
-from usvid.prep.state_estimation import StateEstimate, estimate_states
+
+if TYPE_CHECKING:
+    from usvid.prep.channel_audit import audit, position_scale
+    from usvid.prep.merge import merge_trials
+    from usvid.prep.state_estimation import StateEstimate, estimate_states
+
+#: Public name -> the module that defines it, for the names loaded on first use.
+_LAZY = {
+    "audit": "usvid.prep.channel_audit",
+    "position_scale": "usvid.prep.channel_audit",
+    "merge_trials": "usvid.prep.merge",
+    "StateEstimate": "usvid.prep.state_estimation",
+    "estimate_states": "usvid.prep.state_estimation",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'usvid.prep' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "PreparedTrial",

@@ -13,7 +13,6 @@ hence zero-phase: a derivative estimated this way has no lag, which matters for 
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import butter, savgol_filter, sosfiltfilt
 
 from usvid.errors import UsvidError
 
@@ -77,6 +76,8 @@ def savgol_derivative(
         raise UsvidError(f"savgol_derivative expects a 1-D array (got shape {y.shape})")
     if order <= deriv - 1:
         raise UsvidError(f"savgol order {order} must be >= deriv {deriv}")
+    from scipy.signal import savgol_filter  # (on first use: ~0.6 s CPU that a simulation spares)
+
     n = window_samples(window_s, dt, order)
     out = np.full_like(y, np.nan)
     for a, b in finite_runs(y):
@@ -110,6 +111,8 @@ def lowpass(y: np.ndarray, dt: float, cutoff_hz: float, order: int = 4) -> np.nd
     nyq = 0.5 / dt
     if not 0 < cutoff_hz < nyq:
         raise UsvidError(f"cutoff {cutoff_hz} Hz must lie in (0, {nyq:g}) Hz at step {dt} s")
+    from scipy.signal import butter, sosfiltfilt  # (on first use, as in savgol_derivative)
+
     sos = butter(order, cutoff_hz / nyq, output="sos")
     out = np.full_like(y, np.nan)
     padmin = 3 * (2 * len(sos) + 1)

@@ -10,7 +10,6 @@ a millimetre.
 from __future__ import annotations
 
 import numpy as np
-import pymap3d
 
 from usvid.errors import UsvidError
 from usvid.trial import Trial
@@ -51,6 +50,8 @@ def geodetic_to_ned(
     north = np.full(lat.shape, np.nan)
     east = np.full(lat.shape, np.nan)
     if ok.any():
+        import pymap3d  # (on first use: `import usvid.sim` spares it)
+
         n, e, _ = pymap3d.geodetic2ned(lat[ok], lon[ok], 0.0, lat0, lon0, 0.0)
         north[ok] = n
         east[ok] = e

@@ -21,7 +21,6 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import median_filter
 
 from usvid.prep.filters import savgol_smooth, unwrap_angle
 from usvid.trial import Trial
@@ -118,6 +117,8 @@ def heading_glitches(t: Any, psi: Any, *, passes: int = 4) -> np.ndarray:
     k = max(int(round(GLITCH_WINDOW_S / dt)), 2)
     found = np.zeros(n, dtype=bool)
     sigma = None
+    from scipy.ndimage import median_filter  # (on first use: importing usvid.prep spares it)
+
     for _ in range(passes):
         med = median_filter(pp, size=2 * k + 1, mode="nearest")
         res = pp - savgol_smooth(med, dt, max(0.3, (2 * k + 3) * dt))

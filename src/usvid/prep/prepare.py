@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from usvid.errors import UsvidError
 from usvid.prep.filters import savgol_derivative, unwrap_angle
@@ -226,6 +225,8 @@ def prepare(
                 data[f"{name}_dot"] = savgol_derivative(data[name].to_numpy(dtype=float), dt,
                                                         window_s)
                 derived.append(f"{name}_dot")
+    import pandas as pd  # (here, not at import: `import usvid.sim` spares pandas)
+
     return PreparedTrial(
         data=pd.DataFrame(data).reset_index(drop=True), vessel=trial.vessel,
         sources=list(trial.sources), rejected=dict(trial.rejected),

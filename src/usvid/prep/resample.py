@@ -10,7 +10,6 @@ samples longer than ``max_gap_s``, stay NaN and are reported as a :class:`~usvid
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 
 from usvid.errors import UsvidError
 from usvid.prep.filters import nan_runs
@@ -52,6 +51,8 @@ def stream_rate(t: np.ndarray, y: np.ndarray) -> float | None:
 
 def infer_rate(trial: Trial) -> float:
     """The grid rate [Hz]: the fastest channel's :func:`stream_rate` (else the time stamps')."""
+    import pandas as pd  # (on first use: `import usvid.sim` spares pandas)
+
     t = trial.t
     rates = []
     for ch in trial.channels:
@@ -133,6 +134,8 @@ def resample(
     are dropped. Grid points left NaN by a gap are reported as findings (``code="resample_gap"``)
     appended to ``trial.findings``; ``meta["resample"]`` holds the rate and per-channel NaN counts.
     """
+    import pandas as pd  # (on first use, as in infer_rate)
+
     t = trial.t
     if len(t) < 2:
         raise UsvidError(f"trial {trial.name or '?'}: fewer than two samples, cannot resample")
