@@ -4,15 +4,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from usvid.errors import SimulationError
 from usvid.manoeuvres.logic import Turning, ZigZag
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.trial import CHANNEL_UNITS, Trial, Vessel
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass
@@ -152,6 +154,8 @@ class SimResult:
                 continue
             cols[k] = row.copy()
         vessel = getattr(self.model, "vessel", None) or Vessel()
+        import pandas as pd  # (on first use: `import usvid.sim` spares pandas)
+
         return Trial(data=pd.DataFrame(cols), vessel=vessel, sources=[],
                      name=name or f"sim-{type(self.logic).__name__.lower()}-{i}",
                      meta={"truth": self.model, "dt": self.dt, "simulated": True, "run": i})
