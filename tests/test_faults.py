@@ -776,9 +776,14 @@ def _numeric_option_cases() -> None:
             ("demo",): ["demo", "--quick", "--out", str(ws.out / "demo-options")],
         }[path]
 
+    import click
+
     root = _command()
+    ctx = click.Context(root)
+    # every command, loaded (the CLI imports a command's module only when it is asked for it)
+    loaded = {name: root.get_command(ctx, name) for name in root.list_commands(ctx)}
     commands: list[tuple[tuple[str, ...], object]] = []
-    for name, cmd in sorted(root.commands.items()):
+    for name, cmd in sorted(loaded.items()):
         subs = getattr(cmd, "commands", None)
         commands += ([((name, sub), c) for sub, c in sorted(subs.items())] if subs else
                      [((name,), cmd)])
