@@ -743,8 +743,9 @@ class ModelEstimator(FittedAttributes):
                 pass
             for b, side in ((sp.ge, 1), (sp.gt, 1), (sp.le, -1), (sp.lt, -1)):
                 if b is not None and (v - b) * side < 0:
-                    eps = 0.0 if b in (sp.ge, sp.le) else 1e-9 * max(abs(b), 1.0)
-                    out[n] = float(b + side * eps)
+                    # just inside (a thousandth of the excursion): the fit space's round trip
+                    # of a value on the bound may leave it by rounding
+                    out[n] = float(b + side * max(1e-3 * abs(v - b), 1e-9 * max(abs(b), 1.0)))
             if out[n] != v:
                 moved.append(f"{n} {v:.4g} -> {out[n]:.4g}")
         if moved:

@@ -284,7 +284,10 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
 
     def rms_sigma(x: np.ndarray) -> dict[str, float]:
         xa, init = unpack(x)
-        sim = prob.simulate(xa, init)
+        try:
+            sim = prob.simulate(xa, init)
+        except (UsvidError, ValueError, ZeroDivisionError) as exc:
+            raise _bad_start(kind, exc) from None
         return {c: max(rmse(meas[c][:, 1:], np.nan_to_num(sim[c][:, 1:])), 1e-12)
                 for c in channels}
 
