@@ -635,7 +635,7 @@ class ModelEstimator(FittedAttributes):
         zz_rate = None
         if self.method == "oe":
             win = self._windows(fit_series, self.window_s, self.overlap)
-            params = self._inside_bounds(params, fixed, diag)
+            params = self._valid_start(params, fixed, fit_series, diag)
             oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels,
                                      wind=wf.model)
             diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
@@ -724,36 +724,45 @@ class ModelEstimator(FittedAttributes):
                           stacklevel=2)
         return self
 
-    def _inside_bounds(self, params: dict[str, float], fixed: dict[str, Any],
-                       diag: dict[str, Any]) -> dict[str, float]:
-        """The output error's start: the least-squares estimate with every parameter outside
-        its bounds (a negative resistance R_0, a positive yaw damping N_r) moved onto its bound,
-        said in a warning; the output error then fits from a valid model (it never leaves the
-        bounds) instead of refusing the start."""
+    def _valid_start(self, params: dict[str, float], fixed: dict[str, Any],
+                     series: Sequence[Series], diag: dict[str, Any]) -> dict[str, float]:
+        """The output error's start: the least-squares estimate when it is a valid model; else
+        the regression's physical priors (the kind's ``Regression.priors``: for mmg Kijima et al.
+        1990 and the ITTC 1957 friction line) for the coefficients the regression estimates,
+        or, for a kind without priors, every parameter outside its bounds moved just inside
+        them; said in a warning. The output error then fits from a valid model (it never leaves
+        the bounds) instead of refusing the start."""
         specs = {p.name: p for p in self.kind_.dynamics.param_specs()}
-        out, moved = dict(params), []
+        bad = []
         for n, v in params.items():
-            sp = specs.get(n)
-            if sp is None:
-                continue
             try:
-                sp.check("parameters", v)
-                continue
+                if n in specs:
+                    specs[n].check("parameters", v)
             except UsvidError:
-                pass
-            for b, side in ((sp.ge, 1), (sp.gt, 1), (sp.le, -1), (sp.lt, -1)):
-                if b is not None and (v - b) * side < 0:
-                    # just inside (a thousandth of the excursion): the fit space's round trip
-                    # of a value on the bound may leave it by rounding
-                    out[n] = float(b + side * max(1e-3 * abs(v - b), 1e-9 * max(abs(b), 1.0)))
-            if out[n] != v:
-                moved.append(f"{n} {v:.4g} -> {out[n]:.4g}")
-        if moved:
-            text = (f"{self.kind}: the least-squares start of the output error is outside the "
-                    f"parameter bounds ({'; '.join(moved)}); the output error starts from those "
-                    "bounds")
-            warnings.warn(text, IdentificationWarning, stacklevel=4)
-            diag["oe_start_moved"] = moved
+                bad.append(f"{n} = {v:.4g}")
+        if not bad:
+            return params
+        reg = self.kind_.regression
+        if reg is not None and reg.priors is not None:
+            pri = reg.priors([s.data for s in series], fixed)
+            out = {**params, **{k: float(v) for k, v in pri.items() if k in params}}
+            how = "the output error starts from the regression's priors"
+        else:
+            out = dict(params)
+            for n, v in params.items():
+                sp = specs.get(n)
+                for b, side in (() if sp is None else
+                                ((sp.ge, 1), (sp.gt, 1), (sp.le, -1), (sp.lt, -1))):
+                    if b is not None and (v - b) * side < 0:
+                        # just inside (a thousandth of the excursion): the fit space's round
+                        # trip of a value on the bound may leave it by rounding
+                        out[n] = float(b + side * max(1e-3 * abs(v - b),
+                                                      1e-9 * max(abs(b), 1.0)))
+            how = "the output error starts just inside the bounds"
+        text = (f"{self.kind}: the least-squares estimate is not a valid model ({'; '.join(bad)}"
+                f"); {how}")
+        warnings.warn(text, IdentificationWarning, stacklevel=4)
+        diag["oe_start"] = {"invalid_ls": bad, "start": how}
         return out
 
     def _wind_scale(self, wf: WindFit, oe: OEResult | None, q: float,

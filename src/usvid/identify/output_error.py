@@ -261,6 +261,13 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
     lo = np.full(nf, -np.inf)
     hi = np.full(nf, np.inf)
     free_names = list(np.array(prob.names)[free])
+    if kind.fit_space is None:  # the kind's own parameters: steps never leave their bounds
+        specs = {p.name: p for p in kind.dynamics.param_specs()}
+        for j, n in enumerate(free_names):
+            sp = specs.get(n)
+            if sp is not None:
+                lo[j] = max(v for v in (sp.ge, sp.gt, -np.inf) if v is not None)
+                hi[j] = min(v for v in (sp.le, sp.lt, np.inf) if v is not None)
     if "wind_scale" in free_names:
         lo[free_names.index("wind_scale")] = 0.0  # a load never turned against the wind
 

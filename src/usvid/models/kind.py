@@ -222,6 +222,11 @@ class Regression:
                            dict[str, float]] | None = None
     forms: tuple[str, ...] = ("continuous",)
     needs: tuple[str, ...] = ()
+    #: ``priors(series, fixed) -> dict``: the physical priors of the fitted parameters (what a
+    #: regularised regression pulls towards); the output error starts from them when the
+    #: regression's estimate is not a valid model. None: the kind has none.
+    priors: Callable[[Sequence[Mapping[str, np.ndarray]], Mapping[str, Any]],
+                     dict[str, float]] | None = None
 
     @property
     def constrained(self) -> bool:

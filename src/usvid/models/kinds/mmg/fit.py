@@ -107,6 +107,15 @@ def prior_hull(p: _m.MMGParameters, U: float) -> dict[str, float]:
     return out
 
 
+def priors_of(series: Sequence[Mapping[str, np.ndarray]],
+              fixed: Mapping[str, Any]) -> dict[str, float]:
+    """The regression's priors (:func:`prior_hull`) at the trials' median speed [m/s]: the
+    hull coefficients of a physically valid model of the particulars ``fixed``."""
+    U = np.concatenate([np.hypot(_series_arrays(s)["u"], _series_arrays(s)["v"])
+                        for s in series])
+    return prior_hull(physics_of(fixed), float(np.median(U)))
+
+
 def pwm_to_law(c: Any, neutral: float, span: float) -> np.ndarray:
     """Twin thrusters commanded by PWM: pulse widths c [us] -> the pod thrust law's command
     ``sgn(s) sqrt(|s|)`` at the level ``s = clip((c - neutral)/span, -1, 1)`` (so that
