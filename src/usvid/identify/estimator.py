@@ -70,7 +70,7 @@ from usvid.identify.wind import WIND_KINDS, WindFit, interval, track_wind_loads,
 from usvid.io.modelfile import model_to_dict
 from usvid.manoeuvres import find_manoeuvres, measured_metrics
 from usvid.manoeuvres.detect import approach
-from usvid.models.kind import ModelKind
+from usvid.models.kind import LeftOutWarning, ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
 from usvid.models.registry import names as kind_names
@@ -625,11 +625,16 @@ class ModelEstimator(FittedAttributes):
                 m = self._decimation(series[0])
                 reg_series = [s.decimated(m) for s in series]
                 h_reg = h * m
-            ee = fit_equation_error(kind, reg_series, fixed, form=self.form, h=h_reg,
-                                    method="rls" if self.method == "rls" else "ls",
-                                    lam=self.lam, cond_max=self.cond_max,
-                                    max_lag=max(int(self.window_s / h_reg), 1))
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                ee = fit_equation_error(kind, reg_series, fixed, form=self.form, h=h_reg,
+                                        method="rls" if self.method == "rls" else "ls",
+                                        lam=self.lam, cond_max=self.cond_max,
+                                        max_lag=max(int(self.window_s / h_reg), 1))
+            left_out = self._rewarn(caught, reg_series)
             params, cov, names, diag = ee.params, ee.cov, ee.names, dict(ee.diagnostics)
+            if left_out:
+                diag["left_out"] = left_out
         p_ls = dict(params)
         oe: OEResult | None = None
         zz_rate = None
@@ -723,6 +728,24 @@ class ModelEstimator(FittedAttributes):
                           + "; written anyway (identification.checks)", IdentificationWarning,
                           stacklevel=2)
         return self
+
+    @staticmethod
+    def _rewarn(caught: Sequence[warnings.WarningMessage],
+                series: Sequence[Series]) -> list[str]:
+        """Warn again what the regression said, with the trial's name for its position in a
+        :class:`~usvid.models.kind.LeftOutWarning` (as an :class:`IdentificationWarning`);
+        returns those texts (the samples left out, for the diagnostics)."""
+        out = []
+        for w in caught:
+            msg = str(w.message)
+            if issubclass(w.category, LeftOutWarning):
+                for i, s in enumerate(series):
+                    msg = msg.replace(f"trial {i + 1} of {len(series)}:", f"trial {s.name}:")
+                out.append(msg)
+                warnings.warn(msg, IdentificationWarning, stacklevel=4)
+            else:
+                warnings.warn(w.message, w.category, stacklevel=4)
+        return out
 
     def _valid_start(self, params: dict[str, float], fixed: dict[str, Any],
                      series: Sequence[Series], diag: dict[str, Any]) -> dict[str, float]:

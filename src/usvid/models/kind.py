@@ -198,6 +198,12 @@ class Block:
     trial_rows: list[int] = field(default_factory=list)
 
 
+class LeftOutWarning(UserWarning):
+    """A regression left samples out (e.g. near rest); the message names the trial by its
+    position ``trial i of N`` (1-based, in the order of the series), the time spans [s] and
+    why; the estimator replaces the position by the trial's name."""
+
+
 @dataclass(frozen=True)
 class Regression:
     """The linear-in-parameters form of a kind (equation-error least squares).

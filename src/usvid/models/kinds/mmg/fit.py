@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.models.kind import Block
+from usvid.models.kind import Block, LeftOutWarning
 from usvid.models.kinds.mmg import physics as _m
 
 #: Prior weight as a fraction of each regressor's sum of squares (module docstring).
@@ -183,7 +183,7 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
         for i, b in enumerate(bl):
             parts[i].append((b.Phi[keep], b.y[keep]))
         rows.append(int(keep.sum()))
-        _report_low_speed(s, U, keep, h)
+        _report_low_speed(s, U, h, len(rows), len(series))
     if diff_thrust:
         _diagnose_twin(np.concatenate(diff_thrust))
     names = (_m.X_REGRESSORS, _m.Y_REGRESSORS, _m.N_REGRESSORS)
@@ -257,7 +257,7 @@ def _diagnose_twin(dT: np.ndarray) -> None:
 
 
 
-def _report_low_speed(s: Any, U: np.ndarray, keep: np.ndarray, h: float) -> None:
+def _report_low_speed(s: Any, U: np.ndarray, h: float, i: int, n: int) -> None:
     """Say which part of a trial the regression left out below the low-speed floor
     (:func:`low_speed_floor`): its time stretches [s] (a start from rest, a stop)."""
     low = U <= low_speed_floor(U)
@@ -268,15 +268,11 @@ def _report_low_speed(s: Any, U: np.ndarray, keep: np.ndarray, h: float) -> None
     spans = [(t[a], t[b - 1]) for a, b in zip(edges[::2], edges[1::2], strict=True)]
     text = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in spans[:4]) + (", ..." if len(spans) > 4
                                                                    else "")
-    warnings.warn(f"mmg regression: trial {getattr(s, 'name', '?')}: {int(low.sum())} of "
+    warnings.warn(f"mmg regression: trial {i} of {n}: {int(low.sum())} of "
                   f"{U.size} samples ({text}) below {low_speed_floor(U):.3g} m/s "
                   f"({LOW_SPEED_FRACTION:g} of its median speed) left out: v' = v/U and "
                   "r' = r L/U of a vessel near rest say nothing about its hull forces (the "
-                  "simulations and the output error keep them)", LowSpeedWarning, stacklevel=4)
-
-
-class LowSpeedWarning(UserWarning):
-    """Samples near rest were left out of the MMG regression (which, said by the warning)."""
+                  "simulations and the output error keep them)", LeftOutWarning, stacklevel=4)
 
 
 def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
