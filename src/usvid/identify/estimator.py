@@ -310,11 +310,15 @@ class IdentifiedModel:
         return [k for k, e in self.std_errors.items() if e == 0.0]
 
     def summary(self) -> dict[str, Any]:
-        """Parameters, std errors, intervals, the held parameters and fit metrics (the CLI's
-        JSON summary)."""
-        return {"kind": self.kind, "method": self.method, "params": self.params,
-                "std_errors": self.std_errors, "ci95": self.ci95, "held": self.held,
-                "fit": self.fit}
+        """Parameters, std errors, intervals, the held parameters, fit metrics and the wind of
+        the fit (``wind``: the model file's ``identification.wind``) (the CLI's JSON
+        summary)."""
+        out = {"kind": self.kind, "method": self.method, "params": self.params,
+               "std_errors": self.std_errors, "ci95": self.ci95, "held": self.held,
+               "fit": self.fit}
+        if self.wind is not None:
+            out["wind"] = dict(self.wind)
+        return out
 
 
 class ModelEstimator(FittedAttributes):
