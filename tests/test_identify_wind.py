@@ -176,3 +176,24 @@ def test_esso_runs_from_rest_fit_through_the_logged_wind(esso_dir):
     print(f"Esso ls Y_v: with the wind {est.params_['Y_v']:.3f}, without "
           f"{fits[False][0].params_['Y_v']:.3f}")
     assert est.params_["Y_v"] < 0 < fits[False][0].params_["Y_v"]
+
+
+def test_model_file_wind_block_is_validated():
+    """identification.wind reads back as written; a negative scale, an interval of three
+    numbers, an unknown key or model are errors naming the entry."""
+    import json
+    from pathlib import Path
+
+    from usvid.errors import ModelFileError
+    from usvid.io.modelfile import model_from_dict
+
+    base = json.loads((Path(__file__).parents[1] / "examples" / "lanxin.json").read_text())
+    good = {"model": "fujiwara1998", "reason": "wind logged", "wind_scale": 0.76,
+            "std_error": 0.044, "ci95": [0.67, 0.84], "held": None, "trials": ["a"]}
+    m = model_from_dict({**base, "identification": {"wind": good}})
+    assert m.identification["wind"]["wind_scale"] == 0.76
+    assert "wind" not in model_from_dict({**base, "identification": {}}).identification
+    for bad, where in (({"wind_scale": -1.0}, "wind_scale"), ({"ci95": [0, 1, 2]}, "ci95"),
+                       ({"scale": 1.0}, "scale"), ({"model": "isherwood"}, "model")):
+        with pytest.raises(ModelFileError, match=where):
+            model_from_dict({**base, "identification": {"wind": {**good, **bad}}})
