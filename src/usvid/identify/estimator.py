@@ -476,11 +476,16 @@ class ModelEstimator(FittedAttributes):
         are added to each series (``ext_X``, ``ext_Y``, ``ext_N``) for the regression to
         subtract; windows keep the wind series only when the wind is in the fit."""
         names = [s.name for s in series]
-        if not self.wind:
-            wf = WindFit(None, "the wind is left out of the fit (wind=False): calm water")
-        elif self.kind not in WIND_KINDS:
+        logged = [s.name for s in series if "wind_x" in s]
+        if logged and not self.wind:
+            wf = WindFit(None, "the wind is left out of the fit (wind=False): calm water, the "
+                               "wind's forces taken for hull forces", trials=logged)
+        elif logged and self.kind not in WIND_KINDS:
             wf = WindFit(None, f"a {self.kind} fit does not take the wind (the kinds that do: "
-                               f"{', '.join(WIND_KINDS)})")
+                               f"{', '.join(WIND_KINDS)}): calm water, the wind's forces taken "
+                               "for hull forces", trials=logged)
+            warnings.warn(f"{self.kind}: the wind is logged in {len(logged)} trial(s) but "
+                          f"{wf.reason}", IdentificationWarning, stacklevel=4)
         else:
             wf = wind_fit(series, names, _vessel(trials))
             if wf.model is None and wf.trials:
@@ -715,7 +720,8 @@ class ModelEstimator(FittedAttributes):
         result = IdentifiedModel(
             kind=self.kind, method=self.method, params=self.params_,
             std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_, model=None,
-            data=self.data_, options=opts, diagnostics=diag, wind=wf.to_dict())
+            data=self.data_, options=opts, diagnostics=diag,
+            wind=wf.to_dict() if wf.trials else None)  # only where the logs carry the wind
         # the model identification returns: checked (usvid.identify.checks)
         self.checks_ = check_model(model, trials, self.fit_)
         result.checks = [c.to_dict() for c in self.checks_]
@@ -939,7 +945,9 @@ class ModelEstimator(FittedAttributes):
         series = self._series(one_grid(_as_list(trials)), self.fixed_)
         w = self.window_s if window_s == -1.0 else window_s
         out: dict[str, Any] = {"window_s": w}
-        out.update(_replay_metrics(model, self._windows(series, w)))
+        win = self._windows(series, w)
+        out.update(replay_metrics(replay_windows(model, win, wind=self.wind_.model is not None),
+                                  win.outputs))
         return out
 
     def simulate(self, trial: Any, *, window_s: float | None = None) -> Trial:
@@ -951,7 +959,7 @@ class ModelEstimator(FittedAttributes):
         tr = one_grid(_as_list(trial))[0]
         s = self._series([tr], self.fixed_)
         win = self._windows(s, window_s)
-        sim = replay_windows(model, win)
+        sim = replay_windows(model, win, wind=self.wind_.model is not None)
         m = self._decimation(s[0])
         t = s[0]["t"][::m]
         cols: dict[str, np.ndarray] = {"t": t}
