@@ -37,7 +37,13 @@ def test_a_logged_speed_wins_and_the_median_decides():
     uw = under_way(_trial(U=U, sog=np.ones_like(T), psi=np.zeros_like(T)))
     assert uw.source == "U" and uw.median_speed == pytest.approx(0.05)
     assert uw.moving_s == pytest.approx(30.0) and uw.is_under_way is False
-    assert uw.reason() == "its median speed is 0.05 m/s (U), below 0.2 m/s"
+    assert uw.reason() == ("its median speed is 0.05 m/s (U), below 0.2 m/s, above it for 30 s "
+                           "of 100 s (under way needs 20 s and 25 %)")
+    # for identification it made way: 30 s (at least 20 s) and 30 % (at least a quarter) above
+    # 0.2 m/s, as a run from rest whose turns are slower; 20 s of 100 s is not
+    assert uw.made_way is True
+    short = under_way(_trial(U=np.where(T < 20.0, 1.0, 0.05), psi=np.zeros_like(T)))
+    assert short.moving_s == pytest.approx(20.0) and short.made_way is False
     # over the first 30 s only (a mask on the grid)
     part = under_way(_trial(U=U, psi=np.zeros_like(T)), T < 30.0)
     assert part.is_under_way is True and part.median_speed == pytest.approx(1.0)

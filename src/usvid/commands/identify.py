@@ -219,6 +219,14 @@ def _print_summary(s: dict[str, Any]) -> None:
             print(f"  {k:8s} = {v: .6g}  (held at its prior: not identified by {s['method']})")
             continue
         print(f"  {k:8s} = {v: .6g}  +- {(hi - lo) / 2:.3g} (95 %)")
+    w = s.get("wind")
+    if w and w.get("model"):
+        lo, hi = w["ci95"]
+        scale = (f"{w['wind_scale']: .6g}  (held: {w['held']})" if w.get("held") else
+                 f"{w['wind_scale']: .6g}  +- {(hi - lo) / 2:.3g} (95 %)")
+        print(f"  wind_scale = {scale}; wind loads {w['model']} from the logged wind")
+    elif w and w.get("trials"):
+        print(f"  wind: {w['reason']}")
     for label, fit in (("fit", s["fit"]), ("free run", s["fit"].get("free_run", {}))):
         for ch, m in fit.items():
             if isinstance(m, dict) and "rmse" in m:

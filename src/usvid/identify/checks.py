@@ -3,7 +3,10 @@
 Before fitting (:func:`check_data`), a trial is refused (:class:`IdentificationError` naming the
 trial, the channel and the statistic) when
 
-* it was not under way: the median speed over the trial is below :data:`MIN_SPEED` [m/s]
+* it was not under way: the median speed over the trial is below :data:`MIN_SPEED` [m/s], and
+  the vessel was above it for less than :data:`~usvid.prep.under_way.MIN_MOVING_S` or a
+  quarter of the trial (:attr:`usvid.prep.under_way.UnderWay.made_way`: a run from rest whose
+  turns are slower than MIN_SPEED is under way)
   (:func:`usvid.prep.under_way.under_way`, the one definition: a logged ``U``, ``sog`` or
   ``u``, ``v``; a speed derived from the positions only when none is logged: GNSS noise at rest
   makes a derived speed of a moored boat look like motion);
@@ -136,7 +139,7 @@ def check_data(trials: Sequence[Trial], kind_name: str) -> None:
     for tr in trials:
         name = tr.name or (tr.sources[0] if tr.sources else "?")
         uw = under_way(tr)
-        if uw.is_under_way is False:
+        if uw.made_way is False:
             raise IdentificationError(
                 f"trial {name} was not under way: {uw.reason()}; a {kind_name} model needs "
                 "manoeuvres at speed (a boat at the dock or drifting says nothing about its "

@@ -66,17 +66,18 @@ from usvid.identify.output_error import OEResult, refine_output_error
 from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import helm_from_zigzags, identify_second_order_servo
+from usvid.identify.wind import WIND_KINDS, WindFit, interval, track_wind_loads, wind_fit
 from usvid.io.modelfile import model_to_dict
 from usvid.manoeuvres import find_manoeuvres, measured_metrics
 from usvid.manoeuvres.detect import approach
-from usvid.models.kind import ModelKind
+from usvid.models.kind import LeftOutWarning, ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import get as get_kind
 from usvid.models.registry import names as kind_names
 from usvid.models.servo import IdealServo
 from usvid.prep import PreparedTrial, as_prepared, prepare
 from usvid.prep.segments import MIN_SEGMENT_S, split_at_breaks, time_breaks
-from usvid.sim.replay import Windows, make_windows, replay_windows
+from usvid.sim.replay import WIND_SERIES, Windows, make_windows, replay_windows
 from usvid.trial import Trial, Vessel
 
 METHODS = ("ls", "rls", "oe", "oe-zigzag")
@@ -257,6 +258,7 @@ class IdentifiedModel:
     options: dict[str, Any] = field(default_factory=dict)
     diagnostics: dict[str, Any] = field(default_factory=dict)
     checks: list[dict[str, Any]] = field(default_factory=list)
+    wind: dict[str, Any] | None = None
 
     def identification(self) -> dict[str, Any]:
         """The ``identification`` entry of the model file."""
@@ -272,6 +274,7 @@ class IdentifiedModel:
             "options": self.options,
             "diagnostics": self.diagnostics,
             "checks": list(self.checks),
+            **({"wind": dict(self.wind)} if self.wind is not None else {}),
         }
 
     def _covariance(self) -> dict[str, Any]:
@@ -307,11 +310,15 @@ class IdentifiedModel:
         return [k for k, e in self.std_errors.items() if e == 0.0]
 
     def summary(self) -> dict[str, Any]:
-        """Parameters, std errors, intervals, the held parameters and fit metrics (the CLI's
-        JSON summary)."""
-        return {"kind": self.kind, "method": self.method, "params": self.params,
-                "std_errors": self.std_errors, "ci95": self.ci95, "held": self.held,
-                "fit": self.fit}
+        """Parameters, std errors, intervals, the held parameters, fit metrics and the wind of
+        the fit (``wind``: the model file's ``identification.wind``) (the CLI's JSON
+        summary)."""
+        out = {"kind": self.kind, "method": self.method, "params": self.params,
+               "std_errors": self.std_errors, "ci95": self.ci95, "held": self.held,
+               "fit": self.fit}
+        if self.wind is not None:
+            out["wind"] = dict(self.wind)
+        return out
 
 
 class ModelEstimator(FittedAttributes):
@@ -362,6 +369,12 @@ class ModelEstimator(FittedAttributes):
         ``{"x_l": 3.5}`` for threedof; see the kind's module).
     x_l, thrust : optional
         Shortcuts for ``particulars["x_l"]`` [m] and a thrust law object.
+    wind : bool
+        Fit through the logged wind (default True; :mod:`usvid.identify.wind`): where the
+        trials log it and the kind takes it (:data:`usvid.identify.wind.WIND_KINDS`), the
+        regression subtracts its loads along the measured track and the output error
+        simulates in it, estimating ``wind_scale``; False: calm water (the wind's forces taken
+        for hull forces).
     checks : {"error", "record"}
         What to do with a model that fails its checks (:mod:`usvid.identify.checks`: a standard
         manoeuvre inside the training envelope diverges or turns the wrong way, the training
@@ -380,7 +393,7 @@ class ModelEstimator(FittedAttributes):
                  particulars: dict[str, Any] | None = None, x_l: float | None = None,
                  thrust: Any = None, arx_step: float | None = None,
                  oe_step: float | None = None, states: str = "auto",
-                 checks: str = "error") -> None:
+                 checks: str = "error", wind: bool = True) -> None:
         if kind not in kind_names():
             raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
         k = get_kind(kind)
@@ -430,6 +443,7 @@ class ModelEstimator(FittedAttributes):
         if states not in ("auto", "smooth", "ekf"):
             raise UsvidError(f"`states` must be 'auto', 'smooth' or 'ekf' (got {states!r})")
         self.states = states
+        self.wind = bool(wind)
 
     def _estimator_label(self) -> str:
         return f"ModelEstimator({self.kind!r})"
@@ -455,6 +469,36 @@ class ModelEstimator(FittedAttributes):
     def _series(self, trials: Sequence[Trial], fixed: dict[str, Any]) -> list[Series]:
         return [trial_series(tr, self.kind_, smooth_s=self.smooth_s, fixed=fixed,
                              states=self.states) for tr in trials]
+
+    def _wind(self, trials: Sequence[Trial], series: Sequence[Series]) -> WindFit:
+        """The wind of the fit (:mod:`usvid.identify.wind`; ``wind=False``: none): for a kind
+        whose regression takes known loads, the logged wind's loads along the measured track
+        are added to each series (``ext_X``, ``ext_Y``, ``ext_N``) for the regression to
+        subtract; windows keep the wind series only when the wind is in the fit."""
+        names = [s.name for s in series]
+        logged = [s.name for s in series if "wind_x" in s]
+        if logged and not self.wind:
+            wf = WindFit(None, "the wind is left out of the fit (wind=False): calm water, the "
+                               "wind's forces taken for hull forces", trials=logged)
+        elif logged and self.kind not in WIND_KINDS:
+            wf = WindFit(None, f"a {self.kind} fit does not take the wind (the kinds that do: "
+                               f"{', '.join(WIND_KINDS)}): calm water, the wind's forces taken "
+                               "for hull forces", trials=logged)
+            warnings.warn(f"{self.kind}: the wind is logged in {len(logged)} trial(s) but "
+                          f"{wf.reason}", IdentificationWarning, stacklevel=4)
+        else:
+            wf = wind_fit(series, names, _vessel(trials))
+            if wf.model is None and wf.trials:
+                warnings.warn(f"{self.kind}: {wf.reason}", IdentificationWarning, stacklevel=4)
+        for s in series:
+            if wf.model is not None and "wind_x" in s:
+                X, Y, N = track_wind_loads(wf.model, s["wind_x"], s["wind_y"], s["u_s"],
+                                           s["v_s"], s["psi_s"])
+                s.data.update(ext_X=X, ext_Y=Y, ext_N=N)
+            elif wf.model is None:
+                for k in (*WIND_SERIES, "ext_X", "ext_Y", "ext_N"):
+                    s.data.pop(k, None)
+        return wf
 
     def _decimation(self, s: Series) -> int:
         target = DEFAULT_STEP if self.step is None else float(self.step)
@@ -570,6 +614,7 @@ class ModelEstimator(FittedAttributes):
         if len({round(s.h, 9) for s in series + tseries}) > 1:
             raise IdentificationError("trials have different sample steps after resampling")
         self._check_excitation(series)
+        wf = self.wind_ = self._wind(trials, series)
         h = series[0].h
         diag: dict[str, Any] = {}
         fit_series = series
@@ -589,17 +634,24 @@ class ModelEstimator(FittedAttributes):
                 m = self._decimation(series[0])
                 reg_series = [s.decimated(m) for s in series]
                 h_reg = h * m
-            ee = fit_equation_error(kind, reg_series, fixed, form=self.form, h=h_reg,
-                                    method="rls" if self.method == "rls" else "ls",
-                                    lam=self.lam, cond_max=self.cond_max,
-                                    max_lag=max(int(self.window_s / h_reg), 1))
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                ee = fit_equation_error(kind, reg_series, fixed, form=self.form, h=h_reg,
+                                        method="rls" if self.method == "rls" else "ls",
+                                        lam=self.lam, cond_max=self.cond_max,
+                                        max_lag=max(int(self.window_s / h_reg), 1))
+            left_out = self._rewarn(caught, reg_series)
             params, cov, names, diag = ee.params, ee.cov, ee.names, dict(ee.diagnostics)
+            if left_out:
+                diag["left_out"] = left_out
         p_ls = dict(params)
         oe: OEResult | None = None
         zz_rate = None
         if self.method == "oe":
             win = self._windows(fit_series, self.window_s, self.overlap)
-            oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels)
+            params = self._valid_start(params, fixed, fit_series, diag)
+            oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels,
+                                     wind=wf.model)
             diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
                           "message": oe.message, "ac_factor": oe.ac_factor, "sigma": oe.sigma,
                           "n_residuals": oe.n_residuals, "window_s": self.window_s,
@@ -630,6 +682,7 @@ class ModelEstimator(FittedAttributes):
         weak = self._warn_weak(names, se, q)
         if weak:
             diag["warnings"] = [weak]
+        self._wind_scale(wf, oe, q, diag)
         try:
             dyn = kind.dynamics(**{**fixed, **self.params_})
         except UsvidError as exc:
@@ -642,6 +695,9 @@ class ModelEstimator(FittedAttributes):
         speed = training_speed(trials, psi_switch) if vessel.speed is None else None
         if speed is not None:
             vessel = dataclasses.replace(vessel, extra=dict(vessel.extra), speed=speed)
+        if wf.model is not None:  # the identified scale of the wind loads: the model's own
+            vessel = dataclasses.replace(vessel, extra={**vessel.extra,
+                                                        "wind_scale": wf.wind_scale})
         servo, servo_diag = self._servo(trials, zz_rate, vessel, psi_switch)
         if servo_diag:
             diag["servo"] = servo_diag
@@ -664,7 +720,8 @@ class ModelEstimator(FittedAttributes):
         result = IdentifiedModel(
             kind=self.kind, method=self.method, params=self.params_,
             std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_, model=None,
-            data=self.data_, options=opts, diagnostics=diag)
+            data=self.data_, options=opts, diagnostics=diag,
+            wind=wf.to_dict() if wf.trials else None)  # only where the logs carry the wind
         # the model identification returns: checked (usvid.identify.checks)
         self.checks_ = check_model(model, trials, self.fit_)
         result.checks = [c.to_dict() for c in self.checks_]
@@ -681,6 +738,93 @@ class ModelEstimator(FittedAttributes):
                           + "; written anyway (identification.checks)", IdentificationWarning,
                           stacklevel=2)
         return self
+
+    @staticmethod
+    def _rewarn(caught: Sequence[warnings.WarningMessage],
+                series: Sequence[Series]) -> list[str]:
+        """Warn again what the regression said, with the trial's name for its position in a
+        :class:`~usvid.models.kind.LeftOutWarning` (as an :class:`IdentificationWarning`);
+        returns those texts (the samples left out, for the diagnostics)."""
+        out = []
+        for w in caught:
+            msg = str(w.message)
+            if issubclass(w.category, LeftOutWarning):
+                for i, s in enumerate(series):
+                    msg = msg.replace(f"trial {i + 1} of {len(series)}:", f"trial {s.name}:")
+                out.append(msg)
+                warnings.warn(msg, IdentificationWarning, stacklevel=4)
+            else:
+                warnings.warn(w.message, w.category, stacklevel=4)
+        return out
+
+    def _valid_start(self, params: dict[str, float], fixed: dict[str, Any],
+                     series: Sequence[Series], diag: dict[str, Any]) -> dict[str, float]:
+        """The output error's start: the least-squares estimate when it is a valid model; else
+        the regression's physical priors (the kind's ``Regression.priors``: for mmg Kijima et al.
+        1990 and the ITTC 1957 friction line) for the coefficients the regression estimates,
+        or, for a kind without priors, every parameter outside its bounds moved just inside
+        them; said in a warning. The output error then fits from a valid model (it never leaves
+        the bounds) instead of refusing the start."""
+        specs = {p.name: p for p in self.kind_.dynamics.param_specs()}
+        bad = []
+        for n, v in params.items():
+            try:
+                if n in specs:
+                    specs[n].check("parameters", v)
+            except UsvidError:
+                bad.append(f"{n} = {v:.4g}")
+        if not bad:
+            return params
+        reg = self.kind_.regression
+        if reg is not None and reg.priors is not None:
+            pri = reg.priors([s.data for s in series], fixed)
+            out = {**params, **{k: float(v) for k, v in pri.items() if k in params}}
+            how = "the output error starts from the regression's priors"
+        else:
+            out = dict(params)
+            for n, v in params.items():
+                sp = specs.get(n)
+                for b, side in (() if sp is None else
+                                ((sp.ge, 1), (sp.gt, 1), (sp.le, -1), (sp.lt, -1))):
+                    if b is not None and (v - b) * side < 0:
+                        # just inside (a thousandth of the excursion): the fit space's round
+                        # trip of a value on the bound may leave it by rounding
+                        out[n] = float(b + side * max(1e-3 * abs(v - b),
+                                                      1e-9 * max(abs(b), 1.0)))
+            how = "the output error starts just inside the bounds"
+        text = (f"{self.kind}: the least-squares estimate is not a valid model ({'; '.join(bad)}"
+                f"); {how}")
+        warnings.warn(text, IdentificationWarning, stacklevel=4)
+        diag["oe_start"] = {"invalid_ls": bad, "start": how}
+        return out
+
+    def _wind_scale(self, wf: WindFit, oe: OEResult | None, q: float,
+                    diag: dict[str, Any]) -> None:
+        """Set ``wf``'s wind_scale from the output error (with its interval), or hold it at 1
+        saying why: least squares takes the wind's loads as known (scale 1); an output-error
+        interval that spans zero or is wider than the value means the data cannot separate
+        the wind's loads from the hull's."""
+        if wf.model is None:
+            return
+        held = None
+        if oe is None or oe.wind_scale is None:
+            held = (f"method {self.method} takes the logged wind's loads as known (wind_scale 1);"
+                    " output error (method oe) estimates it")
+        elif not (math.isfinite(oe.wind_scale_se) and oe.wind_scale_se > 0
+                  and q * oe.wind_scale_se < abs(oe.wind_scale)):
+            held = (f"the data cannot separate the wind's loads from the hull's (wind_scale "
+                    f"{oe.wind_scale:.3g} +- {q * oe.wind_scale_se:.3g}, 95 %)")
+        if held is None:
+            wf.wind_scale, wf.std_error = float(oe.wind_scale), float(oe.wind_scale_se)
+            wf.ci95 = interval(wf.wind_scale, wf.std_error, q)
+            wf.held = ""
+            return
+        wf.wind_scale, wf.std_error, wf.ci95, wf.held = 1.0, 0.0, [1.0, 1.0], held
+        if oe is not None and oe.wind_scale is not None and oe.wind_scale != 1.0:
+            wf.held += "; the other parameters are those of the fit with it free"
+        text = f"{self.kind}: wind_scale held at 1: {held}"
+        warnings.warn(text, IdentificationWarning, stacklevel=4)
+        diag.setdefault("warnings", []).append(text)
 
     def _speed_note(self) -> str:
         """What a refusal adds when some training logs hold no speed at all."""
@@ -801,7 +945,9 @@ class ModelEstimator(FittedAttributes):
         series = self._series(one_grid(_as_list(trials)), self.fixed_)
         w = self.window_s if window_s == -1.0 else window_s
         out: dict[str, Any] = {"window_s": w}
-        out.update(_replay_metrics(model, self._windows(series, w)))
+        win = self._windows(series, w)
+        out.update(replay_metrics(replay_windows(model, win, wind=self.wind_.model is not None),
+                                  win.outputs))
         return out
 
     def simulate(self, trial: Any, *, window_s: float | None = None) -> Trial:
@@ -813,7 +959,7 @@ class ModelEstimator(FittedAttributes):
         tr = one_grid(_as_list(trial))[0]
         s = self._series([tr], self.fixed_)
         win = self._windows(s, window_s)
-        sim = replay_windows(model, win)
+        sim = replay_windows(model, win, wind=self.wind_.model is not None)
         m = self._decimation(s[0])
         t = s[0]["t"][::m]
         cols: dict[str, np.ndarray] = {"t": t}

@@ -45,8 +45,9 @@ import numpy as np
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify.ls import autocorrelation_factor, numerical_jacobian
 from usvid.identify.metrics import rmse
+from usvid.models.environment import WindLoadModel
 from usvid.models.kind import Dynamics, ModelKind
-from usvid.sim.layout import STATE_CHANNELS
+from usvid.sim.layout import NENV, NWIND, STATE_CHANNELS
 from usvid.sim.replay import Windows, window_initial_state, window_lanes
 from usvid.sim.simulate import Lanes
 
@@ -77,6 +78,8 @@ class OEResult:
     n_residuals: int
     dof: float = math.inf  # degrees of freedom of the interval quantile (clusters - 1)
     init: dict[str, np.ndarray] | None = None  # the windows' estimated initial states
+    wind_scale: float | None = None  # the wind loads' multiplier (None: no wind simulated)
+    wind_scale_se: float = 0.0       # its standard error (0: held)
 
 
 class OEProblem:
@@ -87,7 +90,8 @@ class OEProblem:
     """
 
     def __init__(self, kind: ModelKind, fixed: Mapping[str, Any], win: Windows,
-                 channels: tuple[str, ...]) -> None:
+                 channels: tuple[str, ...], wind: WindLoadModel | None = None,
+                 fit_wind_scale: bool = True) -> None:
         self.kind = kind
         self.fixed = dict(fixed)
         self.win = win
@@ -106,16 +110,34 @@ class OEProblem:
         held_by = getattr(kind.dynamics, "held_names", None)  # e.g. the MMG twin variant's
         if held_by is not None:                                # sway coefficients
             self.held = tuple(self.held) + tuple(held_by(self.fixed))
+        # the logged wind (windows with the series wind_x, wind_y): its loads inside the step,
+        # times wind_scale, the last fit value (held at 1 unless fit_wind_scale)
+        self.wind = wind if wind is not None and "wind_x" in win.inputs else None
+        if self.wind is not None:
+            self.names = (*self.names, "wind_scale")
+            if not fit_wind_scale:
+                self.held = (*self.held, "wind_scale")
         self.init_names = tuple(c for c in ("r", "psi", "u", "v", *STATE_CHANNELS)
                                 if c in kind.outputs)
         self._lanes: Lanes | None = None  # the windows' lanes (simulate)
 
     def fit_values(self, params: Mapping[str, float]) -> np.ndarray:
-        f = self._to_fit(params)
+        f = dict(self._to_fit({k: v for k, v in params.items() if k != "wind_scale"}))
+        f["wind_scale"] = float(params.get("wind_scale", 1.0))
         return np.array([f[n] for n in self.names], dtype=float)
 
     def params(self, x: np.ndarray) -> dict[str, float]:
-        return self._to_params(dict(zip(self.names, x, strict=True)))
+        return self._to_params({n: v for n, v in zip(self.names, x, strict=True)
+                                if n != "wind_scale"})
+
+    def env_block(self, x: np.ndarray) -> np.ndarray | None:
+        """The core's environment block (:data:`usvid.sim.layout.ENVBLOCK`) of the logged
+        wind at the wind_scale of ``x``; None without wind."""
+        if self.wind is None:
+            return None
+        blk = np.zeros((NENV, 1))
+        blk[:NWIND, 0] = self.wind.packed(float(x[self.names.index("wind_scale")]))
+        return blk
 
     def dynamics(self, params: Mapping[str, float]) -> Dynamics:
         return self.kind.dynamics(**{**self.fixed, **params})
@@ -130,12 +152,14 @@ class OEProblem:
         speed = self.win.init.get("u", 1.0) if self.kind.constant_speed else 1.0
         P = self.kind.pack(dyn, speed)
         base = self._lanes
+        env = self.env_block(x)
         if base is None:
             base = self._lanes = window_lanes(self.kind, P, dyn, self.win, init=init,
-                                              channels=self.channels)
+                                              channels=self.channels, env_block=env)
             return base.run().channels
         lanes = replace(base, P=np.broadcast_to(P, (P.shape[0], base.size)),
-                        Z0=window_initial_state(self.kind, dyn, self.win, init))
+                        Z0=window_initial_state(self.kind, dyn, self.win, init),
+                        env_block=env)
         return lanes.run().channels
 
 
@@ -184,7 +208,8 @@ def _singular(kind: str, names: tuple[str, ...]) -> IdentificationError:
 def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapping[str, Any],
                         win: Windows, *, channels: tuple[str, ...] | None = None,
                         max_iter: int = 100, estimate_initial: bool = True,
-                        reweight: bool = True) -> OEResult:
+                        reweight: bool = True, wind: WindLoadModel | None = None,
+                        fit_wind_scale: bool = True) -> OEResult:
     """Minimise weighted simulated-minus-measured outputs over all windows (multiple shooting).
 
     Parameters
@@ -206,6 +231,10 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
     reweight : bool
         Two passes, the second weighting each channel by the inverse RMS of its first-pass
         residual (heading [rad] and yaw rate [rad/s] count by their own error level).
+    wind : WindLoadModel, optional
+        The wind-load model of the logged wind (windows with ``wind_x``, ``wind_y``): the
+        windows are simulated in that wind, its ``wind_scale`` [-] estimated with the parameters
+        (``fit_wind_scale``, start ``start["wind_scale"]`` or 1) or held at the start value.
 
     Returns
     -------
@@ -213,7 +242,7 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
     """
     channels = tuple(channels) if channels is not None else tuple(
         c for c in ("psi", "r", "u", "v", *STATE_CHANNELS) if c in kind.outputs)
-    prob = OEProblem(kind, fixed, win, channels)
+    prob = OEProblem(kind, fixed, win, channels, wind, fit_wind_scale)
     try:
         x_all = prob.fit_values(start)
         prob.dynamics(dict(start))
@@ -231,6 +260,16 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
     init0 = {k: np.asarray(win.init[k], float).copy() for k in prob.init_names}
     lo = np.full(nf, -np.inf)
     hi = np.full(nf, np.inf)
+    free_names = list(np.array(prob.names)[free])
+    if kind.fit_space is None:  # the kind's own parameters: steps never leave their bounds
+        specs = {p.name: p for p in kind.dynamics.param_specs()}
+        for j, n in enumerate(free_names):
+            sp = specs.get(n)
+            if sp is not None:
+                lo[j] = max(v for v in (sp.ge, sp.gt, -np.inf) if v is not None)
+                hi[j] = min(v for v in (sp.le, sp.lt, np.inf) if v is not None)
+    if "wind_scale" in free_names:
+        lo[free_names.index("wind_scale")] = 0.0  # a load never turned against the wind
 
     def unpack(x: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         xa = x_all.copy()
@@ -252,7 +291,10 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
 
     def rms_sigma(x: np.ndarray) -> dict[str, float]:
         xa, init = unpack(x)
-        sim = prob.simulate(xa, init)
+        try:
+            sim = prob.simulate(xa, init)
+        except (UsvidError, ValueError, ZeroDivisionError) as exc:
+            raise _bad_start(kind, exc) from None
         return {c: max(rmse(meas[c][:, 1:], np.nan_to_num(sim[c][:, 1:])), 1e-12)
                 for c in channels}
 
@@ -282,12 +324,17 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         cov_p = G @ covx_full @ G.T
     except (IdentificationError, UsvidError, ZeroDivisionError, ValueError):
         cov_p = np.full((len(pnames), len(pnames)), np.nan)
+    ws, ws_se = None, 0.0
+    if prob.wind is not None:
+        j = prob.names.index("wind_scale")
+        ws, ws_se = float(xa[j]), float(math.sqrt(max(covx_full[j, j], 0.0)))
     return OEResult(x=xa, x_names=prob.names, x_cov=covx_full,
                     params={n: float(params[n]) for n in pnames}, cov=cov_p, names=pnames,
                     cost=float(cost), nfev=int(nfev), success=bool(success), message=message,
                     sigma=sig, ac_factor=float(fac), n_residuals=int(m),
                     dof=float(B - 1) if B >= MIN_CLUSTERS else math.inf,
-                    init={k: np.asarray(v).copy() for k, v in init.items()})
+                    init={k: np.asarray(v).copy() for k, v in init.items()},
+                    wind_scale=ws, wind_scale_se=ws_se)
 
 
 def _param_covariance(Sinv: np.ndarray, s2: float, fac: float, B: int, m: int, ncol: int,

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import IdentificationError
+from usvid.identify.wind import air_velocity
 from usvid.models.kind import ModelKind
 from usvid.prep.filters import savgol_derivative, unwrap_angle, window_samples
 from usvid.prep.prepare import PreparedTrial, as_prepared
@@ -190,6 +191,11 @@ def build_series(trial: PreparedTrial, kind: ModelKind, *, smooth_s: float = 1.0
                 d[ch] = need(ch)
             d[ch + "_s"] = sg(d[ch])
             d[ch + "dot_s"] = sg(d[ch], 1)
+    # the logged wind as the air's velocity over ground (usvid.identify.wind): the fit and the
+    # replays take its loads
+    air = air_velocity(trial, t)
+    if air is not None:
+        d["wind_x"], d["wind_y"] = air
     return Series(name=name, h=h, data=d)
 
 

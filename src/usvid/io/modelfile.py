@@ -133,6 +133,24 @@ class CovarianceSpec(BaseModel):
     matrix: list[list[float]]
 
 
+class WindIdentificationSpec(BaseModel):
+    """``identification.wind``: the wind the model was identified through
+    (:class:`usvid.identify.wind.WindFit`): the wind-load model (null: none, fitted as calm
+    water) and why, ``wind_scale`` [-] with its standard error and 95 % interval, ``held``
+    (why it was held at 1, or null), the trials that logged the wind."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=True)
+    model: Literal["fujiwara1998", "blendermann1994"] | None = None
+    reason: str = ""
+    model_reason: str | None = None
+    wind_scale: Annotated[float, Field(ge=0, allow_inf_nan=False)] = 1.0
+    std_error: Annotated[float, Field(ge=0)] | None = 0.0
+    ci95: list[float | None] = Field(default_factory=lambda: [1.0, 1.0], min_length=2,
+                                     max_length=2)
+    held: str | None = None
+    trials: list[str] = Field(default_factory=list)
+
+
 class IdentificationSpec(BaseModel):
     model_config = ConfigDict(extra="allow", strict=True, allow_inf_nan=True)
     data: list[str] = Field(default_factory=list)
@@ -142,6 +160,7 @@ class IdentificationSpec(BaseModel):
         default_factory=dict)
     covariance: CovarianceSpec | None = None
     fit: dict[str, Any] = Field(default_factory=dict)
+    wind: WindIdentificationSpec | None = None
 
 
 class ModelFileSpec(BaseModel):
@@ -438,8 +457,9 @@ def model_from_dict(d: Any, source: str = "model") -> Any:
     v = spec.vessel
     vessel = Vessel(**{k: getattr(v, k) for k in VESSEL_FIELDS}, extra=dict(v.extra))
     ident = spec.identification.model_dump() if spec.identification is not None else None
-    if ident is not None and ident.get("covariance") is None:
-        ident.pop("covariance", None)
+    for key in ("covariance", "wind"):  # optional blocks: absent, not null
+        if ident is not None and ident.get(key) is None:
+            ident.pop(key, None)
     model = VesselModel(dynamics, servo=servo, vessel=vessel, identification=ident)
     if ident:
         try:  # the uncertainty blocks as their one reader reads them (names, shape, symmetry)

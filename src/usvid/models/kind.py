@@ -198,6 +198,12 @@ class Block:
     trial_rows: list[int] = field(default_factory=list)
 
 
+class LeftOutWarning(UserWarning):
+    """A regression left samples out (e.g. near rest); the message names the trial by its
+    position ``trial i of N`` (1-based, in the order of the series), the time spans [s] and
+    why; the estimator replaces the position by the trial's name."""
+
+
 @dataclass(frozen=True)
 class Regression:
     """The linear-in-parameters form of a kind (equation-error least squares).
@@ -222,6 +228,11 @@ class Regression:
                            dict[str, float]] | None = None
     forms: tuple[str, ...] = ("continuous",)
     needs: tuple[str, ...] = ()
+    #: ``priors(series, fixed) -> dict``: the physical priors of the fitted parameters (what a
+    #: regularised regression pulls towards); the output error starts from them when the
+    #: regression's estimate is not a valid model. None: the kind has none.
+    priors: Callable[[Sequence[Mapping[str, np.ndarray]], Mapping[str, Any]],
+                     dict[str, float]] | None = None
 
     @property
     def constrained(self) -> bool:

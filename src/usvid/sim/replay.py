@@ -18,11 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from usvid.errors import SimulationError
+from usvid.errors import SimulationError, UsvidError
+from usvid.models.environment import wind_load_model
 from usvid.models.kind import ModelKind
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.models.servo import IdealServo
+from usvid.sim.layout import NENV, NWIND
 from usvid.sim.simulate import Lanes, approach_speed, initial_state, servo_rows
 
 #: Output channels a replay can compare (roll angle and rate for kinds with roll), and the
@@ -30,8 +32,11 @@ from usvid.sim.simulate import Lanes, approach_speed, initial_state, servo_rows
 OUTPUTS = ("psi", "r", "u", "v", "phi", "p")
 _START = {"psi": "psi_s", "r": "r_s", "u": "u_s", "v": "v_s", "rdot": "rdot_s", "phi": "phi_s",
           "p": "p_s"}
-#: Inputs replayed when present in the series (the names of the core's series).
-INPUTS = ("delta", "n", "n_port", "n_stbd")
+#: Inputs replayed when present in the series (the names of the core's series; ``wind_x``,
+#: ``wind_y`` the logged true wind as the air's velocity over ground [m/s, north, east]).
+INPUTS = ("delta", "n", "n_port", "n_stbd", "wind_x", "wind_y")
+#: The wind's series among the inputs.
+WIND_SERIES = ("wind_x", "wind_y")
 
 
 @dataclass
@@ -142,10 +147,13 @@ def window_initial_state(kind: ModelKind, dynamics: Any, win: Windows,
 
 def window_lanes(kind: ModelKind, P: np.ndarray, dynamics: Any, win: Windows,
                  init: Mapping[str, np.ndarray] | None = None,
-                 channels: Sequence[str] = ("psi", "r")) -> Lanes:
+                 channels: Sequence[str] = ("psi", "r"),
+                 env_block: np.ndarray | None = None) -> Lanes:
     """The core lanes of ``win`` for parameter rows ``P`` ((n_params, 1 or B)); ``init``
     overrides the windows' initial values (output error estimates them); ``dynamics`` gives
-    the kind's initial-state map."""
+    the kind's initial-state map; ``env_block`` (NENV, 1) the packed wind-load model of the
+    windows' wind series (:meth:`usvid.sim.Environment.block`; None: calm water, the wind
+    series unused)."""
     B, W = win.batch_size, win.width
     Z0 = window_initial_state(kind, dynamics, win, init)
     nsteps = np.full(B, W - 1, dtype=np.int64)
@@ -155,15 +163,20 @@ def window_lanes(kind: ModelKind, P: np.ndarray, dynamics: Any, win: Windows,
         nsteps = (W - 1 - np.argmax(nan_tail[:, ::-1] == 0, axis=1)).astype(np.int64)
     skind, S = servo_rows(IdealServo(max_angle=np.pi), B)
     series = {k: np.nan_to_num(v, nan=0.0) for k, v in win.inputs.items()
-              if k in kind.inputs or k == "delta"}
+              if k in kind.inputs or k == "delta"
+              or (k in WIND_SERIES and env_block is not None)}
     return Lanes(kind=kind, P=np.broadcast_to(P, (P.shape[0], B)), servo=skind, S=S, Z0=Z0,
-                 nsteps=nsteps, dt=win.h, series=series, channels=tuple(channels))
+                 nsteps=nsteps, dt=win.h, series=series, channels=tuple(channels),
+                 env_block=env_block)
 
 
 def replay_windows(model: VesselModel, win: Windows,
-                   channels: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+                   channels: Sequence[str] | None = None,
+                   wind: bool = True) -> dict[str, np.ndarray]:
     """Simulate every window of ``win`` with ``model`` (measured inputs, measured smoothed
-    initial state); returns name -> (B, W) simulated outputs (NaN after a divergence)."""
+    initial state); returns name -> (B, W) simulated outputs (NaN after a divergence).
+    Windows with a logged wind (``wind_x``, ``wind_y``) are replayed in it (``wind``; False:
+    calm water), its loads from the model's vessel (:func:`wind_block`)."""
     kind = kind_of(model.dynamics)
     chans = tuple(channels) if channels is not None else tuple(
         c for c in OUTPUTS if c in win.outputs and (c not in ("phi", "p") or c in kind.states))
@@ -175,9 +188,25 @@ def replay_windows(model: VesselModel, win: Windows,
     else:  # the model's own approach speed (an error when it has none, never an assumed one)
         speed = approach_speed(model, None)
     P = kind.pack(model.dynamics, speed)
-    out = window_lanes(kind, P, model.dynamics, win, channels=chans).run()
+    env = wind_block(model) if wind and "wind_x" in win.inputs else None
+    out = window_lanes(kind, P, model.dynamics, win, channels=chans, env_block=env).run()
     return {c: out.channels[c] for c in chans}
 
 
-__all__ = ["Windows", "make_windows", "replay_windows", "window_initial_state",
-           "window_lanes"]
+def wind_block(model: VesselModel) -> np.ndarray | None:
+    """The environment block of ``model``'s wind loads (its vessel's wind-load model with the
+    vessel's ``wind_scale``: :func:`usvid.models.environment.wind_load_model`); None when the
+    model is not a force kind or its vessel lacks the windage particulars (replayed calm)."""
+    if kind_of(model.dynamics).constant_speed or model.vessel is None:
+        return None
+    try:
+        wm = wind_load_model(model.vessel)
+    except UsvidError:
+        return None
+    blk = np.zeros((NENV, 1))
+    blk[:NWIND, 0] = wm.packed()
+    return blk
+
+
+__all__ = ["WIND_SERIES", "Windows", "make_windows", "replay_windows", "wind_block",
+           "window_initial_state", "window_lanes"]

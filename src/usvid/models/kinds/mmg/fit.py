@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.models.kind import Block
+from usvid.models.kind import Block, LeftOutWarning
 from usvid.models.kinds.mmg import physics as _m
 
 #: Prior weight as a fraction of each regressor's sum of squares (module docstring).
@@ -62,6 +62,23 @@ def held_names(fixed: Mapping[str, Any]) -> tuple[str, ...]:
     return ("thrust_asymmetry", *REFINED)
 
 
+#: Series of known external loads along the measured track (X, Y [N], N [N m], body axes:
+#: the logged wind's, :func:`usvid.identify.wind.track_wind_loads`) that the regression
+#: subtracts from the measured forces.
+EXTERNAL = ("ext_X", "ext_Y", "ext_N")
+#: Low-speed floor of the regression as a fraction of the trials' median speed: below it v' =
+#: v/U and r' = r L/U (Y&Y 2015's non-dimensional hull model, made for manoeuvres at speed)
+#: are dominated by the noise of U -> 0 in a start from rest, and the sample carries no hull
+#: information; it is left out (:func:`low_speed_floor`, reported by the estimator).
+LOW_SPEED_FRACTION = 0.3
+
+
+def low_speed_floor(U: np.ndarray) -> float:
+    """The speed [m/s] below which a regression sample is left out: LOW_SPEED_FRACTION of the
+    median speed ``U`` [m/s] of the trial."""
+    return LOW_SPEED_FRACTION * float(np.median(U))
+
+
 #: Kinematic viscosity of water [m^2/s] for the R_0 prior (15 deg C fresh water).
 NU_WATER = 1.14e-6
 
@@ -88,6 +105,15 @@ def prior_hull(p: _m.MMGParameters, U: float) -> dict[str, float]:
     out.update({k: pri[k] for k in ("Y_v", "Y_r", "N_v", "N_r")})
     out["R_0"] = 1.3 * CF * S / (p.L * p.d)
     return out
+
+
+def priors_of(series: Sequence[Mapping[str, np.ndarray]],
+              fixed: Mapping[str, Any]) -> dict[str, float]:
+    """The regression's priors (:func:`prior_hull`) at the trials' median speed [m/s]: the
+    hull coefficients of a physically valid model of the particulars ``fixed``."""
+    U = np.concatenate([np.hypot(_series_arrays(s)["u"], _series_arrays(s)["v"])
+                        for s in series])
+    return prior_hull(physics_of(fixed), float(np.median(U)))
 
 
 def pwm_to_law(c: Any, neutral: float, span: float) -> np.ndarray:
@@ -131,6 +157,8 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
                 raise UsvidError(f"model 'mmg' regression needs '{k}' (state estimation of "
                                     "u, v, r and their derivatives)")
         N = a["u"].size
+        ext = (tuple(np.asarray(s[k], float) for k in EXTERNAL) if all(k in s for k in EXTERNAL)
+               else None)
         delta = a["delta"] if a["delta"] is not None else np.zeros(N)
         n = a["n"] if a["n"] is not None else np.full(N, fixed.get("n") or 0.0)
         if p.variant == "twin":
@@ -142,19 +170,20 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
                                        float(fixed.get("pwm_span") or 500.0))
                             for c in (npo, nst))
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
-                                    n_port=npo, n_stbd=nst)
+                                    n_port=npo, n_stbd=nst, external=ext)
             if fixed.get("pwm_neutral") is not None:
                 bl[2], dT = _asymmetry_column(p, bl[2], a, npo, nst)
                 diff_thrust.append(_moving_mean(dT, max(int(round(DIFF_SMOOTH_S / h)), 1)))
         else:
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
-                                    delta, n)
+                                    delta, n, external=ext)
         U = np.hypot(a["u"], a["v"])
-        keep = (U > 0.3 * np.median(U)) & np.all(
+        keep = (U > low_speed_floor(U)) & np.all(
             [np.isfinite(b.y) & np.all(np.isfinite(b.Phi), axis=1) for b in bl], axis=0)
         for i, b in enumerate(bl):
             parts[i].append((b.Phi[keep], b.y[keep]))
         rows.append(int(keep.sum()))
+        _report_low_speed(s, U, h, len(rows), len(series))
     if diff_thrust:
         _diagnose_twin(np.concatenate(diff_thrust))
     names = (_m.X_REGRESSORS, _m.Y_REGRESSORS, _m.N_REGRESSORS)
@@ -226,6 +255,24 @@ def _diagnose_twin(dT: np.ndarray) -> None:
             "response to other differential thrusts is extrapolated", CollinearityWarning,
             stacklevel=4)
 
+
+
+def _report_low_speed(s: Any, U: np.ndarray, h: float, i: int, n: int) -> None:
+    """Say which part of a trial the regression left out below the low-speed floor
+    (:func:`low_speed_floor`): its time stretches [s] (a start from rest, a stop)."""
+    low = U <= low_speed_floor(U)
+    if not low.any():
+        return
+    t = np.asarray(s["t"], float) if "t" in s else np.arange(U.size) * h
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], low.astype(int), [0]])))
+    spans = [(t[a], t[b - 1]) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    text = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in spans[:4]) + (", ..." if len(spans) > 4
+                                                                   else "")
+    warnings.warn(f"mmg regression: trial {i} of {n}: {int(low.sum())} of "
+                  f"{U.size} samples ({text}) below {low_speed_floor(U):.3g} m/s "
+                  f"({LOW_SPEED_FRACTION:g} of its median speed) left out: v' = v/U and "
+                  "r' = r L/U of a vessel near rest say nothing about its hull forces (the "
+                  "simulations and the output error keep them)", LeftOutWarning, stacklevel=4)
 
 
 def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:

@@ -691,7 +691,7 @@ CONFOUNDED: dict[str, str] = {
 
 def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vdot: Any,
                     rdot: Any, delta: Any = 0.0, n: Any = 0.0, *, n_port: Any = None,
-                    n_stbd: Any = None) -> list[RegressionBlock]:
+                    n_stbd: Any = None, external: Any = None) -> list[RegressionBlock]:
     """Regression form of Y&Y 2015 eq. 4: the hull forces are linear in the hull coefficients.
 
     With the particulars, masses, added masses and propeller/rudder/thruster parameters of
@@ -705,8 +705,11 @@ def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vd
               / (0.5 rho L^2 d U^2)
             = N_v v' + N_r r' + ...
 
-    (v' = v/U, r' = r L/U non-dimensional). u, v [m/s] (v at midship), r [rad/s], udot, vdot
-    [m/s^2], rdot [rad/s^2] from state estimation; delta [rad], n [rps] (twin: n_port, n_stbd).
+    (v' = v/U, r' = r L/U non-dimensional). ``external``: known loads (X, Y [N], N [N m]
+    about midship, body axes; e.g. the wind's along the measured track) subtracted from the
+    measured forces like the rudder's and the propeller's. u, v [m/s] (v at midship), r
+    [rad/s], udot, vdot [m/s^2], rdot [rad/s^2] from state estimation; delta [rad], n [rps]
+    (twin: n_port, n_stbd).
     Returns three :class:`RegressionBlock` (X: regressors ``(-1, v'^2, v'r', r'^2, v'^4)`` for
     ``(R_0, X_vv, X_vr, X_rr, X_vvvv)``; Y and N: ``(v', r', v'^3, v'^2 r', v' r'^2, r'^3)``).
     Below U_min the kernel's U^2/U_min^2 scaling multiplies Phi, so ``Phi @ theta = y`` holds
@@ -737,6 +740,11 @@ def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vd
     yX = (mmx * ud - mmy * vv * rr - xgm * rr ** 2 - f["X_R"] - f["X_P"]) / qf
     yY = (mmy * vd + xgm * rd + mmx * uu * rr - f["Y_R"] - f["Y_P"]) / qf
     yN = (params.Iz_total * rd + xgm * (vd + uu * rr) - f["N_R"] - f["N_P"]) / qn
+    if external is not None:
+        eX, eY, eN = (np.broadcast_to(np.asarray(x, dtype=float), shape) for x in external)
+        yX = yX - eX / qf
+        yY = yY - eY / qf
+        yN = yN - eN / qn
     one = np.ones_like(vp)
     PhiX = np.stack([-one, vp ** 2, vp * rp, rp ** 2, vp ** 4], axis=-1) * scale[..., None]
     lat = np.stack([vp, rp, vp ** 3, vp ** 2 * rp, vp * rp ** 2, rp ** 3],
