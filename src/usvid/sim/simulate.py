@@ -135,8 +135,9 @@ class Environment:
     draft; :func:`~usvid.models.environment.mean_drift_scalar` at the stage's heading) inside
     the step, and, with ``wave_motion``, the first-order wave-induced motion
     (:func:`~usvid.models.environment.wave_motion`, ``wave_components`` components drawn with
-    ``wave_seed``, run b from the stream (wave_seed, b)) added to the recorded x, y, psi after
-    the run (Fossen 2021 ch. 10.2: eta = eta_LF + eta_WF; it does not feed back).
+    ``wave_seed``, run b from the stream (wave_seed, b), or (wave_seed, ``wave_stream[b]``) when
+    ``wave_stream`` gives each run its stream) added to the recorded x, y, psi after the run
+    (Fossen 2021 ch. 10.2: eta = eta_LF + eta_WF; it does not feed back).
 
     ``force``: (X, Y [N], K, N [N m]) in body axes (x forward, y starboard, z down; K heels to
     starboard, N turns to starboard), a precomputed external load. The force kinds add the
@@ -158,6 +159,7 @@ class Environment:
     wave_motion: bool = True
     wave_seed: int = 0
     wave_components: int = 128
+    wave_stream: Any = None
 
     @property
     def has_wind(self) -> bool:
@@ -664,14 +666,16 @@ def _add_wave_motion(env: Environment, model: VesselModel, t: np.ndarray,
                      chans: dict[str, np.ndarray], B: int) -> None:
     """The first-order wave-induced motion of ``env.sea`` added to the recorded x, y, psi
     (:func:`usvid.models.environment.wave_motion` along the recorded track; run b draws its
-    components from (wave_seed, b)); needs x, y and psi recorded (the phases follow the
+    components from (wave_seed, b), or (wave_seed, wave_stream[b])); needs x, y and psi recorded (the phases follow the
     position, the response the heading)."""
     if not all(k in chans for k in ("x", "y", "psi")):
         raise SimulationError("simulate: the first-order wave motion needs the channels x, y "
                               "and psi recorded (or Environment(wave_motion=False))")
     L = float(model.vessel.length)
     comps = wave_components(env.sea, n_components=int(env.wave_components),
-                            seed=int(env.wave_seed), n_batch=B, length=L)
+                            seed=int(env.wave_seed), n_batch=B, length=L,
+                            streams=None if env.wave_stream is None else
+                            np.broadcast_to(np.asarray(env.wave_stream, float), (B,)))
     wm = wave_motion(comps, env.sea, L, t, chans["x"], chans["y"], chans["psi"])
     chans["x"] = chans["x"] + wm.north
     chans["y"] = chans["y"] + wm.east
