@@ -107,17 +107,12 @@ def _environment_json(mc: Any) -> dict[str, Any] | None:
     given = {n: ({"dist": v.dist, "a": v.a, "b": v.b} if isinstance(v, Distribution)
                  else float(v)) for n, v in mc.environment.items()}
     from usvid.io.modelfile import model_from_dict
-    from usvid.models.registry import kind_of
 
     e0 = mc.environment_of(0, 1)
     env0 = dataclasses.replace(e0, **{k: float(np.asarray(getattr(e0, k))[0]) for k in (
         "current_speed", "current_dir", "wind_speed", "wind_dir")})
-    vm = model_from_dict(mc.model)
-    _, _, info = env0.block(vm, kind_of(vm.dynamics))  # the particulars the loads need
-    run0 = env0.describe()
-    for key, value in info.items():
-        run0[key] = {**(run0.get(key) or {}), **value}
-    return {**given, "run0": run0}
+    # (checks the particulars the loads need before any run)
+    return {**given, "run0": env0.describe_for(model_from_dict(mc.model))}
 
 
 def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,

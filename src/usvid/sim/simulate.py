@@ -293,6 +293,14 @@ class Environment:
                                             "(no yaw moment) does not act on it"]
         return blk, dyn, info
 
+    def describe_for(self, model: VesselModel) -> dict[str, Any]:
+        """:meth:`describe` with what :meth:`block` chose and assumed for ``model`` (the wind
+        load model, its reason and particulars, the rudder equivalent, the drift coefficients):
+        the ``environment`` that ``usvid simulate --json`` echoes. SimulationError naming the
+        missing particular when the vessel lacks one."""
+        info = self.block(model, kind_of(model.dynamics))[2] if self.stateful else {}
+        return _merged(self.describe(), info)
+
     def describe(self) -> dict[str, Any]:
         """The inputs, JSON-ready (angles in degrees, as named): ``current`` (speed [m/s],
         direction towards [deg]), ``wind`` (speed [m/s], direction from [deg]), ``waves`` (the
@@ -314,6 +322,13 @@ class Environment:
             "waves": None if self.sea is None else self.sea.to_dict(),
             "external_force": self.force is not None, "series": self.t is not None}
         return out
+
+
+def _merged(described: dict[str, Any], info: dict[str, Any]) -> dict[str, Any]:
+    """:meth:`Environment.describe` with :meth:`Environment.block`'s entries merged in."""
+    for key, value in info.items():
+        described[key] = {**(described.get(key) or {}), **value}
+    return described
 
 
 @dataclass
@@ -646,10 +661,7 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     meta: dict[str, Any] = {"nsteps": nsteps, "integrator": "rk4", "u0": speed,
                             "kind": kind.name}
     if environment is not None:
-        described = environment.describe()
-        for key, value in env_info.items():
-            described[key] = {**(described.get(key) or {}), **value}
-        meta["environment"] = described
+        meta["environment"] = _merged(environment.describe(), env_info)
         if environment.sea is not None and environment.wave_motion:
             _add_wave_motion(environment, model, out.t, chans, B)
     return SimResult(
@@ -666,8 +678,8 @@ def _add_wave_motion(env: Environment, model: VesselModel, t: np.ndarray,
                      chans: dict[str, np.ndarray], B: int) -> None:
     """The first-order wave-induced motion of ``env.sea`` added to the recorded x, y, psi
     (:func:`usvid.models.environment.wave_motion` along the recorded track; run b draws its
-    components from (wave_seed, b), or (wave_seed, wave_stream[b])); needs x, y and psi recorded (the phases follow the
-    position, the response the heading)."""
+    components from (wave_seed, b), or (wave_seed, wave_stream[b])); needs x, y and psi
+    recorded (the phases follow the position, the response the heading)."""
     if not all(k in chans for k in ("x", "y", "psi")):
         raise SimulationError("simulate: the first-order wave motion needs the channels x, y "
                               "and psi recorded (or Environment(wave_motion=False))")
