@@ -257,13 +257,13 @@ class Environment:
                     try:
                         if vessel is None:
                             raise UsvidError("the model has no vessel block (mass, length)")
-                        re = rudder_equivalent(kind.name, dyn.values(), vessel)
+                        re, n_delta = _rudder_equivalents(kind.name, dyn.values(), vessel)
                     except UsvidError as exc:
                         raise SimulationError(
                             f"simulate: a {kind.name} model takes the wind's yaw moment as a "
                             f"rudder-equivalent angle N / N_delta and N_delta cannot be had: "
                             f"{exc}; give its parameter N_delta [N m/rad]") from None
-                    dyn = dyn.replace(N_delta=re.N_delta)
+                    dyn = dyn.replace(N_delta=n_delta)
                     w["rudder_equivalent"] = re.to_dict()
                 else:
                     w["rudder_equivalent"] = {"N_delta_N_m_per_rad": float(np.mean(
@@ -322,6 +322,25 @@ class Environment:
             "waves": None if self.sea is None else self.sea.to_dict(),
             "external_force": self.force is not None, "series": self.t is not None}
         return out
+
+
+def _rudder_equivalents(kind: str, params: dict[str, Any], vessel: Any) -> tuple[Any, Any]:
+    """(the :func:`~usvid.models.environment.rudder_equivalent` of the first run, N_delta
+    [N m/rad]: a number, or one per run when the kind's parameters are (B,) arrays, each run's
+    from its own parameters)."""
+    arrays = {k: np.asarray(v, dtype=float) for k, v in params.items()
+              if isinstance(v, (int, float, np.ndarray, np.number)) and not isinstance(v, bool)}
+    B = max([a.size for a in arrays.values() if a.ndim], default=0)
+    if B == 0:
+        re = rudder_equivalent(kind, params, vessel)
+        return re, re.N_delta
+
+    def run(b: int) -> dict[str, Any]:
+        return {**params, **{k: float(a if a.ndim == 0 else np.broadcast_to(a, (B,))[b])
+                             for k, a in arrays.items()}}
+
+    each = [rudder_equivalent(kind, run(b), vessel) for b in range(B)]
+    return each[0], np.array([r.N_delta for r in each])
 
 
 def _merged(described: dict[str, Any], info: dict[str, Any]) -> dict[str, Any]:
