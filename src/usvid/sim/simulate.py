@@ -181,7 +181,7 @@ class Environment:
             a = np.asarray(v, dtype=float)
             if not np.all(np.isfinite(a)):
                 raise SimulationError(f"Environment.{name} must be finite")
-            if tt is None:
+            if tt is None or a.ndim == 0:  # (a constant beside series)
                 if a.ndim > 1:
                     raise SimulationError(f"Environment.{name}: a constant or one value per "
                                           f"run (got shape {a.shape}); give t for a series")
