@@ -113,3 +113,18 @@ def test_esso_osaka_turn_in_its_logged_wind(esso_dir, tmp_path, capsys):
                for m in row["conditions"]["messages"])
     assert row["predicted_in_conditions"]["tactical_diameter_m"] > 0
     assert set(row["error_in_conditions"]) == set(row["error"])
+
+
+def test_report_shows_the_conditions(lanxin, trial, tmp_path):
+    from usvid.identify.validation import validate_model
+    from usvid.report.validation_run import write_validation_report
+
+    res = validate_model(lanxin, [trial])
+    html = write_validation_report(tmp_path / "rep", res, [trial], model=lanxin).read_text()
+    assert "The run&#x27;s own conditions" in html or "The run's own conditions" in html
+    assert "predicted (own conditions)" in html
+    assert 'id="ho0-wind"' in html and 'id="ho0-current"' in html  # the plotly figures
+    assert "predicted in the run" in html  # the manoeuvre figure's third trace
+    run = json.loads((tmp_path / "rep" / "run.json").read_text())
+    s = run["held_out"][0]["series"]
+    assert len(s["t_wind"]) == len(s["speed_wind"]) and len(s["t_env"]) == len(s["psi_env"])

@@ -84,7 +84,9 @@ REPLAY_STEP = 0.1
 class TrialValidation:
     """The validation of a model on one trial (module docstring). ``series`` holds the time
     series for figures (``t`` [s], measured and replayed ``psi`` [rad], ``r`` [rad/s], ``x``,
-    ``y`` [m]; predicted manoeuvre ``t_pred``, ``psi_pred``, ``x_pred``, ``y_pred``); it is not
+    ``y`` [m]; predicted manoeuvre ``t_pred``, ``psi_pred``, ``x_pred``, ``y_pred``; predicted
+    in the run's conditions ``t_env``, ``psi_env``, ``x_env``, ``y_env``; the logged true wind
+    ``t_wind`` [s from the execute], ``speed_wind`` [m/s], ``dir_wind`` [rad, from]); it is not
     part of :meth:`to_dict`."""
 
     trial: str
@@ -251,11 +253,9 @@ def _predict_in_conditions(m: VesselModel, seg: Segment, out: TrialValidation,
         return
     if "x" in res.channels:
         out.series.update(x_env=res["x"][0], y_env=res["y"][0])
-    if cond.wind_speed is not None:
-        out.series.update(t_wind=cond.t, wind_speed=cond.wind_speed,
-                          wind_dir=np.remainder(cond.wind_dir, 2 * np.pi))
-    if cond.current is not None:
-        out.series.update(current=(cond.current_speed, cond.current_dir))
+    if cond.wind_speed is not None:  # [s from the execute], [m/s], [rad, from]
+        out.series.update(t_wind=cond.t, speed_wind=cond.wind_speed,
+                          dir_wind=np.remainder(cond.wind_dir, 2 * np.pi))
     out.conditions["speed_m_s"] = u0
     out.conditions["heading_at_execute_deg"] = math.degrees(psi0) % 360.0
     out.error_in_conditions = metric_error(out.predicted_in_conditions, out.measured, keys)
