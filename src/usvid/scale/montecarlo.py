@@ -64,10 +64,11 @@ from usvid.errors import SimulationError, UsvidError
 from usvid.io.modelfile import model_from_dict
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
+from usvid.models.environment import SeaState
 from usvid.models.uncertainty import BLOCK, Distribution, Sample, Uncertainty, lane_errors
 from usvid.scale.cluster import available_memory, map_ordered
 from usvid.sim.runs import default_t_end
-from usvid.sim.simulate import approach_speed, simulate
+from usvid.sim.simulate import Environment, approach_speed, simulate
 
 __all__ = ["BLOCK", "MANOEUVRES", "MAX_RUNS", "MonteCarlo", "Vary", "check_size", "parse_vary",
            "quantiles", "run_chunk", "run_montecarlo", "run_timing", "use_dask"]
@@ -220,9 +221,6 @@ class MonteCarlo:
         wind and current, the sea state with run i's wave stream (seed, i)."""
         if not self.environment:
             return None
-        from usvid.models.environment import SeaState
-        from usvid.sim.simulate import Environment
-
         e = self.environment_sample(lo, hi)
         sea = None
         if "hs" in e:
