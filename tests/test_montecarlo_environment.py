@@ -133,3 +133,18 @@ def test_windage_missing_is_refused_before_any_run(tmp_path, capsys):
     code = main(["montecarlo", str(p), "--manoeuvre", "turning", "--runs", "10", "--vary",
                  "K=normal:0.5,0.01", "--out", str(tmp_path / "o.parquet"), "--wind-speed", "4"])
     assert code == 2 and "frontal_area" in capsys.readouterr().err
+
+
+def test_wave_streams_are_the_lanes_of_a_larger_batch():
+    """Lane b with stream s draws what lane s of one batch draws (run i of a study from
+    (seed, i) whatever its chunk); bad streams are refused."""
+    from usvid.errors import UsvidError
+    from usvid.models.environment import SeaState, wave_components
+
+    sea = SeaState(hs=0.3, tp=3.0, direction=0.0)
+    whole = wave_components(sea, n_components=16, seed=4, n_batch=8, length=5.0)
+    part = wave_components(sea, n_components=16, seed=4, n_batch=3, length=5.0,
+                           streams=[5, 6, 7])
+    np.testing.assert_array_equal(part, whole[5:])
+    with pytest.raises(UsvidError, match="streams must be 2 whole numbers"):
+        wave_components(sea, n_components=16, seed=4, n_batch=2, streams=[0.5, 1])
