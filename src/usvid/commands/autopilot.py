@@ -153,7 +153,7 @@ def _print(out: dict[str, Any]) -> None:
             f" dB, phase {m['phase_margin_deg']:.3g} deg at {m['crossover_rad_s']:.3g} rad/s")
     e = out.get("in_environment")
     if e:
-        c.print(f"ITAE over {h:g} s [rad s^2] in calm water / in the environment: design "
+        c.print(f"ITAE over {h:g} s (rad s^2) in calm water / in the environment: design "
                 f"{e['itae_calm']:.4g} / {e['itae_environment']:.4g}, reference "
                 f"{e['reference_itae_calm']:.4g} / {e['reference_itae_environment']:.4g} "
                 f"(on {e['heading']})")
