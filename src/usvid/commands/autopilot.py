@@ -6,7 +6,13 @@ horizon, overshoot, rudder saturation), the same metrics of the reference gains 
 2018's hand-tuned kp 0.7, ki 0.00095, kd 1) under the same horizon and disturbance seed, the
 margins and the robustness over samples of the parameter uncertainty. ``--json``: one object
 (``method``, ``kp``, ``ki``, ``kd``, ``controller``, ``horizon_s``, ``step``, ``reference``,
-``margins``, ``robustness``, ...).
+``margins``, ``robustness``, ...). The environment options of ``usvid simulate``
+(:func:`usvid.commands._common.environment_of`): the design, its step, the reference and the
+robustness are in that environment; ``environment`` echoes it (null in calm water) and
+``in_environment`` gives the design's and the reference's ITAE in calm water and in the
+environment (``itae_calm``, ``itae_environment``, ``reference_itae_calm``,
+``reference_itae_environment`` [rad s^2], stream 0; the means over the realisations; the calm
+step metrics).
 """
 
 from __future__ import annotations
@@ -19,6 +25,13 @@ import typer
 
 from usvid.commands._common import (
     Controller,
+    CurrentDirOpt,
+    CurrentSpeedOpt,
+    HsOpt,
+    TpOpt,
+    WaveDirOpt,
+    WindDirOpt,
+    WindSpeedOpt,
     check_disturbance_deg,
     check_dt,
     check_number,
@@ -26,6 +39,7 @@ from usvid.commands._common import (
     check_speed,
     check_steps,
     check_target_deg,
+    environment_of,
 )
 from usvid.errors import UsvidError
 
@@ -61,6 +75,13 @@ def autopilot_cmd(
         "--uncertainty-pct", help="Relative parameter std [%] where the model file has no "
         "std_errors.")] = 10.0,
     dt: Annotated[float, typer.Option("--dt", help="Integration step [s].")] = 0.02,
+    wind_speed: WindSpeedOpt = None,
+    wind_dir_deg: WindDirOpt = None,
+    current_speed: CurrentSpeedOpt = None,
+    current_dir_deg: CurrentDirOpt = None,
+    hs: HsOpt = None,
+    tp: TpOpt = None,
+    wave_dir_deg: WaveDirOpt = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
         = False,
 ) -> None:
@@ -81,6 +102,8 @@ def autopilot_cmd(
         raise UsvidError(f"--target-deg must be at least 0.1 deg in magnitude (got "
                          f"{target_deg!r}): the design is judged on a course change")
     check_number(uncertainty_pct, "--uncertainty-pct", lo=0.0, hi=100.0, unit="%")
+    env = environment_of(wind_speed, wind_dir_deg, current_speed, current_dir_deg, hs, tp,
+                         wave_dir_deg)
     model = load_model(model_path)
     if getattr(model.vessel, "speed", None) is None:
         raise UsvidError(f"{model_path.name}: vessel.speed is not given (the design needs the "
@@ -94,7 +117,7 @@ def autopilot_cmd(
     d = design_autopilot(model, method=method.value, controller=controller.value,
                          bandwidth=bandwidth, zeta=zeta, disturbance_deg=disturbance_deg,
                          horizon=horizon, seed=seed, target_deg=target_deg, dt=dt,
-                         samples=samples, uncertainty_pct=uncertainty_pct)
+                         samples=samples, uncertainty_pct=uncertainty_pct, environment=env)
     out: dict[str, Any] = {"model": str(model_path), "model_kind": model.kind, **d.to_dict()}
     if as_json:
         from usvid.commands._common import emit_json
@@ -128,6 +151,12 @@ def _print(out: dict[str, Any]) -> None:
     m = out["margins"]
     c.print(f"margins (linearised loop with servo and dead time): gain {m['gain_margin_db']:.3g}"
             f" dB, phase {m['phase_margin_deg']:.3g} deg at {m['crossover_rad_s']:.3g} rad/s")
+    e = out.get("in_environment")
+    if e:
+        c.print(f"ITAE over {h:g} s (rad s^2) in calm water / in the environment: design "
+                f"{e['itae_calm']:.4g} / {e['itae_environment']:.4g}, reference "
+                f"{e['reference_itae_calm']:.4g} / {e['reference_itae_environment']:.4g} "
+                f"(on {e['heading']})")
     r = out["robustness"]
     if r:
         c.print(f"robustness over {r['samples']} parameter samples (horizon {h:g} s): ITAE "

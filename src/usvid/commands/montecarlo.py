@@ -1,6 +1,8 @@
 """CLI: ``usvid montecarlo MODEL.json --manoeuvre zigzag|turning|course-keeping [options]
 --runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] [--disturbance-deg SD]
---out RESULTS.parquet [--scheduler ADDRESS] [--workers N] [--json]``.
+[--wind-speed V|DIST] [--wind-dir-deg D|DIST] [--current-speed V|DIST] [--current-dir-deg D|DIST]
+[--hs H --tp T [--wave-dir-deg D]] --out RESULTS.parquet [--scheduler ADDRESS] [--workers N]
+[--json]``.
 
 Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks in
 this process on a small machine, else on a Dask cluster (a local one, or the scheduler at
@@ -12,12 +14,18 @@ each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``, ``parame
 ``redrawn`` (runs whose first draw was outside the parameter bounds, drawn again),
 ``failed_draws`` (runs with no valid draw; their rows have ``success`` false), ``diverged``,
 ``workers`` (processes, or the kernel's threads in process), ``backend`` (``in-process`` |
-``dask``), ``wall_s``. Every option is checked before any work; the output may not be the model
+``dask``), ``wall_s``, ``environment`` (null in calm water; else per option its value or its
+distribution ``{"dist", "a", "b"}`` in the option's units, and the environment of run 0 as
+``usvid simulate`` describes it: ``run0``). The environment options are those of ``usvid
+simulate`` (:func:`usvid.commands._common.environment_of` checks them); the wind and current
+ones also take ``normal:MEAN,SD`` or ``uniform:LO,HI`` (the form of ``--vary``, in the option's
+units), drawn per run. Every option is checked before any work; the output may not be the model
 file (nor a device node).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import time
 from pathlib import Path
@@ -25,7 +33,15 @@ from typing import Annotated, Any
 
 import typer
 
-from usvid.commands._common import SchedulerOpt, WorkersOpt, check_seed, emit_json
+from usvid.commands._common import (
+    HsOpt,
+    SchedulerOpt,
+    TpOpt,
+    WaveDirOpt,
+    WorkersOpt,
+    check_seed,
+    emit_json,
+)
 from usvid.errors import UsvidError
 from usvid.files import write_atomic
 
@@ -59,12 +75,53 @@ def check_options(manoeuvre: str, options: dict[str, Any]) -> None:
     check_disturbance_deg(o.get("disturbance_deg"), "--disturbance-deg")
 
 
+def environment_options(values: dict[str, str | float | None]) -> dict[str, Any]:
+    """The environment options of ``usvid montecarlo`` (name -> the text given, or None) ->
+    name -> a number or a distribution (:func:`usvid.scale.montecarlo.parse_environment`),
+    checked by :func:`usvid.commands._common.environment_of` on the number, or on the mean
+    (normal) and both ends (uniform) of the distribution."""
+    from usvid.commands._common import environment_of
+    from usvid.scale.montecarlo import ENVIRONMENT, parse_environment
+
+    out: dict[str, Any] = {}
+    for name in ENVIRONMENT:
+        v = values.get(name)
+        if v is not None:
+            out[name] = parse_environment(str(v), name)
+    ends = ({"a"}, {"a", "b"})
+    for end in ("a", "b"):
+        probe = {n: (v if isinstance(v, float) else
+                     (getattr(v, end) if end in ends[v.dist == "uniform"] else v.a))
+                 for n, v in out.items()}
+        environment_of(**probe)
+    return out
+
+
+def _environment_json(mc: Any) -> dict[str, Any] | None:
+    """The ``environment`` key: the options as given, and run 0's environment described."""
+    if not mc.environment:
+        return None
+    from usvid.scale.montecarlo import Distribution
+
+    given = {n: ({"dist": v.dist, "a": v.a, "b": v.b} if isinstance(v, Distribution)
+                 else float(v)) for n, v in mc.environment.items()}
+    from usvid.io.modelfile import model_from_dict
+
+    e0 = mc.environment_of(0, 1)
+    env0 = dataclasses.replace(e0, **{k: float(np.asarray(getattr(e0, k))[0]) for k in (
+        "current_speed", "current_dir", "wind_speed", "wind_dir")})
+    # (checks the particulars the loads need before any run)
+    return {**given, "run0": env0.describe_for(model_from_dict(mc.model))}
+
+
 def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
                from_uncertainty: bool = False, vary: list[str] | None = None, seed: int = 0,
                options: dict[str, Any] | None = None, scheduler: str | None = None,
                workers: int | None = None, chunk: int = 4096, client: Any = None,
-               progress: bool = True) -> dict[str, Any]:
+               progress: bool = True, environment: dict[str, Any] | None = None
+               ) -> dict[str, Any]:
     """Everything ``usvid montecarlo`` does; returns its JSON object (and writes ``out``).
+    ``environment``: option name -> text or number (:func:`environment_options`).
     ``client``: an existing Dask client; else the runs stay in this process on a small machine
     (:func:`usvid.scale.montecarlo.use_dask`) or go to a cluster from ``scheduler``/``workers``.
     """
@@ -89,6 +146,7 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     check_outputs([out], [model_path])  # before any work: never over the model file
     options = dict(options or {})
     check_options(manoeuvre, options)
+    env = environment_options(dict(environment or {}))
     if scheduler:
         check_scheduler_address(scheduler)
     check_workers(workers)
@@ -106,13 +164,14 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     varies = tuple(parse_vary(v) for v in vary or [])
     if not names and not varies:
         raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
-    mc = MonteCarlo(model, manoeuvre, options, tuple(names), mean, cov, varies, int(seed))
+    mc = MonteCarlo(model, manoeuvre, options, tuple(names), mean, cov, varies, int(seed), env)
     u0, dt, run = run_timing(mc, vm)
     check_steps(run, dt, "--t-end" if "t_end" in options else f"the run ({run:g} s, from the "
                 "model; --t-end)")
     # the model file itself within its kind's physics (its draws may stray: their metrics are
     # then NaN, counted out of the quantiles' n)
     check_physics(vm, model_path, u0, dt, duration=run)
+    env_json = _environment_json(mc)  # (and the vessel's particulars the loads need, checked)
     chunk = check_size(mc, runs, chunk)
     t0 = time.perf_counter()
     backend = "dask"
@@ -146,7 +205,8 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
             "manoeuvre": manoeuvre, "parameters": list(mc.parameters), "uncertainty": source,
             "seed": int(seed), "disturbance_deg": float(mc.options.get("disturbance_deg", 0.0)),
             "quantiles": q, "chunks": -(-runs // chunk), "chunk": int(chunk), "workers": nworkers,
-            "backend": backend, "wall_s": round(time.perf_counter() - t0, 3)}
+            "backend": backend, "wall_s": round(time.perf_counter() - t0, 3),
+            "environment": env_json}
 
 
 def _print(s: dict[str, Any]) -> None:
@@ -162,6 +222,11 @@ def _print(s: dict[str, Any]) -> None:
         table.add_row(m, *("-" if q[k] is None else f"{q[k]:.4g}"
                            for k in ("q05", "q50", "q95", "mean")), str(q["n"]))
     Console().print(table)
+    if s.get("environment"):
+        given = {k: v for k, v in s["environment"].items() if k != "run0"}
+        Console().print("environment: " + ", ".join(
+            f"{k} {v['dist']}:{v['a']:g},{v['b']:g}" if isinstance(v, dict) else f"{k} {v:g}"
+            for k, v in given.items()))
 
 
 def register(app: typer.Typer) -> None:
@@ -198,6 +263,20 @@ def register(app: typer.Typer) -> None:
             "--disturbance-deg", help="Disturbance std [deg] (Mu et al. 2018 filter; run i's "
             "noise seeded by (--seed, i)); 0 = calm.")] = 0.0,
         chunk: Annotated[int, typer.Option("--chunk", help="Runs per Dask task.")] = 4096,
+        wind_speed: Annotated[str | None, typer.Option(
+            "--wind-speed", help="True wind speed [m/s], or normal:MEAN,SD / uniform:LO,HI "
+            "drawn per run (default: calm).")] = None,
+        wind_dir_deg: Annotated[str | None, typer.Option(
+            "--wind-dir-deg", help="Direction the true wind comes FROM [deg, clockwise from "
+            "north], or a distribution.")] = None,
+        current_speed: Annotated[str | None, typer.Option(
+            "--current-speed", help="Current speed [m/s], or a distribution.")] = None,
+        current_dir_deg: Annotated[str | None, typer.Option(
+            "--current-dir-deg", help="Direction the current flows TOWARDS [deg, clockwise "
+            "from north], or a distribution.")] = None,
+        hs: HsOpt = None,
+        tp: TpOpt = None,
+        wave_dir_deg: WaveDirOpt = None,
         scheduler: SchedulerOpt = None,
         workers: WorkersOpt = None,
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
@@ -210,7 +289,11 @@ def register(app: typer.Typer) -> None:
                                       disturbance_deg=disturbance_deg).items() if v is not None}
         s = montecarlo(model_path, manoeuvre, runs, out, from_uncertainty=from_uncertainty,
                        vary=vary, seed=seed, options=opts, scheduler=scheduler,
-                       workers=workers, chunk=chunk, progress=not as_json)
+                       workers=workers, chunk=chunk, progress=not as_json,
+                       environment=dict(wind_speed=wind_speed, wind_dir_deg=wind_dir_deg,
+                                        current_speed=current_speed,
+                                        current_dir_deg=current_dir_deg, hs=hs, tp=tp,
+                                        wave_dir_deg=wave_dir_deg))
         if as_json:
             emit_json(s)
         else:

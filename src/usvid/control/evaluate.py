@@ -16,10 +16,16 @@ Metrics over the stated horizon H [s] (the run is 0 .. H):
   sign(psi_d) (psi - psi_d));
 * saturation [s]: the time the rudder angle is at its limit (|delta| >= max_angle);
 * max rudder [deg].
+
+In an environment (:class:`usvid.sim.Environment`: wind, current, sea state) the wind and the
+mean wave drift act inside every step; the autopilot steers on the low-frequency heading (an
+ideal wave filter: the first-order wave motion, which does not feed back, is not added to the
+runs), and the metrics are of that heading.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, fields
 from typing import Any
@@ -103,12 +109,12 @@ def _tile_model(model: Any, B: int, R: int) -> Any:
 def evaluate_gains(model: Any, kp: Any, ki: Any, kd: Any, *, target_deg: float = 100.0,
                    horizon: float = 100.0, noise_deg: float = 1.0, seed: int = 1,
                    realisations: int = 1, dt: float = 0.02, u0: Any = None,
-                   keep: bool = False) -> tuple[StepMetrics, Any]:
+                   keep: bool = False, environment: Any = None) -> tuple[StepMetrics, Any]:
     """Course change 0 -> ``target_deg`` [deg] over ``horizon`` [s] for a batch of gains
     (kp [rad/rad], ki [1/s], kd [s], scalars or (B,) arrays; the model's parameters may be
     (B,) arrays too), each under ``realisations`` disturbance realisations (streams 0 .. R-1 of
     ``seed``) of std ``noise_deg`` [deg] (0: calm), step ``dt`` [s], approach speed ``u0``
-    [m/s] (default ``vessel.speed``).
+    [m/s] (default ``vessel.speed``), in ``environment`` (None: calm water; module docstring).
 
     Returns (:class:`StepMetrics` (B, R), the :class:`usvid.sim.SimResult` when ``keep`` else
     None). B*R lanes in one call of the integration core.
@@ -131,8 +137,10 @@ def evaluate_gains(model: Any, kp: Any, ki: Any, kd: Any, *, target_deg: float =
             if noise_deg > 0 else None)
     logic = CourseChange(target=target, controller=PID(kp=gains[0], ki=gains[1], kd=gains[2]),
                          disturbance=dist)
+    if environment is not None and environment.sea is not None:
+        environment = dataclasses.replace(environment, wave_motion=False)
     res = simulate(_tile_model(model, B, R), logic, t_end=horizon, dt=dt, u0=u0,
-                   channels=("psi", "delta"))
+                   channels=("psi", "delta"), environment=environment)
     psi = res["psi"]
     delta = res["delta"]
     ma = float(np.max(np.asarray(model.servo.max_angle, dtype=float)))

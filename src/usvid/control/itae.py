@@ -45,13 +45,14 @@ def itae_design(model: Any, eq: NomotoEquivalent, start: Gains, *, controller: s
                 seed: int = 1, realisations: int = 4, max_saturation_s: float = np.inf,
                 min_gain_margin_db: float = 6.0, min_phase_margin_deg: float = 45.0,
                 dt: float = 0.02, u0: Any = None, maxiter: int = 30, popsize: int = 12,
-                rng_seed: int = 0) -> ItaeResult:
+                rng_seed: int = 0, environment: Any = None) -> ItaeResult:
     """ITAE-optimal PD (``controller="pd"``) or PID gains (module docstring), searched within
     0 .. 4x the pole-placement gains ``start`` (kp [rad/rad], ki [1/s], kd [s]; kd at least
     4 m omega with m = T/K of the Nomoto equivalent ``eq``, ki at least kp / 50 s), over the
     horizon ``horizon`` [s] with disturbance std ``noise_deg`` [deg] (streams 0 .. R-1 of
-    ``seed``). ``rng_seed`` seeds the optimiser; ``start`` is in the first generation, so the
-    result's objective is never above the start's."""
+    ``seed``), in ``environment`` (None: calm water). ``rng_seed`` seeds the optimiser;
+    ``start`` is in the first generation, so the result's objective is never above the
+    start's."""
     pid = controller == "pid"
     m_ = float(np.asarray(eq.m).ravel()[0])
     kp_hi = 4.0 * max(start.kp, 1e-3)
@@ -71,7 +72,7 @@ def itae_design(model: Any, eq: NomotoEquivalent, start: Gains, *, controller: s
         kp, ki, kd = split(x)
         sm, _ = evaluate_gains(model, kp, ki, kd, target_deg=target_deg, horizon=horizon,
                                noise_deg=noise_deg, seed=seed, realisations=realisations,
-                               dt=dt, u0=u0)
+                               dt=dt, u0=u0, environment=environment)
         lanes += kp.size * realisations
         itae = np.mean(sm.itae, axis=1)
         mg = loop_margins(eq, model.servo, kp, ki, kd, dt=dt)

@@ -81,14 +81,15 @@ class Robustness:
 def robustness(model: Any, gains: Gains, *, samples: int = 1000, rel: float = 0.1,
                sample_seed: int = 0, target_deg: float = 100.0, horizon: float = 100.0,
                noise_deg: float = 1.0, seed: int = 1, dt: float = 0.02,
-               u0: Any = None) -> Robustness:
+               u0: Any = None, environment: Any = None) -> Robustness:
     """The gains over ``samples`` draws of the model's parameters (module docstring): one
     batch of ``samples`` lanes of the course change 0 -> ``target_deg`` [deg] over
     ``horizon`` [s] (disturbance std ``noise_deg`` [deg], stream 0 of ``seed``), and the
-    margins of every sample's linearised loop."""
+    margins of every sample's linearised loop; in ``environment`` (None: calm water)."""
     batch, used, drawn = sample_models(model, samples, rel=rel, seed=sample_seed)
     sm, _ = evaluate_gains(batch, gains.kp, gains.ki, gains.kd, target_deg=target_deg,
-                           horizon=horizon, noise_deg=noise_deg, seed=seed, dt=dt, u0=u0)
+                           horizon=horizon, noise_deg=noise_deg, seed=seed, dt=dt, u0=u0,
+                           environment=environment)
     eq = nomoto_equivalent(batch, u0)
     mg = loop_margins(eq, model.servo, gains.kp, gains.ki, gains.kd, dt=dt)
     itae = sm.itae[:, 0]

@@ -18,6 +18,12 @@ trials' manoeuvres and comparing them with the measured ones):
   prediction (a zig-zag is simulated over the measured one's duration D). A log without a
   speed is predicted at the model's approach speed, and the row's ``messages`` say so.
 * **error**: predicted minus measured, key by key (lists element by element, as long as both).
+* **in its own conditions** (new keys; ``predicted`` and ``error`` stay the calm-water
+  prediction): ``conditions`` the run's logged wind and the current estimated from its approach
+  before the execute (:mod:`usvid.identify.conditions`: what each came from, or why it is
+  missing), ``predicted_in_conditions`` the same manoeuvre simulated in them (same settings;
+  with a current, from the model's speed through the water) and ``error_in_conditions``
+  (predicted in conditions minus measured); both None when neither wind nor current is known.
 * **replay**: the measured rudder (and shaft speed / thruster commands) replayed on the model
   as one free run from the measured initial state (:mod:`usvid.sim.replay`, servo bypassed):
   RMS of the heading error [deg], yaw-rate error [deg/s], speed error [m/s] (the free-run fit
@@ -49,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
+from usvid.identify.conditions import run_conditions
 from usvid.identify.metrics import diverged_at, replay_metrics
 from usvid.identify.series import trial_series
 from usvid.manoeuvres import find_manoeuvres, manoeuvre_metrics
@@ -77,7 +84,9 @@ REPLAY_STEP = 0.1
 class TrialValidation:
     """The validation of a model on one trial (module docstring). ``series`` holds the time
     series for figures (``t`` [s], measured and replayed ``psi`` [rad], ``r`` [rad/s], ``x``,
-    ``y`` [m]; predicted manoeuvre ``t_pred``, ``psi_pred``, ``x_pred``, ``y_pred``); it is not
+    ``y`` [m]; predicted manoeuvre ``t_pred``, ``psi_pred``, ``x_pred``, ``y_pred``; predicted
+    in the run's conditions ``t_env``, ``psi_env``, ``x_env``, ``y_env``; the logged true wind
+    ``t_wind`` [s from the execute], ``speed_wind`` [m/s], ``dir_wind`` [rad, from]); it is not
     part of :meth:`to_dict`."""
 
     trial: str
@@ -91,10 +100,14 @@ class TrialValidation:
     messages: list[str] = field(default_factory=list)
     metrics: dict[str, Any] = field(default_factory=dict)
     series: dict[str, Any] = field(default_factory=dict, repr=False)
+    conditions: dict[str, Any] | None = None
+    predicted_in_conditions: dict[str, Any] | None = None
+    error_in_conditions: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON row: ``trial``, ``file``, ``manoeuvre``, ``measured``, ``predicted``,
-        ``error``, ``replay``, ``settings``, ``messages`` and, when a window is known,
+        ``error``, ``replay``, ``settings``, ``messages``, ``conditions``,
+        ``predicted_in_conditions``, ``error_in_conditions`` and, when a window is known,
         ``metrics`` (the windowed fit metrics, labelled by their ``window_s``)."""
         d = {k: v for k, v in dataclasses.asdict(self).items() if k != "series"}
         if not d["metrics"]:
@@ -169,7 +182,8 @@ def _with_inputs(model: VesselModel, n: float | None) -> VesselModel:
                        vessel=model.vessel)
 
 
-def _predict(model: VesselModel, seg: Segment, out: TrialValidation) -> None:
+def _predict(model: VesselModel, seg: Segment, out: TrialValidation,
+             trial: PreparedTrial | None = None) -> None:
     ap = seg.approach
     u0 = ap.speed if ap is not None and ap.speed is not None and ap.speed > 0 else None
     if u0 is None:
@@ -206,6 +220,45 @@ def _predict(model: VesselModel, seg: Segment, out: TrialValidation) -> None:
     if "x" in res.channels:
         out.series.update(x_pred=res["x"][0], y_pred=res["y"][0])
     out.error = metric_error(out.predicted, out.measured, keys)
+    if trial is not None:
+        _predict_in_conditions(m, seg, out, trial, u0, keys)
+
+
+def _predict_in_conditions(m: VesselModel, seg: Segment, out: TrialValidation,
+                           trial: PreparedTrial, u0: float, keys: Sequence[str]) -> None:
+    """The prediction in the run's own conditions (module docstring) beside the calm one."""
+    cond = run_conditions(trial, float(seg.t_execute), m)
+    out.conditions = cond.to_dict()
+    if not cond.known:
+        return
+    psi = trial["psi"]
+    ok = np.isfinite(psi)
+    psi0 = float(np.interp(seg.t_execute, trial.t[ok], np.unwrap(psi[ok])))
+    env = cond.environment(psi0)
+    if cond.current is not None:
+        u0 = float(cond.current["water_speed_m_s"])
+    s = out.settings
+    try:
+        if seg.kind == "zigzag":
+            res, zm = run_zigzag(m, s["delta_deg"], s["psi_deg"], first=seg.side, u0=u0,
+                                 t_end=s["t_end_s"], environment=env)
+            out.predicted_in_conditions = zm.to_dict()
+            out.series.update(t_env=np.asarray(res.t), psi_env=seg.side * res["psi"][0])
+        else:
+            res, tm = run_turning(m, seg.side * s["delta_deg"], u0=u0, environment=env)
+            out.predicted_in_conditions = tm.to_dict()
+            out.series.update(t_env=np.asarray(res.t), psi_env=res["psi"][0])
+    except UsvidError as exc:
+        out.messages.append(f"prediction in the run's conditions: {exc}")
+        return
+    if "x" in res.channels:
+        out.series.update(x_env=res["x"][0], y_env=res["y"][0])
+    if cond.wind_speed is not None:  # [s from the execute], [m/s], [rad, from]
+        out.series.update(t_wind=cond.t, speed_wind=cond.wind_speed,
+                          dir_wind=np.remainder(cond.wind_dir, 2 * np.pi))
+    out.conditions["speed_m_s"] = u0
+    out.conditions["heading_at_execute_deg"] = math.degrees(psi0) % 360.0
+    out.error_in_conditions = metric_error(out.predicted_in_conditions, out.measured, keys)
 
 
 @dataclass
@@ -346,7 +399,7 @@ def validate_trial(model: VesselModel, trial: Trial, *, psi_switch: float | None
         out.manoeuvre = seg.kind
         out.measured = manoeuvre_metrics(trial, seg)
         try:
-            _predict(model, seg, out)
+            _predict(model, seg, out, trial)
         except UsvidError as exc:
             out.messages.append(f"prediction: {exc}")
     else:

@@ -9,7 +9,11 @@ criteria with their applicability (the Standards apply to ships of 100 m in leng
 and interactive figures (plotly, its JavaScript embedded once, no network): measured heading and
 yaw rate against the free-run replay with its 95 % prediction band, the residuals, the track
 (axes scaled independently so a long run is not squashed) and the predicted manoeuvre against
-the measured one. Print CSS keeps each heading with its figure.
+the measured one. A held-out run predicted in its own conditions (its logged wind, the current
+estimated from its approach) shows them: the wind speed and direction over the manoeuvre, the
+current as an arrow with its numbers (or why there is none), and that prediction beside the
+calm-water one in the table and the manoeuvre figure. Print CSS keeps each heading with its
+figure.
 """
 
 from __future__ import annotations
@@ -141,6 +145,12 @@ def _manoeuvre_plot(e: Mapping[str, Any], idx: str) -> str:
                              line={"color": "#222"}))
     fig.add_trace(go.Scatter(x=tp, y=dev_p, name="predicted (closed loop)",
                              line={"color": "#c62828", "dash": "dash"}))
+    if "t_env" in s:
+        pe = s.get("psi_env") or []
+        fig.add_trace(go.Scatter(
+            x=s["t_env"], y=[None if p is None else math.degrees(side * (p - pe[0]))
+                             for p in pe],
+            name="predicted in the run's conditions", line={"color": "#2e7d32", "dash": "dot"}))
     fig.update_layout(title=f"{e['manoeuvre']}: heading change from the execute", height=330,
                       xaxis_title="time from the execute [s]",
                       yaxis_title="heading change, first side positive [deg]")
@@ -155,7 +165,64 @@ def _metric_table(e: Mapping[str, Any]) -> str:
                      fmt(e["predicted"].get(k)), fmt(err)])
     if not rows:
         return '<p class="na">no manoeuvre metrics (no zig-zag or turning circle found)</p>'
+    pc, ec = e.get("predicted_in_conditions"), e.get("error_in_conditions")
+    if pc:
+        for row, k in zip(rows, e.get("error", {}), strict=True):
+            row.extend([fmt(pc.get(k)), fmt((ec or {}).get(k))])
+        return _table(["metric", "unit", "measured", "predicted (calm water)",
+                       "predicted - measured", "predicted (own conditions)",
+                       "predicted - measured"], rows, 2)
     return _table(["metric", "unit", "measured", "predicted", "predicted - measured"], rows, 2)
+
+
+def _conditions(e: Mapping[str, Any], idx: str) -> str:
+    """The run's own conditions: a table (wind, current, or why missing), the logged wind over
+    the manoeuvre and the current as an arrow (north up)."""
+    c = e.get("conditions")
+    if not c:
+        return ""
+    rows = []
+    w, cur = c.get("wind"), c.get("current")
+    if w:
+        rows.append(["true wind", f"{fmt(w['speed_m_s']['mean'])} m/s mean "
+                     f"({fmt(w['speed_m_s']['min'])} .. {fmt(w['speed_m_s']['max'])}), from "
+                     f"{fmt(w['mean_direction_from_deg'])} deg", esc(w["source"])])
+    if cur:
+        rows.append(["current", f"{fmt(cur['speed_m_s'])} m/s towards "
+                     f"{fmt(cur['direction_towards_deg'])} deg", esc(cur["method"])])
+    notes = "".join(f'<p class="na">{esc(m)}</p>' for m in c.get("messages", []))
+    out = "<h4>The run's own conditions</h4>" + (
+        _table(["", "value", "from"], rows, 2) if rows else "") + notes
+    s = e.get("series", {})
+    if "t_wind" in s:
+        fig = go.Figure()
+        fig.add_trace(go.Scatter(x=s["t_wind"], y=s.get("speed_wind"), name="speed [m/s]",
+                                 line={"color": "#1565c0"}))
+        fig.add_trace(go.Scatter(x=s["t_wind"], y=_deg(s.get("dir_wind")), yaxis="y2",
+                                 name="direction from [deg]", mode="markers",
+                                 marker={"size": 3, "color": "#ef6c00"}))
+        fig.update_layout(title="logged true wind over the manoeuvre", height=300,
+                          xaxis_title="time from the execute [s]",
+                          yaxis={"title": "speed [m/s]"},
+                          yaxis2={"title": "from [deg]", "overlaying": "y", "side": "right",
+                                  "range": [0, 360]})
+        out += _plot(fig, f"{idx}-wind")
+    if cur:
+        d = math.radians(cur["direction_towards_deg"])
+        sp = cur["speed_m_s"]
+        fig = go.Figure()
+        fig.add_annotation(x=sp * math.sin(d), y=sp * math.cos(d), ax=0, ay=0, xref="x",
+                           yref="y", axref="x", ayref="y", showarrow=True, arrowhead=3,
+                           arrowwidth=2, arrowcolor="#2e7d32",
+                           text=f"{sp:.3g} m/s towards {cur['direction_towards_deg']:.0f} deg")
+        lim = max(sp, 1e-3) * 1.4
+        fig.update_xaxes(range=[-lim, lim], title="east [m/s]")
+        fig.update_yaxes(range=[-lim, lim], title="north [m/s]", scaleanchor="x",
+                         scaleratio=1)
+        fig.update_layout(title="current (estimated from the approach)", height=320,
+                          width=380)
+        out += _plot(fig, f"{idx}-current")
+    return out
 
 
 def _replay_table(e: Mapping[str, Any]) -> str:
@@ -220,7 +287,8 @@ def _trials(entries: Sequence[Mapping[str, Any]], vessel: Mapping[str, Any], pre
         notes = "".join(f'<p class="na">{esc(m)}</p>' for m in e.get("messages", []))
         out.append(
             f'<div class="trial"><h3 id="{idx}">{esc(e["trial"])}: {desc}</h3>{notes}'
-            f"{_metric_table(e)}{_imo(e, vessel)}{_manoeuvre_plot(e, idx)}"
+            f"{_metric_table(e)}{_conditions(e, idx)}{_imo(e, vessel)}"
+            f"{_manoeuvre_plot(e, idx)}"
             f"{_replay_table(e)}{_timeseries(e, idx)}{_track(e, idx)}</div>")
     return "".join(out)
 

@@ -40,14 +40,16 @@ MAX_POINTS = 1500
 
 def _thin(series: dict[str, Any]) -> dict[str, list[float]]:
     out: dict[str, list[float]] = {}
-    for prefix in ("", "_pred"):
+    suffixes = ("_pred", "_env", "_wind")  # (each with its own time t_pred, t_env, t_wind)
+    for prefix in ("", *suffixes):
         tkey = "t" + prefix
         if tkey not in series or series[tkey] is None:
             continue
         t = np.asarray(series[tkey], dtype=float)
         step = max(1, int(math.ceil(len(t) / MAX_POINTS)))
         for k, v in series.items():
-            if v is None or (k.endswith("_pred") != bool(prefix) and k != tkey):
+            own = k.endswith(prefix) if prefix else not k.endswith(suffixes)
+            if v is None or (not own and k != tkey):
                 continue
             a = np.asarray(v, dtype=float)
             if a.shape == t.shape:

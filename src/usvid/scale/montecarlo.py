@@ -23,6 +23,17 @@ disturbance of Mu et al. (2018) (:class:`usvid.manoeuvres.logic.Disturbance`, as
 autopilot`` and ``usvid sim`` use it) to every manoeuvre; run i draws its noise from the stream
 ``(seed, i)``, so its realisation, like its parameters, does not depend on the chunking.
 
+The environment (``environment``: ``wind_speed`` [m/s], ``wind_dir_deg`` [deg, from],
+``current_speed`` [m/s], ``current_dir_deg`` [deg, towards], ``hs`` [m], ``tp`` [s],
+``wave_dir_deg`` [deg, from]; :class:`usvid.sim.Environment`) is a constant or, for the wind and
+the current, a :class:`Distribution` drawn per run (block k of :data:`BLOCK` runs from the
+generator seeded with ``(seed, k, 1)``, so run i's environment does not depend on the chunking
+either; a speed drawn below 0 is 0, calm). In a sea state run i's first-order wave motion is the
+realisation of stream ``(seed, i)``, and a zig-zag is then measured on the recorded heading
+(manoeuvring plus first-order wave motion, as ``usvid simulate zigzag`` measures it, every
+:func:`sea_record_every` steps) instead of the kernel's online trackers (which see the
+manoeuvring heading only).
+
 A run that diverges, or whose draw failed, keeps its row with ``success`` false and NaN
 metrics.
 
@@ -52,11 +63,12 @@ import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import SimulationError, UsvidError
 from usvid.io.modelfile import model_from_dict
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
-from usvid.manoeuvres.metrics import turning_metrics
+from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
+from usvid.models.environment import SeaState
 from usvid.models.uncertainty import BLOCK, Distribution, Sample, Uncertainty, lane_errors
 from usvid.scale.cluster import available_memory, map_ordered
 from usvid.sim.runs import default_t_end
-from usvid.sim.simulate import approach_speed, simulate
+from usvid.sim.simulate import Environment, approach_speed, simulate
 
 __all__ = ["BLOCK", "MANOEUVRES", "MAX_RUNS", "MonteCarlo", "Vary", "check_size", "parse_vary",
            "quantiles", "run_chunk", "run_montecarlo", "run_timing", "use_dask"]
@@ -80,6 +92,12 @@ CHUNK_BYTES = 256 * 2**20
 #: Most cores of a "small" machine, on which the runs stay in this process (:func:`use_dask`).
 SMALL_MACHINE_CORES = 8
 _VARY = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*(normal|uniform)\s*:\s*([^,]+),([^,]+)$")
+#: The environment of the runs (names as :func:`usvid.commands._common.environment_of`'s
+#: arguments: speeds [m/s], ``hs`` [m], ``tp`` [s], directions [deg]); the first four may be
+#: distributions.
+ENVIRONMENT = ("wind_speed", "wind_dir_deg", "current_speed", "current_dir_deg", "hs", "tp",
+               "wave_dir_deg")
+ENV_VARIABLE = ("wind_speed", "wind_dir_deg", "current_speed", "current_dir_deg")
 
 
 #: A parameter drawn from ``normal`` (a = mean, b = standard deviation) or ``uniform``
@@ -89,17 +107,39 @@ Vary = Distribution
 
 def parse_vary(text: str) -> Vary:
     """``NAME=normal:MEAN,SD`` or ``NAME=uniform:LO,HI`` (SI units) -> :class:`Vary`."""
+    return _parse_distribution(text, "--vary", "NAME=")
+
+
+def parse_environment(text: str, name: str) -> float | Vary:
+    """An environment option of ``usvid montecarlo`` (``name`` one of :data:`ENVIRONMENT`): a
+    number, or ``normal:MEAN,SD`` / ``uniform:LO,HI`` in the option's units (the form of
+    ``--vary`` without the name) -> a float or a :class:`Vary` named ``name``."""
+    option = "--" + name.replace("_", "-")
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    if name not in ENV_VARIABLE:
+        raise UsvidError(f"{option} {text!r}: expected a number (the sea state is one per "
+                         "study: give several studies for several sea states)")
+    return _parse_distribution(f"{name}={text}", option, "")
+
+
+def _parse_distribution(text: str, option: str, prefix: str) -> Vary:
     m = _VARY.match(text)
     try:
         if not m:
             raise ValueError
         a, b = float(m.group(3)), float(m.group(4))
     except ValueError:
-        raise UsvidError(f"--vary {text!r}: expected NAME=normal:MEAN,SD or "
-                         "NAME=uniform:LO,HI (numbers in SI units)") from None
+        shown = text if prefix else text.split("=", 1)[-1]
+        units = "SI units" if prefix else "the option's units"
+        raise UsvidError(f"{option} {shown!r}: expected {prefix}normal:MEAN,SD or "
+                         f"{prefix}uniform:LO,HI (numbers in {units})") from None
     if not (math.isfinite(a) and math.isfinite(b)) or (m.group(2) == "normal" and b < 0) \
             or (m.group(2) == "uniform" and b < a):
-        raise UsvidError(f"--vary {text!r}: need finite numbers, SD >= 0, LO <= HI")
+        shown = text if prefix else text.split("=", 1)[-1]
+        raise UsvidError(f"{option} {shown!r}: need finite numbers, SD >= 0, LO <= HI")
     return Distribution(m.group(1), m.group(2), a, b)
 
 
@@ -111,7 +151,9 @@ class MonteCarlo:
     ``kp`` [rad/rad], ``ki`` [1/s], ``kd`` [s] (course-keeping), ``t_end`` [s], ``dt`` [s],
     ``speed`` [m/s], ``disturbance_deg`` [deg] (standard deviation of the rudder-equivalent
     disturbance; 0 = calm). ``names``/``mean``/``cov``: the jointly normal parameters (SI), may be
-    empty; ``vary``: further independent distributions (they override a jointly drawn name).
+    empty; ``vary``: further independent distributions (they override a jointly drawn name);
+    ``environment``: name (:data:`ENVIRONMENT`) -> a number or a :class:`Vary` (module
+    docstring; empty: calm water).
     """
 
     model: dict[str, Any]
@@ -122,6 +164,7 @@ class MonteCarlo:
     cov: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     vary: tuple[Vary, ...] = ()
     seed: int = 0
+    environment: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.manoeuvre not in MANOEUVRES:
@@ -143,6 +186,52 @@ class MonteCarlo:
             tuple(self.names), np.asarray(self.mean, float), np.asarray(self.cov, float),
             "given" if self.names else "none", tuple(self.vary), (),
             {p.name: p for p in type(vm.dynamics).param_specs()})
+        for name, v in self.environment.items():
+            if name not in ENVIRONMENT:
+                raise UsvidError(f"environment {name!r}: expected one of "
+                                 f"{', '.join(ENVIRONMENT)}")
+            if isinstance(v, Distribution) and name not in ENV_VARIABLE:
+                raise UsvidError(f"--{name.replace('_', '-')}: one value per study (a "
+                                 "distribution is for the wind and the current)")
+
+    @property
+    def varied_environment(self) -> tuple[str, ...]:
+        """The environment drawn per run, in column order."""
+        return tuple(n for n in ENVIRONMENT if isinstance(self.environment.get(n),
+                                                          Distribution))
+
+    def environment_sample(self, lo: int, hi: int) -> dict[str, np.ndarray]:
+        """The environment of runs lo..hi-1: name -> (hi - lo,) values (options' units; module
+        docstring: block k from (seed, k, 1), speeds drawn below 0 are 0), independent of the
+        chunking."""
+        out: dict[str, list[np.ndarray]] = {n: [] for n in self.environment}
+        varied = self.varied_environment
+        for blk in range(lo // BLOCK, (hi - 1) // BLOCK + 1):
+            rng = np.random.default_rng([int(self.seed), blk, 1])
+            draws = {n: self.environment[n].draw(rng, BLOCK) for n in varied}
+            a = max(lo, blk * BLOCK) - blk * BLOCK
+            b = min(hi, (blk + 1) * BLOCK) - blk * BLOCK
+            for n, v in self.environment.items():
+                x = draws[n][a:b] if n in varied else np.full(b - a, float(v))
+                out[n].append(np.maximum(x, 0.0) if n.endswith("speed") else x)
+        return {n: np.concatenate(v) for n, v in out.items()}
+
+    def environment_of(self, lo: int, hi: int) -> Any:
+        """The :class:`usvid.sim.Environment` of runs lo..hi-1 (None in calm water): per-run
+        wind and current, the sea state with run i's wave stream (seed, i)."""
+        if not self.environment:
+            return None
+        e = self.environment_sample(lo, hi)
+        sea = None
+        if "hs" in e:
+            sea = SeaState(hs=float(e["hs"][0]), tp=float(e["tp"][0]),
+                           direction=math.radians(float(e.get("wave_dir_deg", [0.0])[0])))
+        z = np.zeros(hi - lo)
+        return Environment(current_speed=e.get("current_speed", z),
+                           current_dir=np.radians(e.get("current_dir_deg", z)),
+                           wind_speed=e.get("wind_speed", z),
+                           wind_dir=np.radians(e.get("wind_dir_deg", z)), sea=sea,
+                           wave_seed=int(self.seed), wave_stream=np.arange(lo, hi, dtype=float))
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -180,13 +269,27 @@ def run_timing(mc: MonteCarlo, vm: Any) -> tuple[float, float, float]:
     return float(u0), dt, float(t_end)
 
 
+def sea_record_every(mc: MonteCarlo, dt: float) -> int:
+    """Steps between recorded samples of a zig-zag in a sea state: 20 samples per peak period
+    (the largest heading of a wave-period oscillation then sampled within 1 - cos(pi / 20) =
+    1.2 % of its amplitude), at least every step."""
+    tp = float(mc.environment.get("tp", math.inf))
+    return max(1, int(tp / 20.0 / dt))
+
+
+def _zigzag_in_sea(mc: MonteCarlo) -> bool:
+    return mc.manoeuvre == "zigzag" and "hs" in mc.environment
+
+
 def chunk_bytes(mc: MonteCarlo) -> int:
     """Trajectory memory one run of a chunk records [bytes] (turning: 4 channels every 5
-    steps; the other manoeuvres keep only their online metrics)."""
-    if mc.manoeuvre != "turning":
+    steps; a zig-zag in a sea state: 4 channels every :func:`sea_record_every` steps; the other
+    manoeuvres keep only their online metrics)."""
+    if mc.manoeuvre != "turning" and not _zigzag_in_sea(mc):
         return 0
     _, dt, t_end = run_timing(mc, model_from_dict(mc.model))
-    return 8 * 4 * (int(t_end / dt) // 5 + 2)
+    every = 5 if mc.manoeuvre == "turning" else sea_record_every(mc, dt)
+    return 8 * 4 * (int(t_end / dt) // every + 2)
 
 
 def check_size(mc: MonteCarlo, runs: int, chunk: int) -> int:
@@ -203,7 +306,7 @@ def check_size(mc: MonteCarlo, runs: int, chunk: int) -> int:
     if tasks > MAX_TASKS:
         raise UsvidError(f"--chunk {chunk} cuts --runs {runs} into {tasks} tasks; at most "
                          f"{MAX_TASKS}: give --chunk {-(-runs // MAX_TASKS)} or more")
-    row = 8 * (2 + len(mc.parameters) + len(mc.metrics)) + 1
+    row = 8 * (2 + len(mc.parameters) + len(mc.varied_environment) + len(mc.metrics)) + 1
     mem = available_memory()
     if mem is not None and 3 * row * runs > mem:
         raise UsvidError(f"--runs {runs}: the results need about {3 * row * runs / 2**30:.1f} "
@@ -227,8 +330,9 @@ def use_dask(scheduler: str | None, workers: int | None, cores: int) -> bool:
 
 
 def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> pd.DataFrame:
-    """Simulate runs lo..hi-1: one row per run (``run``, the sampled parameters [SI],
-    ``success``, the metrics). ``threads``: numba threads for this call (1 on Dask workers)."""
+    """Simulate runs lo..hi-1: one row per run (``run``, the sampled parameters [SI], the
+    environment drawn per run (its options' units), ``success``, the metrics). ``threads``:
+    numba threads for this call (1 on Dask workers)."""
     if threads is not None:
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     B = hi - lo
@@ -247,6 +351,10 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     u0, dt, t_end = run_timing(mc, vm)
     rows: dict[str, Any] = {"run": np.arange(lo, hi)}
     rows.update(drawn.values)
+    env = mc.environment_of(lo, hi)
+    if mc.varied_environment:
+        e = mc.environment_sample(lo, hi)
+        rows.update({n: e[n] for n in mc.varied_environment})
     rows["redraws"] = drawn.redraws
     rows["valid_draw"] = valid
     sd = math.radians(float(o.get("disturbance_deg", 0.0)))
@@ -258,18 +366,27 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
             psi = o.get("psi_deg")
             psi_sw = delta if psi is None else math.radians(psi)
             logic = ZigZag(np.full(B, delta), psi_sw)
-            nsteps = max(1, round(t_end / dt))
-            res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=nsteps,
-                           channels=("psi",), disturbance=dist)
-            ov = np.degrees(res.zigzag_online["overshoot"])
-            rt = res.zigzag_online["reversal_t"]
-            metrics = {"overshoot_1_deg": ov[:, 0], "overshoot_2_deg": ov[:, 1],
-                       "overshoot_3_deg": ov[:, 2], "initial_turning_time_s": rt[:, 1] - rt[:, 0],
-                       "reversal_2_s": rt[:, 2]}
+            if _zigzag_in_sea(mc):
+                res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0,
+                               record_every=sea_record_every(mc, dt),
+                               channels=("x", "y", "psi", "delta"), disturbance=dist,
+                               environment=env)
+                metrics = _zigzag_recorded(res, logic, B)
+            else:
+                nsteps = max(1, round(t_end / dt))
+                res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=nsteps,
+                               channels=("psi",), disturbance=dist, environment=env)
+                ov = np.degrees(res.zigzag_online["overshoot"])
+                rt = res.zigzag_online["reversal_t"]
+                metrics = {"overshoot_1_deg": ov[:, 0], "overshoot_2_deg": ov[:, 1],
+                           "overshoot_3_deg": ov[:, 2],
+                           "initial_turning_time_s": rt[:, 1] - rt[:, 0],
+                           "reversal_2_s": rt[:, 2]}
         elif mc.manoeuvre == "turning":
             logic = Turning(np.full(B, delta))
             res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0, record_every=5,
-                           channels=("x", "y", "psi", "delta"), disturbance=dist)
+                           channels=("x", "y", "psi", "delta"), disturbance=dist,
+                           environment=env)
             tm = []
             for i in range(B):  # metrics per run (fits of the steady circle)
                 try:
@@ -287,7 +404,7 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
                                  disturbance=dist)
             res = simulate(model, logic, t_end=t_end, dt=dt, u0=u0,
                            psi0=np.zeros(B), record_every=max(1, round(t_end / dt)),
-                           channels=("psi",))
+                           channels=("psi",), environment=_no_wave_motion(env))
             metrics = {"itae": res.course["itae"], "iae": res.course["iae"],
                        "max_rudder_deg": np.degrees(res.course["max_rudder"])}
     ok = np.ones(B, bool) if res.status is None else np.asarray(res.status) == 0
@@ -296,6 +413,35 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     for k, v in metrics.items():
         rows[k] = np.where(ok, np.asarray(v, float), np.nan)
     return pd.DataFrame(rows)
+
+
+def _no_wave_motion(env: Any) -> Any:
+    """``env`` without the first-order wave motion added after the run (the course-keeping
+    metrics are the kernel's accumulators: the motion could not change them, and it needs
+    x, y recorded)."""
+    return env if env is None or env.sea is None else dataclasses.replace(env,
+                                                                           wave_motion=False)
+
+
+def _zigzag_recorded(res: Any, logic: ZigZag, B: int) -> dict[str, np.ndarray]:
+    """The zig-zag metrics of each run from its recorded heading, rudder and track
+    (:func:`usvid.manoeuvres.metrics.zigzag_metrics`, as ``usvid simulate zigzag``); NaN where
+    the record shows none."""
+    out = {k: np.full(B, np.nan) for k in METRICS["zigzag"]}
+    amp = np.broadcast_to(np.abs(np.asarray(logic.delta_amp, float)), (B,))
+    for i in range(B):
+        try:
+            m = zigzag_metrics(res.t, res["psi"][i], res["delta"][i], delta_amp=float(amp[i]),
+                               psi_switch=float(logic.psi_switch), t_execute=float(logic.t_start),
+                               first=int(logic.first), x=res["x"][i], y=res["y"][i])
+        except (UsvidError, ValueError, IndexError):
+            continue
+        ov = [*m.overshoot_deg, math.nan, math.nan, math.nan]
+        for j in range(3):
+            out[f"overshoot_{j + 1}_deg"][i] = ov[j]
+        out["initial_turning_time_s"][i] = m.initial_turning_time_s
+        out["reversal_2_s"][i] = [*m.reversal_times_s, math.nan, math.nan][1]
+    return out
 
 
 def run_montecarlo(mc: MonteCarlo, runs: int, *, chunk: int = 4096, client: Any = None,

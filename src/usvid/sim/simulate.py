@@ -135,8 +135,9 @@ class Environment:
     draft; :func:`~usvid.models.environment.mean_drift_scalar` at the stage's heading) inside
     the step, and, with ``wave_motion``, the first-order wave-induced motion
     (:func:`~usvid.models.environment.wave_motion`, ``wave_components`` components drawn with
-    ``wave_seed``, run b from the stream (wave_seed, b)) added to the recorded x, y, psi after
-    the run (Fossen 2021 ch. 10.2: eta = eta_LF + eta_WF; it does not feed back).
+    ``wave_seed``, run b from the stream (wave_seed, b), or (wave_seed, ``wave_stream[b]``) when
+    ``wave_stream`` gives each run its stream) added to the recorded x, y, psi after the run
+    (Fossen 2021 ch. 10.2: eta = eta_LF + eta_WF; it does not feed back).
 
     ``force``: (X, Y [N], K, N [N m]) in body axes (x forward, y starboard, z down; K heels to
     starboard, N turns to starboard), a precomputed external load. The force kinds add the
@@ -158,6 +159,7 @@ class Environment:
     wave_motion: bool = True
     wave_seed: int = 0
     wave_components: int = 128
+    wave_stream: Any = None
 
     @property
     def has_wind(self) -> bool:
@@ -255,13 +257,13 @@ class Environment:
                     try:
                         if vessel is None:
                             raise UsvidError("the model has no vessel block (mass, length)")
-                        re = rudder_equivalent(kind.name, dyn.values(), vessel)
+                        re, n_delta = _rudder_equivalents(kind.name, dyn.values(), vessel)
                     except UsvidError as exc:
                         raise SimulationError(
                             f"simulate: a {kind.name} model takes the wind's yaw moment as a "
                             f"rudder-equivalent angle N / N_delta and N_delta cannot be had: "
                             f"{exc}; give its parameter N_delta [N m/rad]") from None
-                    dyn = dyn.replace(N_delta=re.N_delta)
+                    dyn = dyn.replace(N_delta=n_delta)
                     w["rudder_equivalent"] = re.to_dict()
                 else:
                     w["rudder_equivalent"] = {"N_delta_N_m_per_rad": float(np.mean(
@@ -291,6 +293,14 @@ class Environment:
                                             "(no yaw moment) does not act on it"]
         return blk, dyn, info
 
+    def describe_for(self, model: VesselModel) -> dict[str, Any]:
+        """:meth:`describe` with what :meth:`block` chose and assumed for ``model`` (the wind
+        load model, its reason and particulars, the rudder equivalent, the drift coefficients):
+        the ``environment`` that ``usvid simulate --json`` echoes. SimulationError naming the
+        missing particular when the vessel lacks one."""
+        info = self.block(model, kind_of(model.dynamics))[2] if self.stateful else {}
+        return _merged(self.describe(), info)
+
     def describe(self) -> dict[str, Any]:
         """The inputs, JSON-ready (angles in degrees, as named): ``current`` (speed [m/s],
         direction towards [deg]), ``wind`` (speed [m/s], direction from [deg]), ``waves`` (the
@@ -312,6 +322,32 @@ class Environment:
             "waves": None if self.sea is None else self.sea.to_dict(),
             "external_force": self.force is not None, "series": self.t is not None}
         return out
+
+
+def _rudder_equivalents(kind: str, params: dict[str, Any], vessel: Any) -> tuple[Any, Any]:
+    """(the :func:`~usvid.models.environment.rudder_equivalent` of the first run, N_delta
+    [N m/rad]: a number, or one per run when the kind's parameters are (B,) arrays, each run's
+    from its own parameters)."""
+    arrays = {k: np.asarray(v, dtype=float) for k, v in params.items()
+              if isinstance(v, (int, float, np.ndarray, np.number)) and not isinstance(v, bool)}
+    B = max([a.size for a in arrays.values() if a.ndim], default=0)
+    if B == 0:
+        re = rudder_equivalent(kind, params, vessel)
+        return re, re.N_delta
+
+    def run(b: int) -> dict[str, Any]:
+        return {**params, **{k: float(a if a.ndim == 0 else np.broadcast_to(a, (B,))[b])
+                             for k, a in arrays.items()}}
+
+    each = [rudder_equivalent(kind, run(b), vessel) for b in range(B)]
+    return each[0], np.array([r.N_delta for r in each])
+
+
+def _merged(described: dict[str, Any], info: dict[str, Any]) -> dict[str, Any]:
+    """:meth:`Environment.describe` with :meth:`Environment.block`'s entries merged in."""
+    for key, value in info.items():
+        described[key] = {**(described.get(key) or {}), **value}
+    return described
 
 
 @dataclass
@@ -644,10 +680,7 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     meta: dict[str, Any] = {"nsteps": nsteps, "integrator": "rk4", "u0": speed,
                             "kind": kind.name}
     if environment is not None:
-        described = environment.describe()
-        for key, value in env_info.items():
-            described[key] = {**(described.get(key) or {}), **value}
-        meta["environment"] = described
+        meta["environment"] = _merged(environment.describe(), env_info)
         if environment.sea is not None and environment.wave_motion:
             _add_wave_motion(environment, model, out.t, chans, B)
     return SimResult(
@@ -664,14 +697,16 @@ def _add_wave_motion(env: Environment, model: VesselModel, t: np.ndarray,
                      chans: dict[str, np.ndarray], B: int) -> None:
     """The first-order wave-induced motion of ``env.sea`` added to the recorded x, y, psi
     (:func:`usvid.models.environment.wave_motion` along the recorded track; run b draws its
-    components from (wave_seed, b)); needs x, y and psi recorded (the phases follow the
-    position, the response the heading)."""
+    components from (wave_seed, b), or (wave_seed, wave_stream[b])); needs x, y and psi
+    recorded (the phases follow the position, the response the heading)."""
     if not all(k in chans for k in ("x", "y", "psi")):
         raise SimulationError("simulate: the first-order wave motion needs the channels x, y "
                               "and psi recorded (or Environment(wave_motion=False))")
     L = float(model.vessel.length)
     comps = wave_components(env.sea, n_components=int(env.wave_components),
-                            seed=int(env.wave_seed), n_batch=B, length=L)
+                            seed=int(env.wave_seed), n_batch=B, length=L,
+                            streams=None if env.wave_stream is None else
+                            np.broadcast_to(np.asarray(env.wave_stream, float), (B,)))
     wm = wave_motion(comps, env.sea, L, t, chans["x"], chans["y"], chans["psi"])
     chans["x"] = chans["x"] + wm.north
     chans["y"] = chans["y"] + wm.east

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numba
 import numpy as np
@@ -24,22 +25,32 @@ import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
 
 
-def lane_rngs(seed: int, n_batch: int) -> list[np.random.Generator]:
-    """One generator per lane: ``default_rng([seed, b])`` for b = 0 .. n_batch - 1."""
+def lane_rngs(seed: int, n_batch: int, streams: Any = None) -> list[np.random.Generator]:
+    """One generator per lane: ``default_rng([seed, b])`` for b = 0 .. n_batch - 1, or
+    ``default_rng([seed, streams[b]])`` when ``streams`` (n_batch whole numbers >= 0) is given
+    (run i of a study cut into batches draws from (seed, i) whatever its batch)."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise UsvidError(f"seed must be an integer >= 0 (got {seed!r})")
     if isinstance(n_batch, bool) or not isinstance(n_batch, (int, np.integer)) or n_batch < 1:
         raise UsvidError(f"n_batch must be an integer >= 1 (got {n_batch!r})")
-    return [np.random.default_rng([int(seed), b]) for b in range(int(n_batch))]
+    if streams is None:
+        return [np.random.default_rng([int(seed), b]) for b in range(int(n_batch))]
+    st = np.asarray(streams, dtype=float).reshape(-1)
+    if st.size != int(n_batch) or not np.all(np.isfinite(st)) or np.any(st < 0) \
+            or np.any(st != np.floor(st)):
+        raise UsvidError(f"streams must be {int(n_batch)} whole numbers >= 0 (got {st.size} "
+                         "values)")
+    return [np.random.default_rng([int(seed), int(b)]) for b in st]
 
 
 def components(spectrum: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, n: int,
-               seed: int, n_batch: int, *, log: bool = False
+               seed: int, n_batch: int, *, log: bool = False, streams: Any = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(freq, amp, phase), each (n_batch, n): ``n`` components of ``spectrum`` between ``lo``
     and ``hi`` (frequency units of the spectrum, > 0), bins equal in width (``log=False``) or
     in log-width (``log=True``, for spectra spanning decades), one frequency uniform inside
-    each bin, ``amp = sqrt(2 S(freq) width)``, phase uniform in [0, 2 pi)."""
+    each bin, ``amp = sqrt(2 S(freq) width)``, phase uniform in [0, 2 pi); lane b from
+    :func:`lane_rngs` (``streams``: its stream indices)."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise UsvidError(f"n_components must be an integer >= 1 (got {n!r})")
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
@@ -48,7 +59,7 @@ def components(spectrum: Callable[[np.ndarray], np.ndarray], lo: float, hi: floa
     width = np.diff(edges)
     freq = np.empty((n_batch, n))
     phase = np.empty((n_batch, n))
-    for b, rng in enumerate(lane_rngs(seed, n_batch)):
+    for b, rng in enumerate(lane_rngs(seed, n_batch, streams)):
         u = rng.random((2, n))
         freq[b] = edges[:-1] + u[0] * width
         phase[b] = 2.0 * np.pi * u[1]

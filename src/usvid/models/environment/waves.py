@@ -170,7 +170,8 @@ COMP_OMEGA, COMP_AMP, COMP_K, COMP_PHASE = range(4)
 
 
 def wave_components(sea: SeaState, *, n_components: int = 128, seed: int = 0,
-                    n_batch: int = 1, length: float | None = None) -> np.ndarray:
+                    n_batch: int = 1, length: float | None = None,
+                    streams: Any = None) -> np.ndarray:
     """A seeded realisation of ``sea``: array (n_batch, n_components, 4) of (omega [rad/s],
     amplitude [m], wavenumber [rad/m], phase [rad]) per component (module docstring), one
     frequency in each of ``n_components`` bins of equal log-width (fine near the peak, coarse in
@@ -178,7 +179,8 @@ def wave_components(sea: SeaState, *, n_components: int = 128, seed: int = 0,
     vessel ``length`` [m] given, the high end is raised to cover 99.5 % of the heading
     response too (:func:`first_order_response` at 45 deg off the bow: the heading follows the
     wave slope, whose spectrum decays only like 1/omega until the hull length filters it).
-    Lane b draws from ``default_rng([seed, b])``, independent of ``n_batch``."""
+    Lane b draws from ``default_rng([seed, b])``, independent of ``n_batch`` (or from
+    ``default_rng([seed, streams[b]])`` when ``streams`` gives each lane its stream)."""
     lo, hi = sea.band()
     if length is not None:
         if not (isinstance(length, (int, float)) and math.isfinite(length) and length > 0):
@@ -189,7 +191,8 @@ def wave_components(sea: SeaState, *, n_components: int = 128, seed: int = 0,
             return first_order_response(w, sea, float(length), psi)[2] * sea.density(w)
 
         hi = max(hi, energy_band(yaw_spectrum, sea.omega_p)[1])
-    w, a, ph = components(sea.density, lo, hi, n_components, seed, n_batch, log=True)
+    w, a, ph = components(sea.density, lo, hi, n_components, seed, n_batch, log=True,
+                          streams=streams)
     return np.ascontiguousarray(np.stack([w, a, w * w / G, ph], axis=-1))
 
 
