@@ -101,6 +101,8 @@ def _environment_json(mc: Any) -> dict[str, Any] | None:
     """The ``environment`` key: the options as given, and run 0's environment described."""
     if not mc.environment:
         return None
+    import numpy as np
+
     from usvid.scale.montecarlo import Distribution
 
     given = {n: ({"dist": v.dist, "a": v.a, "b": v.b} if isinstance(v, Distribution)
