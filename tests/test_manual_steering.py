@@ -38,16 +38,19 @@ def _corrections(rng, t_order):
     return out
 
 
-def steer(kind, amp, sw, t_order, duration, side=1, seed=0):
+def steer(kind, amp, sw, t_order, duration, side=1, seed=0, *, corr=None, bias=0.0, late=0.0):
     """Simulate one manually steered run from rest (Euler at 50 Hz, a loop: the helm's decisions
     depend on the heading); the helm orders the zig-zag's reversals exactly at the switching
-    heading (the IMO definition of the switching angle). Returns (truth dict, logged Trial)."""
+    heading (the IMO definition of the switching angle), the third ``late`` [rad] beyond it.
+    ``corr`` the corrections before the order ((start, end, rudder) [s, s, rad]; default
+    :func:`_corrections`), ``bias`` [rad] a steady rudder-equivalent yaw moment (a beam wind:
+    the helm holds ``-bias`` to keep the course). Returns (truth dict, logged Trial)."""
     rng = np.random.default_rng(seed)
     n = int(round(duration / H)) + 1
     t = np.arange(n) * H
     u, r, psi, x, y, d = (np.zeros(n) for _ in range(6))
-    corr = _corrections(rng, t_order)
-    cmd, cur, psi0 = 0.0, side, None
+    corr = _corrections(rng, t_order) if corr is None else corr
+    cmd, cur, psi0, nrev = 0.0, side, None, 0
     for k in range(n - 1):
         tk = t[k]
         if tk < t_order:
@@ -55,14 +58,14 @@ def steer(kind, amp, sw, t_order, duration, side=1, seed=0):
         else:
             if psi0 is None:
                 psi0, cmd = psi[k], side * amp
-            if kind == "zigzag" and cur * (psi[k] - psi0) >= sw:
-                cur = -cur
+            if kind == "zigzag" and cur * (psi[k] - psi0) >= sw + (late if nrev == 2 else 0.0):
+                cur, nrev = -cur, nrev + 1
                 cmd = cur * amp
         d[k + 1] = d[k] + float(np.clip(cmd - d[k], -RATE * H, RATE * H))
         us = max(u[k], 0.3)
         K, T = K_P * us / L, T_P * L / us
         u[k + 1] = u[k] + H * (U_MAX - u[k]) / T_U
-        r[k + 1] = r[k] + H * (K * d[k + 1] - r[k]) / T
+        r[k + 1] = r[k] + H * (K * (d[k + 1] + bias) - r[k]) / T
         psi[k + 1] = psi[k] + H * r[k]
         x[k + 1] = x[k] + H * u[k] * math.cos(psi[k])
         y[k + 1] = y[k] + H * u[k] * math.sin(psi[k])
@@ -114,6 +117,38 @@ def test_manually_steered_manoeuvre_is_found_and_measured(kind, amp, sw, side, s
                               U=truth["u"], t_execute=t_order)
         for key in ("advance_m", "transfer_m", "tactical_diameter_m", "steady_diameter_m"):
             assert m[key] == pytest.approx(getattr(ref, key), rel=0.02), key
+
+
+def test_zigzag_after_corrections_of_its_own_size_and_a_late_reversal():
+    """A pond run from rest in a beam wind (the Esso Osaka zig-zags): the helm first steers
+    with corrections as large as the zig-zag's rudder (16 deg to port, then 10 deg to starboard
+    held against the wind until the 20 deg order: one pulse with a shelf), and reverses the
+    third time 9 deg late. The zig-zag is the order's pulses up to that reversal; its execute is
+    the order, not the start of the shelf; its overshoots are the truth's."""
+    amp, sw, t_order = DEG(20.0), DEG(20.0), 30.0
+    corr = [(2.0, 8.0, -DEG(16.0)), (8.0, t_order, DEG(10.0))]
+    truth, trial = steer("zigzag", amp, sw, t_order, 140.0, side=1, seed=7, corr=corr,
+                         bias=-DEG(10.0), late=DEG(9.0))
+    segs = find_manoeuvres(trial)
+    assert [s.kind for s in segs] == ["zigzag"]
+    seg = segs[0]
+    assert seg.t_execute == pytest.approx(t_order, abs=0.5)  # as the campaign above
+    assert seg.n_pulses == 3  # the order and two reversals; the late third one ends it
+    assert math.degrees(seg.psi_switch) == pytest.approx(20.0, abs=0.5)
+    # the shelf held against the wind is the approach's rudder offset: the amplitude is 20 deg
+    # about zero (rudder_amplitude measures from zero once the rudder reverses), within the
+    # 0.1-deg rudder noise and the 0.3 deg of the campaign above
+    assert math.degrees(seg.level) == pytest.approx(20.0, abs=0.3)
+    (m,) = [x for x in measured_metrics(trial) if x["kind"] == "zigzag"]
+    ref = zigzag_metrics(truth["t"], truth["psi"], truth["delta"], psi_switch=sw,
+                         t_execute=t_order, first=1)
+    np.testing.assert_allclose(m["overshoot_deg"][:2], ref.overshoot_deg[:2], atol=0.3)
+    # without the late reversal and the corrections' size it is a zig-zag as a whole: the same
+    # execute and switching angle
+    _, plain = steer("zigzag", amp, sw, t_order, 140.0, side=1, seed=7,
+                     corr=[(8.0, t_order, DEG(10.0))], bias=-DEG(10.0))
+    (p,) = find_manoeuvres(plain)
+    assert p.t_execute == pytest.approx(t_order, abs=0.5) and p.n_pulses > 3
 
 
 def test_demo_zigzag_log_switch_angle_and_overshoots():

@@ -5,6 +5,7 @@ comments), and the logged true wind is the wind triangle of the logged apparent 
 from __future__ import annotations
 
 import hashlib
+import math
 
 import numpy as np
 import pytest
@@ -164,3 +165,26 @@ def test_true_wind_is_the_triangle_of_the_apparent_wind_and_the_logged_velocity(
     assert np.median(np.abs(_angle_deg(b_ccw - tr["wind_dir_true"]))) > 5.0
     v_tow, _ = apparent_to_true(tr["wind_speed"], tr["wind_angle"] + np.pi, vn, ve, psi)
     assert np.median(np.abs(v_tow - tr["wind_speed_true"])) > 0.1
+
+
+#: The zig-zags' rudder amplitudes [deg] (the data set's README: +-15, +-20, +-30 deg).
+ZIGZAG_AMP = {"zigzag_31-Jul-2020_13_22_52": 15.0, "zigzag_31-Jul-2020_13_29_19": 15.0,
+              "zigzag_31-Jul-2020_13_50_28": 30.0, "zigzag_31-Jul-2020_13_57_45": 20.0,
+              "zigzag_31-Jul-2020_14_03_39": 20.0}
+
+
+@pytest.mark.parametrize("name", sorted(ZIGZAG_AMP))
+def test_every_zigzag_run_holds_one_zigzag_after_the_steering_from_rest(runs, name):
+    """Each zig-zag run starts from rest and is steered onto its course with rudder of the
+    zig-zag's own size before the order; the zig-zag is found from the order, under way."""
+    from usvid.manoeuvres import find_manoeuvres
+
+    segs = find_manoeuvres(runs[name])
+    assert [s.kind for s in segs] == ["zigzag"]
+    seg = segs[0]
+    # the logged rudder sits at 14.96/19.85/29.92 deg on its plateaux (0.6-deg steps)
+    assert math.degrees(seg.level) == pytest.approx(ZIGZAG_AMP[name], abs=0.3)
+    assert seg.n_pulses >= 3
+    # the order comes after 25-45 s of steering from rest, when the model makes 0.15-0.3 m/s
+    assert 20.0 < seg.t_execute < 50.0
+    assert 0.1 < seg.approach.speed < 0.35

@@ -29,7 +29,14 @@ differential port - starboard, the catamaran paper: tau_r = (T_port - T_stbd) b/
   by short transitions, whose reversals all happen at about the same heading deviation from the
   heading at the first execute (within 30 % or 0.5 deg: steering corrections held for a few
   seconds each are not a zig-zag); that deviation, read at the starts of the reversing rudder
-  ramps, gives the switching angle ``psi_switch`` (:func:`nominal_switch`);
+  ramps, gives the switching angle ``psi_switch`` (:func:`nominal_switch`). A chain that fails
+  this as a whole is searched for a zig-zag inside it (:func:`_zigzag_in_steering`): a run
+  started from rest is steered onto its course by rudder corrections of the zig-zag's own size
+  before the execute (the Esso Osaka pond runs), and a helm may reverse late once the
+  overshoots have been read; the zig-zag is then the pulses after the corrections, up to the
+  first reversal out of line, with at least two reversals and one rudder amplitude (within
+  :data:`ZIGZAG_LEVEL_TOL` of the pulses' median: a zig-zag's rudder is set to one angle,
+  corrections are not);
 * a **turning circle** is a single pulse during which the heading changes by at least
   ``min_turn_deg`` (180 deg by default, enough for the tactical diameter);
 * where no command explains it, a run of one-signed yaw rate turning at least 360 deg is a
@@ -788,16 +795,20 @@ def segment_trial(trial: PreparedTrial, *, min_level: float | None, min_pulse_s:
         floor = 0
         for chain in chains:
             seg = _zigzag(chain, t, cc, psi, psi_s, floor, name, rudder, psi_switch)
+            rest: list[_Pulse] = list(chain) if seg is None else []
             if seg is None:
-                for p in chain:
+                seg, rest = _zigzag_in_steering(chain, t, cc, psi, psi_s, floor, name, rudder,
+                                                psi_switch)
+            if seg is not None:
+                segs.append(seg)
+                used[(t >= seg.t_start) & (t <= seg.t_end)] = True
+            if rest:
+                for p in rest:
                     s = _turning_from_pulse(p, t, cc, psi, floor, name, min_turn_deg)
                     if s is not None:
                         segs.append(s)
                         used[(t >= s.t_start) & (t <= s.t_end)] = True
                     floor = _plateau_end(cc, p)
-            else:
-                segs.append(seg)
-                used[(t >= seg.t_start) & (t <= seg.t_end)] = True
             # the next order's ramp may start before this pulse has ended (a correction reversed
             # straight into the order): the next search starts at this pulse's last plateau
             floor = _plateau_end(cc, chain[-1])
@@ -824,10 +835,70 @@ def segment_trial(trial: PreparedTrial, *, min_level: float | None, min_pulse_s:
     return kept, findings
 
 
-def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch
-            ) -> Segment | None:
+#: Largest relative difference of a pulse's rudder level from the pulses' median for a zig-zag
+#: found inside a longer chain of steering (:func:`_zigzag_in_steering`): 10 %, the spread of a
+#: helm set to one angle (the Esso Osaka runs: 14.8/15.1 and 19.5/20.2 deg), well inside the
+#: 0.7-1/0.7 that chains pulses.
+ZIGZAG_LEVEL_TOL = 0.10
+
+
+def _consistent(dev: np.ndarray) -> bool:
+    """Every reversal at the same heading deviation ``dev`` [rad] (within 30 % of their median
+    or 0.5 deg): a real zig-zag, not a helmsman's steering corrections (held for a few seconds
+    each, whatever the heading)."""
+    est = float(np.median(dev))
+    return not np.any(np.abs(dev - est) > max(0.3 * est, math.radians(0.5)))
+
+
+def _final_rise(c: np.ndarray, p: _Pulse) -> _Pulse:
+    """Pulse ``p`` from its last rise onto its plateau.
+
+    A run started from rest is steered onto its course with the rudder to the execute's side
+    before the execute: the pulse then holds a shelf (e.g. 5-8 deg of steering, then the
+    15 deg order). The rise starts after the last sample below 60 % of the plateau level before
+    the plateau is first reached (within 10 %); without such a sample (a clean step from the
+    approach) the pulse is returned unchanged."""
+    mag = p.sign * c[p.i0:p.i1]
+    on = np.flatnonzero(np.abs(mag - p.level) <= 0.1 * p.level)
+    if not on.size:
+        return p
+    below = np.flatnonzero(mag[:on[0]] < 0.6 * p.level)
+    if not below.size:
+        return p
+    return _Pulse(p.i0 + int(below[-1]) + 1, p.i1, p.sign, p.level)
+
+
+def _zigzag_in_steering(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch
+                        ) -> tuple[Segment | None, list[_Pulse]]:
+    """A zig-zag inside a chain of pulses that is not one as a whole (see the module
+    docstring): after up to two leading steering corrections, from the last rise onto the
+    first pulse's plateau (:func:`_final_rise`), up to the first reversal out of line
+    (:func:`_consistent`), with at least two reversals and every pulse's level within
+    :data:`ZIGZAG_LEVEL_TOL` of their median. Returns (the segment or None, the chain's pulses
+    it leaves, to be tried as turning circles)."""
+    for k in range(min(3, len(chain) - 2)):
+        sub = list(chain[k:])
+        # the execute is searched from the previous pulse's plateau (not from the shelf): the
+        # foot of the final rise may lie below the shelf's level (:func:`ramp_start`)
+        first = _final_rise(c, sub[0])
+        start = floor if k == 0 else _plateau_end(c, chain[k - 1])
+        seg, n = _zigzag([first, *sub[1:]], t, c, psi, psi_s, start, name, rudder, psi_switch,
+                         in_steering=True)
+        if seg is not None:
+            return seg, list(chain[:k]) + list(chain[k + n:])
+    return None, list(chain)
+
+
+def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_switch, *,
+            in_steering: bool = False):
+    """The zig-zag of a chain of pulses, else None (see the module docstring). With
+    ``in_steering`` (:func:`_zigzag_in_steering`): (the zig-zag of the chain's first pulses, up
+    to the first reversal out of line, or None; the number of pulses it takes)."""
+    def fail() -> Any:
+        return (None, 0) if in_steering else None
+
     if len(chain) < 3:  # two reversals at least (IMO's first and second overshoot need them)
-        return None
+        return fail()
     t_e, side = find_execute(t, c, start=floor, pulse=(chain[0].i0, chain[0].i1))
     ie = int(np.searchsorted(t, t_e))
     # the switching angle from the smoothed heading (psi_s): a noisy sample at the execute or at
@@ -836,13 +907,19 @@ def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_swit
     rev = [reversal_time(t, c, p) for p in chain[:-1]]
     dev = np.array([p.sign * (float(np.interp(tr, t, psi_s)) - psi0)
                     for p, tr in zip(chain[:-1], rev, strict=True)])
-    if not np.all(np.isfinite(dev)) or np.any(dev <= 0):
-        return None
+    if in_steering:  # up to the first reversal out of line (two at least)
+        m = len(dev)
+        while m >= 2 and not (np.all(np.isfinite(dev[:m])) and np.all(dev[:m] > 0)
+                              and _consistent(dev[:m])):
+            m -= 1
+        levels = np.array([p.level for p in chain[:m + 1]])
+        if m < 2 or np.any(np.abs(levels - np.median(levels))
+                           > ZIGZAG_LEVEL_TOL * np.median(levels)):
+            return fail()
+        chain, rev, dev = chain[:m + 1], rev[:m], dev[:m]
+    if not np.all(np.isfinite(dev)) or np.any(dev <= 0) or not _consistent(dev):
+        return fail()
     est = float(np.median(dev))
-    # every reversal at the same heading deviation (within 30 % or 0.5 deg): a real zig-zag,
-    # not a helmsman's steering corrections (held for a few seconds each, whatever the heading)
-    if np.any(np.abs(dev - est) > max(0.3 * est, math.radians(0.5))):
-        return None
     i_end = chain[-1].i1 - 1
     level = rudder_amplitude(t, c, t_e, float(t[i_end]))
     r_s = np.gradient(psi_s, t)
@@ -856,8 +933,8 @@ def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_swit
     # the smoothed heading: the 3-s heading change of two raw samples carries the compass noise
     # (0.5 deg: 0.24 deg/s, near the 0.3 deg/s limit)
     if not _steady_before(psi_s, ie, i_end, float(t[1] - t[0])):
-        return None
-    return Segment(
+        return fail()
+    seg = Segment(
         kind="zigzag",
         t_start=t_e,
         t_end=float(t[i_end]),
@@ -871,6 +948,7 @@ def _zigzag(chain: list[_Pulse], t, c, psi, psi_s, floor, name, rudder, psi_swit
         extra={"psi_switch_measured_deg": math.degrees(est), "psi_switch_from": how,
                "rudder_lag_s": (est - sw) / yaw if yaw > 0 else math.nan},
     )
+    return (seg, len(chain)) if in_steering else seg
 
 
 def _turning_from_pulse(p, t, c, psi, floor, name, min_turn_deg) -> Segment | None:
