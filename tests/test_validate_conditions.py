@@ -63,6 +63,37 @@ def test_current_from_the_approach_only(lanxin, trial):
     assert isinstance(why, str) and "not steady" in why
 
 
+def test_current_from_an_approach_still_accelerating(lanxin):
+    """A zig-zag executed while the boat still accelerates from rest (at 55-70 % of its
+    straight-line speed) in a known current: the speed through the water is the model's at the
+    acceleration over ground, not its straight-line speed (that would make the speed deficit a
+    head current of ~2 m/s)."""
+    # the Lanxin boat with 8 times its surge mass: a surge time constant of ~10 s (the boat's
+    # own reaches 98 % of its speed within 5 s, inside one approach window)
+    dyn = lanxin.dynamics.replace(m11=8.0 * lanxin.dynamics.m11)
+    slow = type(lanxin)(dyn, servo=lanxin.servo, vessel=lanxin.vessel)
+    u_ss = float(kind_of(dyn).speed(dyn))
+    env = Environment(current_speed=CURRENT, current_dir=CURRENT_DIR)
+    res = simulate(slow, ZigZag(math.radians(20), math.radians(20), t_start=8.0),
+                   t_end=40.0, dt=0.02, u0=0.3 * u_ss, psi0=0.7, environment=env)
+    tr = as_prepared(res.to_trial(0, name="accelerating"), derivatives=False)
+    through_water = res.channels["u"][0] - CURRENT * math.cos(CURRENT_DIR - 0.7)
+    assert 0.5 < through_water[int(8.0 / 0.02)] / u_ss < 0.8  # still far from steady
+    speed, direction, desc = approach_current(tr, 8.0, slow)
+    # within 0.05 m/s and 5 deg: the speed through the water is read off the model's surge
+    # curve at the fitted acceleration (the speed at the window's centre stands for its
+    # mean; over 5 s of a run accelerating at ~0.2 m/s^2 the curvature of u(t) adds ~0.02 m/s)
+    assert speed == pytest.approx(CURRENT, abs=0.05)
+    assert math.degrees(direction) == pytest.approx(math.degrees(CURRENT_DIR), abs=5.0)
+    assert desc["acceleration_m_s2"] > 0.05 and desc["water_speed_m_s"] < 0.8 * u_ss
+    # the vessel accelerating more than its model can (a model 12 times heavier in surge):
+    # refused with the reason
+    weak = type(lanxin)(dyn.replace(m11=12.0 * dyn.m11), servo=lanxin.servo,
+                        vessel=lanxin.vessel)
+    why = approach_current(tr, 8.0, weak)
+    assert isinstance(why, str) and "more than the model can" in why
+
+
 def test_prediction_in_conditions_is_closer_than_calm(lanxin, trial):
     row = validate_trial(lanxin, trial, replay=False).to_dict()
     assert row["manoeuvre"] == "zigzag"
