@@ -50,6 +50,7 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
+from usvid.identify import disturbance as _dist
 from usvid.identify.checks import (
     ChecksFailed,
     check_data,
@@ -66,6 +67,7 @@ from usvid.identify.output_error import OEResult, refine_output_error
 from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import helm_from_zigzags, identify_second_order_servo
+from usvid.identify.span import kind_channels, trim_to_logged
 from usvid.identify.wind import WIND_KINDS, WindFit, interval, track_wind_loads, wind_fit
 from usvid.io.modelfile import model_to_dict
 from usvid.manoeuvres import find_manoeuvres, measured_metrics
@@ -259,6 +261,7 @@ class IdentifiedModel:
     diagnostics: dict[str, Any] = field(default_factory=dict)
     checks: list[dict[str, Any]] = field(default_factory=list)
     wind: dict[str, Any] | None = None
+    disturbance: dict[str, Any] | None = None  # per-trial current / bias (output error)
 
     def identification(self) -> dict[str, Any]:
         """The ``identification`` entry of the model file."""
@@ -275,6 +278,8 @@ class IdentifiedModel:
             "diagnostics": self.diagnostics,
             "checks": list(self.checks),
             **({"wind": dict(self.wind)} if self.wind is not None else {}),
+            **({"disturbance": dict(self.disturbance)} if self.disturbance is not None
+               else {}),
         }
 
     def _covariance(self) -> dict[str, Any]:
@@ -318,6 +323,8 @@ class IdentifiedModel:
                "fit": self.fit}
         if self.wind is not None:
             out["wind"] = dict(self.wind)
+        if self.disturbance is not None:
+            out["disturbance"] = dict(self.disturbance)
         return out
 
 
@@ -393,7 +400,8 @@ class ModelEstimator(FittedAttributes):
                  particulars: dict[str, Any] | None = None, x_l: float | None = None,
                  thrust: Any = None, arx_step: float | None = None,
                  oe_step: float | None = None, states: str = "auto",
-                 checks: str = "error", wind: bool = True) -> None:
+                 checks: str = "error", wind: bool = True,
+                 disturbance: Any = None) -> None:
         if kind not in kind_names():
             raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
         k = get_kind(kind)
@@ -444,6 +452,13 @@ class ModelEstimator(FittedAttributes):
             raise UsvidError(f"`states` must be 'auto', 'smooth' or 'ekf' (got {states!r})")
         self.states = states
         self.wind = bool(wind)
+        # the per-trial current / force biases of the output error (usvid.identify.disturbance)
+        self.disturbance = _dist.parse_disturbance(disturbance)
+        if self.disturbance:
+            _dist.disturbance_for(k, self.disturbance, ())  # a kind that can carry them
+            if not self._auto and method != "oe":
+                raise UsvidError(f"--disturbance {','.join(self.disturbance)} is estimated by "
+                                 f"the output error (--method oe), not by {method}")
 
     def _estimator_label(self) -> str:
         return f"ModelEstimator({self.kind!r})"
@@ -555,6 +570,10 @@ class ModelEstimator(FittedAttributes):
         turning = [as_prepared(tr, derivatives=False) for tr in _as_list(turning)]
         for tr in (*given, *turning):
             repair_warnings(tr)
+        # sensors that start late or stop early: the part where every channel is logged
+        chans = kind_channels(self.kind_)
+        given = [trim_to_logged(tr, chans, stacklevel=3) for tr in given]
+        turning = [trim_to_logged(tr, chans, stacklevel=3) for tr in turning]
         trials = one_grid(split_discontinuities(given))
         if not trials:
             raise IdentificationError("no trials given")
@@ -570,6 +589,8 @@ class ModelEstimator(FittedAttributes):
         candidates = [m for m in default_methods(self.kind) if m != "oe-zigzag" or zigzags]
         if "ls" not in candidates:
             candidates.append("ls")  # the last resort: the equation-error fit itself
+        if self.disturbance:  # only the output error estimates a disturbance
+            candidates = ["oe"]
         wanted, failures = self.checks, []
         for m in candidates:
             self.method, self.checks = m, "error"
@@ -650,8 +671,11 @@ class ModelEstimator(FittedAttributes):
         if self.method == "oe":
             win = self._windows(fit_series, self.window_s, self.overlap)
             params = self._valid_start(params, fixed, fit_series, diag)
+            dist = _dist.disturbance_for(kind, self.disturbance,
+                                         [s.name or f"trial {i + 1}"
+                                          for i, s in enumerate(fit_series)])
             oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels,
-                                     wind=wf.model)
+                                     wind=wf.model, disturbance=dist)
             diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
                           "message": oe.message, "ac_factor": oe.ac_factor, "sigma": oe.sigma,
                           "n_residuals": oe.n_residuals, "window_s": self.window_s,
@@ -670,6 +694,9 @@ class ModelEstimator(FittedAttributes):
                                  "rudder_rate_deg_s": math.degrees(zz_rate)}
         if oe is not None:
             params, cov, names = oe.params, oe.cov, oe.names
+            # symmetric as a covariance must be (the propagation through the fit space and the
+            # sandwich's inverse leave rounding asymmetries that the model file refuses)
+            cov = 0.5 * (np.asarray(cov, float) + np.asarray(cov, float).T)
             diag["ls_params"] = p_ls
         se = standard_errors(cov)
         q = quantile975(oe.dof if oe is not None else math.inf)
@@ -683,6 +710,12 @@ class ModelEstimator(FittedAttributes):
         if weak:
             diag["warnings"] = [weak]
         self._wind_scale(wf, oe, q, diag)
+        dist_out = None
+        if oe is not None and oe.disturbance is not None:
+            dist_out = _dist.report(oe.disturbance, oe.x, oe.x_names, oe.x_cov, q,
+                                    oe.free_names, self.kind)
+            if dist_out["warning"]:
+                diag.setdefault("warnings", []).append(dist_out["warning"])
         try:
             dyn = kind.dynamics(**{**fixed, **self.params_})
         except UsvidError as exc:
@@ -717,11 +750,14 @@ class ModelEstimator(FittedAttributes):
             opts["norrbin"] = self.norrbin
         if self.method == "rls":
             opts["lam"] = self.lam
+        if self.disturbance:
+            opts["disturbance"] = list(self.disturbance)
         result = IdentifiedModel(
             kind=self.kind, method=self.method, params=self.params_,
             std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_, model=None,
             data=self.data_, options=opts, diagnostics=diag,
-            wind=wf.to_dict() if wf.trials else None)  # only where the logs carry the wind
+            wind=wf.to_dict() if wf.trials else None,  # only where the logs carry the wind
+            disturbance=dist_out)
         # the model identification returns: checked (usvid.identify.checks)
         self.checks_ = check_model(model, trials, self.fit_)
         result.checks = [c.to_dict() for c in self.checks_]
