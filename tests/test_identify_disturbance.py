@@ -98,29 +98,32 @@ def test_current_and_bias_recovered_with_the_hull(turning):
 
 
 def test_without_the_disturbance_the_hull_is_biased(turning):
-    """The same data fitted in calm water: the yaw damping absorbs the unlogged yaw moment
-    and the fit leaves much larger heading residuals (the test that the recovery above is the
-    disturbance's doing, not the hull's)."""
+    """The same data fitted in calm water: the hull absorbs the unlogged loads (the test that
+    the recovery above is the disturbance's doing): some mass or damping is more than 10 %
+    off, where with the disturbance every one is within 1 %."""
     calm, _ = _fit(turning, None)
     est, _ = _fit(turning, "current,bias")
     assert "disturbance" not in calm.model_.identification
-    e_calm = calm.result_.fit["psi"]["rmse"]
-    e_dist = est.result_.fit["psi"]["rmse"]
-    print(f"heading rmse calm {e_calm:.4f} rad, with the disturbance {e_dist:.4f}")
-    assert e_dist < 0.5 * e_calm
+    off = {k: calm.params_[k] / getattr(CAT, k) - 1.0 for k in ("m11", "m22", "m33", "d11",
+                                                                  "d22", "d33")}
+    print({k: round(v, 3) for k, v in off.items()})
+    assert max(abs(v) for v in off.values()) > 0.10
+    assert all(est.params_[k] == pytest.approx(getattr(CAT, k), rel=0.01) for k in off)
 
 
-def test_straight_runs_cannot_separate_the_bias_from_the_current():
-    """On straight runs at one heading a sway force and the cross-current both give a constant
-    sway over ground: the fit says they are not separable (a warning naming them, kept in the
-    diagnostics), or refuses the fit when the Jacobian is singular."""
-    tr = _trial(dif_scale=0.0, t_end=120.0, seed=3)
+def test_few_headings_do_not_separate_the_current():
+    """Gentle turns (a tenth of the differential thrust): the heading sweeps a narrow sector,
+    the current barely turns in the body frame, and the fit says what it cannot separate (a
+    warning naming the pair, kept in the diagnostics), or refuses a singular fit."""
+    tr = _trial(dif_scale=0.1, t_end=120.0, seed=3)
+    print("heading range [deg]", np.degrees(np.ptp(np.unwrap(tr["psi"]))))
     try:
         est, warned = _fit(tr, "current,bias")
     except IdentificationError as exc:
-        assert "not separately identifiable" in str(exc) or "no excitation" in str(exc)
+        assert "not separately identifiable" in str(exc)
         return
     d = est.result_.summary()["disturbance"]
+    print(d["not_separable"])
     assert d["not_separable"] and d["warning"]
     assert any("not separable" in w for w in warned)
     assert d["warning"] in est.model_.identification["diagnostics"]["warnings"]

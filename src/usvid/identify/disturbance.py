@@ -149,7 +149,9 @@ def report(dist: Disturbance, x: np.ndarray, names: Sequence[str], cov: np.ndarr
             worst = max(others, default=(0.0, ""))
             if not (math.isfinite(se) and se > 0.0):
                 bad.append({"quantity": f"{qn}[{tname}]", "reason": "no finite interval"})
-            elif worst[0] > CORR_MAX:
+            elif worst[0] > CORR_MAX and not any(  # each pair once
+                    b.get("with") == f"{qn}[{tname}]" and b["quantity"] == _plain(worst[1], dist)
+                    for b in bad):
                 bad.append({"quantity": f"{qn}[{tname}]", "with": _plain(worst[1], dist),
                             "correlation": round(worst[0], 4)})
         if "current" in dist.terms:

@@ -51,6 +51,7 @@ import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
 from usvid.identify import disturbance as _dist
+from usvid.identify import thrust_consistency as _tc
 from usvid.identify.checks import (
     ChecksFailed,
     check_data,
@@ -574,6 +575,7 @@ class ModelEstimator(FittedAttributes):
         chans = kind_channels(self.kind_)
         given = [trim_to_logged(tr, chans, stacklevel=3) for tr in given]
         turning = [trim_to_logged(tr, chans, stacklevel=3) for tr in turning]
+        given = self._commanded_part(given)
         trials = one_grid(split_discontinuities(given))
         if not trials:
             raise IdentificationError("no trials given")
@@ -624,6 +626,44 @@ class ModelEstimator(FittedAttributes):
         if isinstance(failures[0][1], ChecksFailed):
             raise ChecksFailed(text, failures[0][1].reason)
         raise IdentificationError(text)
+
+    def _commanded_part(self, trials: list[PreparedTrial]) -> list[PreparedTrial]:
+        """Twin thrusters (catamaran): each trial up to :data:`~usvid.identify.
+        thrust_consistency.MARGIN_S` before its first stretch of way astern under thrust ahead
+        on both thrusters (:mod:`usvid.identify.thrust_consistency`: the logged commands did
+        not drive the boat there), with a warning; a trial whose part before it is shorter
+        than :data:`~usvid.prep.segments.MIN_SEGMENT_S` is left out; none left: refused."""
+        if self.kind != "catamaran" or not trials:
+            return trials
+        try:
+            thrust = self._fixed(trials).get("thrust")
+        except IdentificationError:
+            return trials  # the fit says what is missing
+        if thrust is None:
+            return trials
+        law = thrust.thrust if hasattr(thrust, "thrust") else (lambda c: float(thrust) * c)
+        out, gone = [], []
+        for tr in trials:
+            bad = _tc.astern_under_thrust_ahead(tr, law)
+            if not bad:
+                out.append(tr)
+                continue
+            t0 = float(tr.t[0])
+            end = bad[0][0] - _tc.MARGIN_S
+            what = (f"trial {tr.name or '?'}: the boat moved astern while both thrusters were "
+                    f"commanded ahead at {_tc.describe(bad)} (from the start of its logged "
+                    "part): the logged commands did not drive it there")
+            if end < MIN_SEGMENT_S:
+                gone.append(what)
+                warnings.warn(f"{what}; left out (less than {MIN_SEGMENT_S:g} s before it)",
+                              IdentificationWarning, stacklevel=3)
+                continue
+            warnings.warn(f"{what}; only its first {end:.1f} s are used", IdentificationWarning,
+                          stacklevel=3)
+            out.append(tr.slice_time(t0, t0 + end))
+        if not out:
+            raise IdentificationError("no trial left to identify from: " + "; ".join(gone))
+        return out
 
     def _fit(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
              psi_switch: float | None) -> ModelEstimator:

@@ -1,0 +1,46 @@
+"""The part of a log where every channel a model needs is logged (usvid.identify.span): sensors
+that start late are cut off with a warning naming the part and the channels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from usvid.identify.series import IdentificationWarning
+from usvid.identify.span import MIN_CUT_S, kind_channels, logged_span, trim_to_logged
+from usvid.models.registry import get as get_kind
+from usvid.trial import Trial
+
+
+def _trial(start_u: float, stop_n: float | None = None) -> Trial:
+    """20 s at 10 Hz; u from ``start_u`` s on (an INS that starts late), n_port until
+    ``stop_n``."""
+    t = np.arange(0.0, 20.0 + 1e-9, 0.1)
+    u = np.where(t >= start_u, 1.0, np.nan)
+    n = np.ones_like(t) if stop_n is None else np.where(t <= stop_n, 1.0, np.nan)
+    return Trial(pd.DataFrame({"t": t, "psi": np.where(t >= start_u, 0.1, np.nan), "u": u,
+                               "n_port": n, "n_stbd": np.ones_like(t)}), name="late")
+
+
+def test_late_sensor_cut_with_the_part_said():
+    tr = _trial(8.0, stop_n=18.0)
+    assert logged_span(tr, ("psi", "u", "n_port", "n_stbd")) == (8.0, 18.0, ["n_port", "psi",
+                                                                            "u"])
+    with pytest.warns(IdentificationWarning, match=r"0\.0-8\.0 s and 18\.0-20\.0 s .*'u'"):
+        cut = trim_to_logged(tr, ("psi", "u", "n_port", "n_stbd"))
+    assert cut.t[0] == pytest.approx(8.0) and cut.t[-1] == pytest.approx(18.0)
+    assert np.all(np.isfinite(cut["u"])) and len(cut) == 101
+
+
+def test_whole_log_and_short_gaps_untouched():
+    tr = _trial(0.5 * MIN_CUT_S)  # a leading gap shorter than MIN_CUT_S: left to interpolation
+    assert logged_span(tr, ("psi", "u")) is None
+    assert trim_to_logged(tr, ("psi", "u")) is tr
+    # a channel the kind does not read does not cut the log
+    assert logged_span(_trial(8.0), ("n_port", "n_stbd")) is None
+
+
+def test_kind_channels_of_the_catamaran():
+    assert set(kind_channels(get_kind("catamaran"))) >= {"psi", "u", "v", "r", "n_port",
+                                                        "n_stbd"}
