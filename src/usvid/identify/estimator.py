@@ -80,6 +80,7 @@ from usvid.models.registry import names as kind_names
 from usvid.models.servo import IdealServo
 from usvid.prep import PreparedTrial, as_prepared, prepare
 from usvid.prep.segments import MIN_SEGMENT_S, split_at_breaks, time_breaks
+from usvid.prep.under_way import under_way
 from usvid.sim.replay import WIND_SERIES, Windows, make_windows, replay_windows
 from usvid.trial import Trial, Vessel
 
@@ -658,9 +659,15 @@ class ModelEstimator(FittedAttributes):
                 warnings.warn(f"{what}; left out (less than {MIN_SEGMENT_S:g} s before it)",
                               IdentificationWarning, stacklevel=3)
                 continue
+            part = tr.slice_time(t0, t0 + end)
+            if under_way(part).made_way is False:  # the part before it: still leaving rest
+                gone.append(what)
+                warnings.warn(f"{what}; left out (the {end:.1f} s before it are not under way)",
+                              IdentificationWarning, stacklevel=3)
+                continue
             warnings.warn(f"{what}; only its first {end:.1f} s are used", IdentificationWarning,
                           stacklevel=3)
-            out.append(tr.slice_time(t0, t0 + end))
+            out.append(part)
         if not out:
             raise IdentificationError("no trial left to identify from: " + "; ".join(gone))
         return out
