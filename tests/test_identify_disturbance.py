@@ -165,3 +165,16 @@ def test_option_at_the_edge():
         ModelEstimator("catamaran", "ls", disturbance="bias")
     with pytest.raises(IdentificationError, match="constant speed"):
         ModelEstimator("nomoto1", disturbance="current")
+
+
+def test_summary_prints_each_trial_with_its_interval(capsys):
+    from usvid.commands.identify import _print_disturbance
+
+    _print_disturbance({"trials": [{
+        "trial": "run.csv", "current_speed_m_s": 0.2, "current_towards_deg": 60.0,
+        "current_north": {"value": 0.1, "ci95": [0.08, 0.12], "unit": "m/s"},
+        "current_east": {"value": 0.1732, "ci95": [0.16, 0.19], "unit": "m/s"}}],
+        "warning": None})
+    out = capsys.readouterr().out
+    assert "disturbance run.csv: current_north  0.1 +- 0.02 m/s" in out
+    assert "(current 0.2 m/s towards 60 deg)" in out
