@@ -44,3 +44,23 @@ def test_whole_log_and_short_gaps_untouched():
 def test_kind_channels_of_the_catamaran():
     assert set(kind_channels(get_kind("catamaran"))) >= {"psi", "u", "v", "r", "n_port",
                                                         "n_stbd"}
+
+
+def test_astern_under_thrust_ahead_found_by_hand():
+    """u below -0.15 m/s for 1.5 s while both thrusters push ahead: one stretch, from 5.0 to
+    6.5 s, u down to -0.4; astern under thrust astern (a reversing boat) is none; a stretch
+    of 0.5 s (shorter than MIN_ASTERN_S) is none."""
+    from usvid.identify.thrust_consistency import astern_under_thrust_ahead, describe
+
+    t = np.arange(0.0, 10.0 + 1e-9, 0.1)
+    u = np.where((t >= 5.0) & (t <= 6.5), -0.4, 0.8)
+    u = np.where((t >= 2.0) & (t <= 2.5), -0.4, u)
+    tp = np.full_like(t, 10.0)
+    ts = np.where(t < 7.0, 10.0, -10.0)
+    tr = Trial(pd.DataFrame({"t": t, "u": u, "n_port": tp, "n_stbd": ts}), name="x")
+    bad = astern_under_thrust_ahead(tr, lambda c: c)
+    assert bad == [pytest.approx((5.0, 6.5, -0.4))]
+    assert describe(bad) == "5.0-6.5 s (u down to -0.40 m/s)"
+    # the same log driven astern by both thrusters: consistent
+    back = Trial(pd.DataFrame({"t": t, "u": u, "n_port": -tp, "n_stbd": -tp}), name="y")
+    assert astern_under_thrust_ahead(back, lambda c: c) == []
