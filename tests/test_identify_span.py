@@ -39,6 +39,8 @@ def test_whole_log_and_short_gaps_untouched():
     assert trim_to_logged(tr, ("psi", "u")) is tr
     # a channel the kind does not read does not cut the log
     assert logged_span(_trial(8.0), ("n_port", "n_stbd")) is None
+    # a channel missing for most of the log is not cut to its rest (the series refuse it)
+    assert logged_span(_trial(12.0), ("psi", "u")) is None
 
 
 def test_kind_channels_of_the_catamaran():

@@ -22,13 +22,16 @@ from usvid.identify.series import IdentificationWarning
 
 #: Leading or trailing stretches shorter than this [s] are left to the interpolation.
 MIN_CUT_S = 0.5
+#: Smallest share of a log the logged span must keep: a channel missing for most of a log is a
+#: broken channel, refused as such where the series are built (its NaN count named), not cut.
+MIN_KEPT = 0.5
 
 
 def logged_span(trial: Any, channels: Iterable[str]) -> tuple[float, float, list[str]] | None:
     """``(t0, t1, late)``: the times [s] of the first and last sample at which every channel of
     ``channels`` the trial has is logged (finite), and the channels that start late or stop
-    early; None when it is the whole trial (within :data:`MIN_CUT_S`) or no channel is
-    finite."""
+    early; None when it is the whole trial (within :data:`MIN_CUT_S`), shorter than
+    :data:`MIN_KEPT` of it, or no channel is finite."""
     t = np.asarray(trial.t, dtype=float)
     if t.size < 2:
         return None
@@ -45,8 +48,8 @@ def logged_span(trial: Any, channels: Iterable[str]) -> tuple[float, float, list
     t0, t1 = max(firsts.values()), min(lasts.values())
     if t0 - t[0] < MIN_CUT_S and t[-1] - t1 < MIN_CUT_S:
         return None
-    if t1 <= t0:
-        return None  # no common stretch: the series refuse the channels with their names
+    if t1 - t0 < MIN_KEPT * (t[-1] - t[0]):
+        return None  # mostly missing: the series refuse the channel with its NaN count
     late = sorted(c for c in firsts if firsts[c] - t[0] >= MIN_CUT_S
                   or t[-1] - lasts[c] >= MIN_CUT_S)
     return float(t0), float(t1), late
@@ -80,4 +83,4 @@ def kind_channels(kind: Any) -> tuple[str, ...]:
     return tuple(dict.fromkeys(("psi", *kind.outputs, *kind.inputs, *needs)))
 
 
-__all__ = ["MIN_CUT_S", "kind_channels", "logged_span", "trim_to_logged"]
+__all__ = ["MIN_CUT_S", "MIN_KEPT", "kind_channels", "logged_span", "trim_to_logged"]
