@@ -83,6 +83,12 @@ TurningOpt = Annotated[list[Path] | None, typer.Option(
     "--turning", help="Turning-test log(s) for --norrbin two_step (repeat for several).")]
 XlOpt = Annotated[float | None, typer.Option(
     "--x-l", help="Thruster arm behind the pivot [m] (threedof; else vessel.extra.x_l).")]
+DisturbanceOpt = Annotated[str | None, typer.Option(
+    "--disturbance", help="Estimate what was not logged with the output error (--method oe; "
+    "kinds with surge and sway): current (a constant current per trial, north and east "
+    "[m/s]), bias (a constant sway force [N] and yaw moment [N m] per trial), or current,bias; "
+    "reported per trial with 95 % intervals (JSON and model file: identification."
+    "disturbance), with a warning when the manoeuvres cannot separate them from the hull.")]
 VesselOpt = Annotated[list[str] | None, typer.Option(
     "--vessel", help="A vessel particular NAME=VALUE in SI units, overriding the format spec's "
     "vessel block (e.g. propeller_diameter=0.46); repeat for several.")]
@@ -155,7 +161,8 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str | None = No
                   x_l: float | None = None, vessel: list[str] | None = None,
                   t_start: float | None = None, t_end: float | None = None,
                   psi_deg: float | None = None, report: Path | None = None,
-                  accept_failed_checks: bool = False) -> dict[str, Any]:
+                  accept_failed_checks: bool = False,
+                  disturbance: str | None = None) -> dict[str, Any]:
     """Everything ``usvid identify`` does; returns its JSON object (and writes ``out``).
     Logs are ``LOG`` or ``LOG:T0:T1`` (:func:`usvid.prep.logs.parse_log_arg`), each read and
     prepared once: the estimator, the validation and the report use the same prepared trials."""
@@ -176,7 +183,8 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str | None = No
     check_outputs([out, *report_files(report)], inputs)
     est = ModelEstimator(kind, method, window_s=window_s, overlap=overlap, lam=lam,
                          norrbin=norrbin, particulars=_particulars(x_l, vessel),
-                         checks="record" if accept_failed_checks else "error")
+                         checks="record" if accept_failed_checks else "error",
+                         disturbance=disturbance)
     psi_switch = psi_switch_option(psi_deg)  # the zig-zag switching angle of every log, as given
     trials = _load(logs, fmt, t_start, t_end)
     est.fit(trials, turning=_load(turning, fmt, t_start, t_end) if turning else None,
@@ -227,6 +235,7 @@ def _print_summary(s: dict[str, Any]) -> None:
         print(f"  wind_scale = {scale}; wind loads {w['model']} from the logged wind")
     elif w and w.get("trials"):
         print(f"  wind: {w['reason']}")
+    _print_disturbance(s.get("disturbance"))
     for label, fit in (("fit", s["fit"]), ("free run", s["fit"].get("free_run", {}))):
         for ch, m in fit.items():
             if isinstance(m, dict) and "rmse" in m:
@@ -236,6 +245,25 @@ def _print_summary(s: dict[str, Any]) -> None:
         print_validation(s["validation"])
     if s.get("report"):
         print(f"report: {s['report']}")
+
+
+def _print_disturbance(d: dict[str, Any] | None) -> None:
+    """The per-trial current / biases of ``--disturbance`` with their 95 % half-widths."""
+    if not d:
+        return
+    for row in d["trials"]:
+        parts = []
+        for q in ("current_north", "current_east", "bias_Y", "bias_N"):
+            if q in row:
+                lo, hi = row[q]["ci95"]
+                parts.append(f"{q} {row[q]['value']: .3g} +- {(hi - lo) / 2:.2g} "
+                             f"{row[q]['unit']}")
+        if "current_speed_m_s" in row:
+            parts.append(f"(current {row['current_speed_m_s']:.3g} m/s towards "
+                         f"{row['current_towards_deg']:.0f} deg)")
+        print(f"  disturbance {row['trial']}: " + ", ".join(parts))
+    if d.get("warning"):
+        print(f"  disturbance: {d['warning']}")
 
 
 def register(app: typer.Typer) -> None:
@@ -250,13 +278,15 @@ def register(app: typer.Typer) -> None:
                      x_l: XlOpt = None, vessel: VesselOpt = None,
                      t_start: TStartOpt = None, t_end: TEndOpt = None,
                      psi_deg: PsiOpt = None, report: ReportOpt = None,
-                     accept_failed_checks: AcceptOpt = False) -> None:
+                     accept_failed_checks: AcceptOpt = False,
+                     disturbance: DisturbanceOpt = None) -> None:
         """Identify a manoeuvring model from trial logs and write the model file."""
         s = identify_logs(logs, fmt, model, method, validate=validate, out=out,
                           window_s=window_s, overlap=overlap, lam=lam, norrbin=norrbin,
                           turning=turning, x_l=x_l, vessel=vessel, t_start=t_start,
                           t_end=t_end, psi_deg=psi_deg, report=report,
-                          accept_failed_checks=accept_failed_checks)
+                          accept_failed_checks=accept_failed_checks,
+                          disturbance=disturbance)
         if json_out:
             emit_json(s)
         else:

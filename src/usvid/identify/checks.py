@@ -63,7 +63,7 @@ from usvid.trial import Trial
 
 __all__ = ["Check", "ChecksFailed", "Envelope", "MIN_HEADING_RANGE", "MIN_R2", "MIN_SPEED",
            "MIN_HEADING_AUTOCORR", "check_data", "check_model", "envelope", "failed",
-           "heading_autocorrelation", "refusal", "trial_speed"]
+           "heading_autocorrelation", "mass_checks", "refusal", "trial_speed"]
 
 #: Smallest range of the heading [rad] over a trial that responds to its steering (0.5 deg).
 MIN_HEADING_RANGE = math.radians(0.5)
@@ -280,9 +280,55 @@ def check_model(model: VesselModel, trials: Sequence[Trial], fit: dict[str, Any]
     out.append(Check("free run", not bad, "" if not bad else (
         f"the free run of the training data diverges ({', '.join(bad)} not finite): the model "
         "cannot replay the data it was fitted to")))
+    out += mass_checks(model)
     env = envelope(model, trials)
     if env is not None:
         out += _manoeuvre_checks(model, env)
+    return out
+
+
+#: Plausible ranges of the rigid-body-plus-added masses of a Fossen-form model relative to the
+#: vessel's own mass (yaw: its yaw inertia): (parameter, particular, lowest, highest ratio).
+#: Added mass is positive, so each is at least the rigid body's (0.8: a declared mass 20 % off);
+#: in surge it is a small fraction of the mass, in sway and yaw up to about the rigid body's
+#: (Fossen 2021, ch. 6.4: e.g. a surge added mass of 5-10 %), so the highest ratios (2, 4, 5)
+#: leave room for a thrust map a factor 2 off and refuse only what no hull has.
+MASS_RATIOS = (("m11", "mass", 0.8, 2.0), ("m22", "mass", 0.8, 4.0),
+               ("m33", "yaw_inertia", 0.5, 5.0))
+#: Particulars (format spec ``vessel.extra``) that declare the thrust in newtons: with them
+#: the identified masses are in kg and comparable with the vessel's.
+THRUST_IN_NEWTONS = ("thrust_per_command", "thrust_full")
+
+
+def mass_checks(model: VesselModel) -> list[Check]:
+    """The identified masses (``m11``, ``m22`` [kg], ``m33`` [kg m^2]) against the vessel's
+    mass and yaw inertia (:data:`MASS_RATIOS`), for a model whose thrust is declared in newtons
+    (:data:`THRUST_IN_NEWTONS`; in command units the masses are in those units too). A surge
+    mass many times the boat's says the logged commands overstate the thrust that drove it, or
+    the surge was not identified (e.g. the least-squares inverse mass 1/m11 at its lower
+    bound): refused, with the reason, rather than simulated."""
+    v = model.vessel
+    dyn = model.dynamics
+    if v is None or not hasattr(dyn, "m11"):
+        return []
+    extra = dict(v.extra or {})
+    if not any(extra.get(k) is not None for k in THRUST_IN_NEWTONS):
+        return []
+    out = []
+    for name, part, lo, hi in MASS_RATIOS:
+        ref = v.mass if part == "mass" else extra.get(part)
+        val = getattr(dyn, name, None)
+        if ref is None or val is None or not float(ref) > 0:
+            continue
+        ratio = float(val) / float(ref)
+        ok = math.isfinite(ratio) and lo <= ratio <= hi
+        unit = "kg" if part == "mass" else "kg m^2"
+        out.append(Check(f"{name} against the vessel's {part}", ok, "" if ok else (
+            f"{name} = {float(val):.4g} {unit} is {ratio:.3g} times the vessel's {part} "
+            f"({float(ref):.4g} {unit}; a hull's is {lo:g}-{hi:g} times): the thrust the logged "
+            "commands declare (N) is not the thrust that drove the boat, or the data do not "
+            f"determine {name}; check the thrust map (vessel.extra.{THRUST_IN_NEWTONS[0]}) and "
+            "the logs (commands that do not move the boat)")))
     return out
 
 

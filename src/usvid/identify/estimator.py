@@ -50,6 +50,8 @@ import numpy as np
 import pandas as pd
 
 from usvid.errors import IdentificationError, UsvidError
+from usvid.identify import disturbance as _dist
+from usvid.identify import thrust_consistency as _tc
 from usvid.identify.checks import (
     ChecksFailed,
     check_data,
@@ -66,6 +68,7 @@ from usvid.identify.output_error import OEResult, refine_output_error
 from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import helm_from_zigzags, identify_second_order_servo
+from usvid.identify.span import kind_channels, trim_to_logged
 from usvid.identify.wind import WIND_KINDS, WindFit, interval, track_wind_loads, wind_fit
 from usvid.io.modelfile import model_to_dict
 from usvid.manoeuvres import find_manoeuvres, measured_metrics
@@ -77,6 +80,7 @@ from usvid.models.registry import names as kind_names
 from usvid.models.servo import IdealServo
 from usvid.prep import PreparedTrial, as_prepared, prepare
 from usvid.prep.segments import MIN_SEGMENT_S, split_at_breaks, time_breaks
+from usvid.prep.under_way import under_way
 from usvid.sim.replay import WIND_SERIES, Windows, make_windows, replay_windows
 from usvid.trial import Trial, Vessel
 
@@ -259,6 +263,7 @@ class IdentifiedModel:
     diagnostics: dict[str, Any] = field(default_factory=dict)
     checks: list[dict[str, Any]] = field(default_factory=list)
     wind: dict[str, Any] | None = None
+    disturbance: dict[str, Any] | None = None  # per-trial current / bias (output error)
 
     def identification(self) -> dict[str, Any]:
         """The ``identification`` entry of the model file."""
@@ -275,6 +280,8 @@ class IdentifiedModel:
             "diagnostics": self.diagnostics,
             "checks": list(self.checks),
             **({"wind": dict(self.wind)} if self.wind is not None else {}),
+            **({"disturbance": dict(self.disturbance)} if self.disturbance is not None
+               else {}),
         }
 
     def _covariance(self) -> dict[str, Any]:
@@ -318,6 +325,8 @@ class IdentifiedModel:
                "fit": self.fit}
         if self.wind is not None:
             out["wind"] = dict(self.wind)
+        if self.disturbance is not None:
+            out["disturbance"] = dict(self.disturbance)
         return out
 
 
@@ -393,7 +402,8 @@ class ModelEstimator(FittedAttributes):
                  particulars: dict[str, Any] | None = None, x_l: float | None = None,
                  thrust: Any = None, arx_step: float | None = None,
                  oe_step: float | None = None, states: str = "auto",
-                 checks: str = "error", wind: bool = True) -> None:
+                 checks: str = "error", wind: bool = True,
+                 disturbance: Any = None) -> None:
         if kind not in kind_names():
             raise UsvidError(f"`kind` must be one of {', '.join(kind_names())} (got {kind!r})")
         k = get_kind(kind)
@@ -444,6 +454,13 @@ class ModelEstimator(FittedAttributes):
             raise UsvidError(f"`states` must be 'auto', 'smooth' or 'ekf' (got {states!r})")
         self.states = states
         self.wind = bool(wind)
+        # the per-trial current / force biases of the output error (usvid.identify.disturbance)
+        self.disturbance = _dist.parse_disturbance(disturbance)
+        if self.disturbance:
+            _dist.disturbance_for(k, self.disturbance, ())  # a kind that can carry them
+            if not self._auto and method != "oe":
+                raise UsvidError(f"--disturbance {','.join(self.disturbance)} is estimated by "
+                                 f"the output error (--method oe), not by {method}")
 
     def _estimator_label(self) -> str:
         return f"ModelEstimator({self.kind!r})"
@@ -555,6 +572,11 @@ class ModelEstimator(FittedAttributes):
         turning = [as_prepared(tr, derivatives=False) for tr in _as_list(turning)]
         for tr in (*given, *turning):
             repair_warnings(tr)
+        # sensors that start late or stop early: the part where every channel is logged
+        chans = kind_channels(self.kind_)
+        given = [trim_to_logged(tr, chans, stacklevel=3) for tr in given]
+        turning = [trim_to_logged(tr, chans, stacklevel=3) for tr in turning]
+        given = self._commanded_part(given)
         trials = one_grid(split_discontinuities(given))
         if not trials:
             raise IdentificationError("no trials given")
@@ -570,6 +592,8 @@ class ModelEstimator(FittedAttributes):
         candidates = [m for m in default_methods(self.kind) if m != "oe-zigzag" or zigzags]
         if "ls" not in candidates:
             candidates.append("ls")  # the last resort: the equation-error fit itself
+        if self.disturbance:  # only the output error estimates a disturbance
+            candidates = ["oe"]
         wanted, failures = self.checks, []
         for m in candidates:
             self.method, self.checks = m, "error"
@@ -603,6 +627,50 @@ class ModelEstimator(FittedAttributes):
         if isinstance(failures[0][1], ChecksFailed):
             raise ChecksFailed(text, failures[0][1].reason)
         raise IdentificationError(text)
+
+    def _commanded_part(self, trials: list[PreparedTrial]) -> list[PreparedTrial]:
+        """Twin thrusters (catamaran): each trial up to :data:`~usvid.identify.
+        thrust_consistency.MARGIN_S` before its first stretch of way astern under thrust ahead
+        on both thrusters (:mod:`usvid.identify.thrust_consistency`: the logged commands did
+        not drive the boat there), with a warning; a trial whose part before it is shorter
+        than :data:`~usvid.prep.segments.MIN_SEGMENT_S` is left out; none left: refused."""
+        if self.kind != "catamaran" or not trials:
+            return trials
+        try:
+            thrust = self._fixed(trials).get("thrust")
+        except IdentificationError:
+            return trials  # the fit says what is missing
+        if thrust is None:
+            return trials
+        law = thrust.thrust if hasattr(thrust, "thrust") else (lambda c: float(thrust) * c)
+        out, gone = [], []
+        for tr in trials:
+            bad = _tc.astern_under_thrust_ahead(tr, law)
+            if not bad:
+                out.append(tr)
+                continue
+            t0 = float(tr.t[0])
+            end = bad[0][0] - _tc.MARGIN_S
+            what = (f"trial {tr.name or '?'}: the boat moved astern while both thrusters were "
+                    f"commanded ahead at {_tc.describe(bad)} (from the start of its logged "
+                    "part): the logged commands did not drive it there")
+            if end < MIN_SEGMENT_S:
+                gone.append(what)
+                warnings.warn(f"{what}; left out (less than {MIN_SEGMENT_S:g} s before it)",
+                              IdentificationWarning, stacklevel=3)
+                continue
+            part = tr.slice_time(t0, t0 + end)
+            if under_way(part).made_way is False:  # the part before it: still leaving rest
+                gone.append(what)
+                warnings.warn(f"{what}; left out (the {end:.1f} s before it are not under way)",
+                              IdentificationWarning, stacklevel=3)
+                continue
+            warnings.warn(f"{what}; only its first {end:.1f} s are used", IdentificationWarning,
+                          stacklevel=3)
+            out.append(part)
+        if not out:
+            raise IdentificationError("no trial left to identify from: " + "; ".join(gone))
+        return out
 
     def _fit(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
              psi_switch: float | None) -> ModelEstimator:
@@ -650,8 +718,11 @@ class ModelEstimator(FittedAttributes):
         if self.method == "oe":
             win = self._windows(fit_series, self.window_s, self.overlap)
             params = self._valid_start(params, fixed, fit_series, diag)
+            dist = _dist.disturbance_for(kind, self.disturbance,
+                                         [s.name or f"trial {i + 1}"
+                                          for i, s in enumerate(fit_series)])
             oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels,
-                                     wind=wf.model)
+                                     wind=wf.model, disturbance=dist)
             diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
                           "message": oe.message, "ac_factor": oe.ac_factor, "sigma": oe.sigma,
                           "n_residuals": oe.n_residuals, "window_s": self.window_s,
@@ -670,6 +741,9 @@ class ModelEstimator(FittedAttributes):
                                  "rudder_rate_deg_s": math.degrees(zz_rate)}
         if oe is not None:
             params, cov, names = oe.params, oe.cov, oe.names
+            # symmetric as a covariance must be (the propagation through the fit space and the
+            # sandwich's inverse leave rounding asymmetries that the model file refuses)
+            cov = 0.5 * (np.asarray(cov, float) + np.asarray(cov, float).T)
             diag["ls_params"] = p_ls
         se = standard_errors(cov)
         q = quantile975(oe.dof if oe is not None else math.inf)
@@ -683,6 +757,12 @@ class ModelEstimator(FittedAttributes):
         if weak:
             diag["warnings"] = [weak]
         self._wind_scale(wf, oe, q, diag)
+        dist_out = None
+        if oe is not None and oe.disturbance is not None:
+            dist_out = _dist.report(oe.disturbance, oe.x, oe.x_names, oe.x_cov, q,
+                                    oe.free_names, self.kind)
+            if dist_out["warning"]:
+                diag.setdefault("warnings", []).append(dist_out["warning"])
         try:
             dyn = kind.dynamics(**{**fixed, **self.params_})
         except UsvidError as exc:
@@ -717,11 +797,14 @@ class ModelEstimator(FittedAttributes):
             opts["norrbin"] = self.norrbin
         if self.method == "rls":
             opts["lam"] = self.lam
+        if self.disturbance:
+            opts["disturbance"] = list(self.disturbance)
         result = IdentifiedModel(
             kind=self.kind, method=self.method, params=self.params_,
             std_errors=self.std_errors_, ci95=self.ci95_, cov=cov, fit=self.fit_, model=None,
             data=self.data_, options=opts, diagnostics=diag,
-            wind=wf.to_dict() if wf.trials else None)  # only where the logs carry the wind
+            wind=wf.to_dict() if wf.trials else None,  # only where the logs carry the wind
+            disturbance=dist_out)
         # the model identification returns: checked (usvid.identify.checks)
         self.checks_ = check_model(model, trials, self.fit_)
         result.checks = [c.to_dict() for c in self.checks_]

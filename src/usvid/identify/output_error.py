@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
+from usvid.identify.disturbance import Disturbance
 from usvid.identify.ls import autocorrelation_factor, numerical_jacobian
 from usvid.identify.metrics import rmse
 from usvid.models.environment import WindLoadModel
@@ -80,6 +81,8 @@ class OEResult:
     init: dict[str, np.ndarray] | None = None  # the windows' estimated initial states
     wind_scale: float | None = None  # the wind loads' multiplier (None: no wind simulated)
     wind_scale_se: float = 0.0       # its standard error (0: held)
+    disturbance: Disturbance | None = None  # the per-trial current / bias in x (x_names)
+    free_names: tuple[str, ...] = ()  # the fit-space names estimated (the rest held)
 
 
 class OEProblem:
@@ -91,7 +94,7 @@ class OEProblem:
 
     def __init__(self, kind: ModelKind, fixed: Mapping[str, Any], win: Windows,
                  channels: tuple[str, ...], wind: WindLoadModel | None = None,
-                 fit_wind_scale: bool = True) -> None:
+                 fit_wind_scale: bool = True, disturbance: Disturbance | None = None) -> None:
         self.kind = kind
         self.fixed = dict(fixed)
         self.win = win
@@ -117,18 +120,26 @@ class OEProblem:
             self.names = (*self.names, "wind_scale")
             if not fit_wind_scale:
                 self.held = (*self.held, "wind_scale")
+        # the unlogged current / force biases per trial (usvid.identify.disturbance): the last
+        # fit values, driving the core's current and force series of each window's trial
+        self.disturbance = disturbance
+        self._extra = ("wind_scale", *(disturbance.names if disturbance is not None else ()))
+        if disturbance is not None:
+            self.names = (*self.names, *disturbance.names)
         self.init_names = tuple(c for c in ("r", "psi", "u", "v", *STATE_CHANNELS)
                                 if c in kind.outputs)
         self._lanes: Lanes | None = None  # the windows' lanes (simulate)
 
     def fit_values(self, params: Mapping[str, float]) -> np.ndarray:
-        f = dict(self._to_fit({k: v for k, v in params.items() if k != "wind_scale"}))
+        f = dict(self._to_fit({k: v for k, v in params.items() if k not in self._extra}))
         f["wind_scale"] = float(params.get("wind_scale", 1.0))
+        for n in self._extra[1:]:  # a disturbance starts at its given value, else none
+            f[n] = float(params.get(n, 0.0))
         return np.array([f[n] for n in self.names], dtype=float)
 
     def params(self, x: np.ndarray) -> dict[str, float]:
         return self._to_params({n: v for n, v in zip(self.names, x, strict=True)
-                                if n != "wind_scale"})
+                                if n not in self._extra})
 
     def env_block(self, x: np.ndarray) -> np.ndarray | None:
         """The core's environment block (:data:`usvid.sim.layout.ENVBLOCK`) of the logged
@@ -156,10 +167,14 @@ class OEProblem:
         if base is None:
             base = self._lanes = window_lanes(self.kind, P, dyn, self.win, init=init,
                                               channels=self.channels, env_block=env)
-            return base.run().channels
+            if self.disturbance is None:
+                return base.run().channels
         lanes = replace(base, P=np.broadcast_to(P, (P.shape[0], base.size)),
                         Z0=window_initial_state(self.kind, dyn, self.win, init),
                         env_block=env)
+        if self.disturbance is not None:
+            lanes = replace(lanes, series={**base.series, **self.disturbance.series(
+                x, self.names, self.win.trial_index, self.win.width)})
         return lanes.run().channels
 
 
@@ -209,7 +224,8 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
                         win: Windows, *, channels: tuple[str, ...] | None = None,
                         max_iter: int = 100, estimate_initial: bool = True,
                         reweight: bool = True, wind: WindLoadModel | None = None,
-                        fit_wind_scale: bool = True) -> OEResult:
+                        fit_wind_scale: bool = True,
+                        disturbance: Disturbance | None = None) -> OEResult:
     """Minimise weighted simulated-minus-measured outputs over all windows (multiple shooting).
 
     Parameters
@@ -235,6 +251,10 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         The wind-load model of the logged wind (windows with ``wind_x``, ``wind_y``): the
         windows are simulated in that wind, its ``wind_scale`` [-] estimated with the parameters
         (``fit_wind_scale``, start ``start["wind_scale"]`` or 1) or held at the start value.
+    disturbance : Disturbance, optional
+        A constant current and/or sway-force and yaw-moment bias per trial
+        (:mod:`usvid.identify.disturbance`), estimated with the parameters (start
+        ``start[name]`` or 0); their values and covariance are in ``x``/``x_cov``.
 
     Returns
     -------
@@ -242,10 +262,10 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
     """
     channels = tuple(channels) if channels is not None else tuple(
         c for c in ("psi", "r", "u", "v", *STATE_CHANNELS) if c in kind.outputs)
-    prob = OEProblem(kind, fixed, win, channels, wind, fit_wind_scale)
+    prob = OEProblem(kind, fixed, win, channels, wind, fit_wind_scale, disturbance)
     try:
         x_all = prob.fit_values(start)
-        prob.dynamics(dict(start))
+        prob.dynamics({k: v for k, v in start.items() if k not in prob._extra})
     except (UsvidError, ValueError, ZeroDivisionError) as exc:
         raise _bad_start(kind, exc) from None
     free = np.array([n not in prob.held for n in prob.names])
@@ -334,7 +354,8 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
                     sigma=sig, ac_factor=float(fac), n_residuals=int(m),
                     dof=float(B - 1) if B >= MIN_CLUSTERS else math.inf,
                     init={k: np.asarray(v).copy() for k, v in init.items()},
-                    wind_scale=ws, wind_scale_se=ws_se)
+                    wind_scale=ws, wind_scale_se=ws_se, disturbance=disturbance,
+                    free_names=tuple(free_names))
 
 
 def _param_covariance(Sinv: np.ndarray, s2: float, fac: float, B: int, m: int, ncol: int,

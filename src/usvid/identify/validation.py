@@ -55,9 +55,11 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
+from usvid.identify import thrust_consistency as _tc
 from usvid.identify.conditions import run_conditions
 from usvid.identify.metrics import diverged_at, replay_metrics
 from usvid.identify.series import trial_series
+from usvid.identify.span import kind_channels, logged_span
 from usvid.manoeuvres import find_manoeuvres, manoeuvre_metrics
 from usvid.manoeuvres.detect import Segment, approach
 from usvid.models.model import VesselModel
@@ -405,6 +407,21 @@ def validate_trial(model: VesselModel, trial: Trial, *, psi_switch: float | None
     else:
         out.messages.append("no zig-zag or turning circle found: replay only")
     if replay:
+        # the part where every channel the replay reads is logged (sensors that start late)
+        span = logged_span(trial, kind_channels(kind_of(model.dynamics)))
+        if span is not None:
+            t0 = float(trial.t[0])
+            out.messages.append(f"replay: {span[0] - t0:.1f}-{span[1] - t0:.1f} s only (from "
+                                f"the log's start): {', '.join(map(repr, span[2]))} not logged "
+                                "before or after")
+            trial = trial.slice_time(span[0], span[1])
+        law = getattr(model.dynamics, "thruster_thrust", None)  # twin thrusters (catamaran)
+        bad = _tc.astern_under_thrust_ahead(trial, law) if law is not None else []
+        if bad:
+            out.messages.append(f"replay: the boat moved astern while both thrusters were "
+                                f"commanded ahead at {_tc.describe(bad)} (from the replay's "
+                                "start): the logged commands did not drive it there, and the "
+                                "replay cannot follow")
         try:
             _replay(model, trial, out, window_s if window_s is not None else model_window(model))
         except UsvidError as exc:
