@@ -188,9 +188,10 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         return
     todo = iter(starts)
     lock = threading.Lock()
+    stop = threading.Event()  # the caller was interrupted: no further chunk
 
     def worker() -> None:  # takes the next chunk until none is left (chunks may differ in cost)
-        while True:
+        while not stop.is_set():
             with lock:
                 lo = next(todo, None)
             if lo is None:
@@ -198,8 +199,13 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
             task(lo)
 
     pool = _pool()
-    for fut in [pool.submit(worker) for _ in range(threads)]:
-        fut.result()
+    futs = [pool.submit(worker) for _ in range(threads)]
+    try:
+        for fut in futs:
+            fut.result()
+    except BaseException:
+        stop.set()
+        raise
 
 
 _POOL: dict[int, ThreadPoolExecutor] = {}  # process id -> the process's pool
