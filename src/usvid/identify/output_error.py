@@ -18,7 +18,11 @@ Parameters are fitted in the kind's fit space (``ModelKind.fit_space``: e.g. Nor
 normalisation, the inverse-mass coefficients of the Fossen kinds).
 
 Solver: Levenberg-Marquardt on the normal equations with the window states eliminated window by
-window (Schur complement, cost linear in the number of windows). Covariance from the Jacobian at
+window (Schur complement, cost linear in the number of windows). Its Jacobian by forward
+differences: every perturbed parameter set (one per parameter, one per initial state of all
+windows) simulated in one call of the core, the windows of all sets as its lanes
+(:meth:`OEProblem.simulate_sets`): full chunks of lanes on the kernel's threads instead of one
+call per set. Covariance from the Jacobian at
 the optimum: with at least ``MIN_CLUSTERS`` windows the cluster-robust (sandwich) form with the
 windows as clusters,
 
@@ -36,7 +40,7 @@ Units: time [s], angles [rad], yaw rate [rad/s], speeds [m/s].
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -57,6 +61,9 @@ MIN_CLUSTERS = 8
 _EPS_FD = 1.4901161193847656e-08  # sqrt(machine epsilon): forward-difference relative step
 #: Residual (in units of the channel weight) given to samples after a lane diverged.
 DIVERGED = 1e3
+#: Most recorded values (sets x windows x samples x channels) of one core call of a Jacobian's
+#: perturbed sets (2^24 float64: 128 MiB); more sets are simulated in several calls.
+BATCH_VALUES = 2**24
 
 
 @dataclass
@@ -129,6 +136,8 @@ class OEProblem:
         self.init_names = tuple(c for c in ("r", "psi", "u", "v", *STATE_CHANNELS)
                                 if c in kind.outputs)
         self._lanes: Lanes | None = None  # the windows' lanes (simulate)
+        self._tiles: dict[int, tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]] = {}
+        self._models: dict[bytes, tuple[Dynamics, np.ndarray]] = {}  # (_model)
 
     def fit_values(self, params: Mapping[str, float]) -> np.ndarray:
         f = dict(self._to_fit({k: v for k, v in params.items() if k not in self._extra}))
@@ -153,15 +162,28 @@ class OEProblem:
     def dynamics(self, params: Mapping[str, float]) -> Dynamics:
         return self.kind.dynamics(**{**self.fixed, **params})
 
+    def _model(self, x: np.ndarray) -> tuple[Dynamics, np.ndarray]:
+        """The kind's parameter set of fit-space values ``x`` and its packed parameter rows,
+        kept for the last few ``x`` (a Jacobian's initial-state sets and the step it was
+        taken at share the model: built and validated once)."""
+        key = np.asarray(x, dtype=float).tobytes()
+        hit = self._models.get(key)
+        if hit is None:
+            dyn = self.dynamics(self.params(x))
+            speed = self.win.init.get("u", 1.0) if self.kind.constant_speed else 1.0
+            hit = (dyn, self.kind.pack(dyn, speed))
+            if len(self._models) >= 4:
+                del self._models[next(iter(self._models))]
+            self._models[key] = hit
+        return hit
+
     def simulate(self, x: np.ndarray, init: Mapping[str, np.ndarray] | None = None
                  ) -> dict[str, np.ndarray]:
         """Simulated outputs (B, W) of every window for fit-space values x.
 
         The windows' lanes (inputs, run lengths, servo rows) are built once; each call sets
         only the parameter rows and the initial states (of ``x``'s model and ``init``)."""
-        dyn = self.dynamics(self.params(x))
-        speed = self.win.init.get("u", 1.0) if self.kind.constant_speed else 1.0
-        P = self.kind.pack(dyn, speed)
+        dyn, P = self._model(x)
         base = self._lanes
         env = self.env_block(x)
         if base is None:
@@ -177,40 +199,106 @@ class OEProblem:
                 x, self.names, self.win.trial_index, self.win.width)})
         return lanes.run().channels
 
+    def simulate_sets(self, xs: Sequence[np.ndarray],
+                      inits: Sequence[Mapping[str, np.ndarray] | None]
+                      ) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Simulated outputs (K, B, W) of K fit-space sets ``xs`` with their window initial
+        states ``inits``, every window of every set a lane of one call of the core (the
+        windows' lanes repeated K times): the perturbed sets of a finite-difference Jacobian in
+        one batch. Returns (outputs, ok (K,)); a set whose parameters or initial states are no
+        valid model is not ok (its outputs are those of another set: not to be used).
+        Lane for lane the same integration as :meth:`simulate`."""
+        K = len(xs)
+        if self._lanes is None:
+            self.simulate(xs[0], inits[0])
+        base = self._lanes
+        assert base is not None
+        B = base.size
+        ok = np.ones(K, dtype=bool)
+        Ps, Zs, envs = [], [], []
+        for k, (x, init) in enumerate(zip(xs, inits, strict=True)):
+            try:
+                dyn, P = self._model(x)
+                P = np.broadcast_to(P, (base.P.shape[0], B))
+                Z0 = window_initial_state(self.kind, dyn, self.win, init)
+            except (UsvidError, ValueError, ZeroDivisionError):
+                ok[k] = False
+                P, Z0 = base.P, base.Z0
+            Ps.append(P)
+            Zs.append(Z0)
+            env = self.env_block(x)
+            envs.append(None if env is None else np.broadcast_to(env, (env.shape[0], B)))
+        S, nsteps, series = self._tiled(K)
+        lanes = replace(base, P=np.hstack(Ps), Z0=np.hstack(Zs), S=S, nsteps=nsteps,
+                        series=series,
+                        env_block=None if envs[0] is None else np.hstack(envs))
+        out = lanes.run().channels
+        return {c: v.reshape(K, B, -1) for c, v in out.items()}, ok
+
+    def _tiled(self, K: int) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """The windows' servo rows, run lengths and input series repeated for K sets (kept:
+        the Jacobians of a fit have one or two group sizes)."""
+        if K not in self._tiles:
+            base = self._lanes
+            assert base is not None
+            series = {k: (v if v.shape[0] == 1 else np.tile(v, (K, 1)))
+                      for k, v in base.series.items()}
+            self._tiles[K] = (np.tile(base.S, (1, K)), np.tile(base.nsteps, K), series)
+        return self._tiles[K]
+
 
 def _bad_start(kind: ModelKind, exc: Exception) -> IdentificationError:
     return IdentificationError(f"output-error fit of {kind.name}: the start parameters are not "
                                f"a valid model ({exc})")
 
 
-def _fd_params(fun, x: np.ndarray, f0: np.ndarray, nf: int, hi: np.ndarray) -> np.ndarray:
-    """Forward-difference derivatives of ``fun`` (residuals shaped like ``f0``) with respect to
-    the first ``nf`` unknowns (model parameters): array ``f0.shape + (nf,)``. Relative step
-    sqrt(eps), taken backwards at an upper bound."""
-    out = np.empty(f0.shape + (nf,))
+def _fd_points(x: np.ndarray, nf: int, ni: int, B: int, hi: np.ndarray
+               ) -> tuple[list[np.ndarray], np.ndarray, list[np.ndarray]]:
+    """The perturbed unknowns of a forward-difference Jacobian: each of the first ``nf``
+    (model parameters) alone, relative step sqrt(eps), taken backwards at an upper bound
+    ``hi``; then, grouped, each of the ``ni`` window initial states of all ``B`` windows at
+    once (a window's state moves only its own residuals). Returns (points, the parameters'
+    steps (nf,), the states' steps: ni arrays (B,))."""
+    pts: list[np.ndarray] = []
+    hp = np.empty(nf)
     for j in range(nf):
         h = _EPS_FD * max(1.0, abs(x[j]))
         if x[j] + h > hi[j]:
             h = -h
         x1 = x.copy()
         x1[j] += h
-        out[..., j] = (fun(x1) - f0) / h
-    return out
-
-
-def _fd_states(fun, x: np.ndarray, f0: np.ndarray, nf: int, ni: int, B: int
-               ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Grouped forward differences for the window initial states: for each of the ``ni`` states,
-    all ``B`` windows perturbed at once (a window's state moves only its own residuals). Returns
-    per state ``(fun(x + h) - f0, h)`` with ``h`` (B,) the steps."""
-    out = []
+        pts.append(x1)
+        hp[j] = h
+    hs = []
     for j in range(ni):
         sl = slice(nf + j * B, nf + (j + 1) * B)
         h = _EPS_FD * np.maximum(1.0, np.abs(x[sl]))
         x1 = x.copy()
         x1[sl] += h
-        out.append((fun(x1) - f0, h))
-    return out
+        pts.append(x1)
+        hs.append(h)
+    return pts, hp, hs
+
+
+def fd_jacobian(funs: Callable[[list[np.ndarray]], list[np.ndarray]], x: np.ndarray,
+                f0: np.ndarray, nf: int, ni: int, hi: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Forward-difference Jacobian of the residuals (B, M) (``f0`` at ``x``) of the multiple-
+    shooting problem: ``G`` (B, M, nf) with respect to the model parameters (the first ``nf``
+    unknowns) and ``L`` (B, M, ni) with respect to each window's initial states (the next
+    ``ni`` blocks of B). ``funs`` maps all the perturbed points (:func:`_fd_points`) to their
+    residuals at once -- one batch of the core for output error -- so the steps and the
+    differences are those of one simulation per point."""
+    B, M = f0.shape
+    pts, hp, hs = _fd_points(x, nf, ni, B, hi)
+    F = funs(pts)
+    G = np.empty((B, M, nf))
+    for j in range(nf):
+        G[..., j] = (F[j] - f0) / hp[j]
+    L = np.empty((B, M, ni))
+    for j in range(ni):
+        L[:, :, j] = (F[nf + j] - f0) / hs[j][:, None]
+    return G, L
 
 
 def _singular(kind: str, names: tuple[str, ...]) -> IdentificationError:
@@ -297,17 +385,38 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         init = {k: x[nf + j * B: nf + (j + 1) * B] for j, k in enumerate(inames)}
         return xa, init
 
+    def errors(sim: Mapping[str, np.ndarray], sig: dict[str, float]) -> np.ndarray:
+        out = []
+        for c in channels:
+            e = ((sim[c] - meas[c]) / sig[c])[:, 1:]
+            out.append(np.where(np.isfinite(e), e, DIVERGED).ravel())
+        return np.concatenate(out)
+
     def resid(x: np.ndarray, sig: dict[str, float]) -> np.ndarray:
         xa, init = unpack(x)
         try:
             sim = prob.simulate(xa, init)
         except (UsvidError, ValueError, ZeroDivisionError):
             return np.full(len(channels) * B * (W - 1), DIVERGED)
+        return errors(sim, sig)
+
+    per = max(1, BATCH_VALUES // (B * W * len(channels)))  # sets per core call
+
+    def resid_many(xs: list[np.ndarray], sig: dict[str, float]) -> list[np.ndarray]:
+        """:func:`resid` of each of ``xs``, the sets simulated together (a Jacobian's points:
+        ``per`` sets of windows as the lanes of one core call)."""
         out = []
-        for c in channels:
-            e = ((sim[c] - meas[c]) / sig[c])[:, 1:]
-            out.append(np.where(np.isfinite(e), e, DIVERGED).ravel())
-        return np.concatenate(out)
+        for g in range(0, len(xs), per):
+            grp = [unpack(x) for x in xs[g:g + per]]
+            try:
+                sims, ok = prob.simulate_sets([u[0] for u in grp], [u[1] for u in grp])
+            except (UsvidError, ValueError, ZeroDivisionError):  # decided set by set
+                out += [resid(x, sig) for x in xs[g:g + per]]
+                continue
+            for k in range(len(grp)):
+                out.append(errors({c: sims[c][k] for c in channels}, sig) if ok[k] else
+                           np.full(len(channels) * B * (W - 1), DIVERGED))
+        return out
 
     def rms_sigma(x: np.ndarray) -> dict[str, float]:
         xa, init = unpack(x)
@@ -320,7 +429,7 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
 
     x0 = np.concatenate([x_all[free]] + [init0[k] for k in inames])
     xs, cost, nfev, success, message, sig, Sinv, psi_w, f = _refine_schur(
-        resid, x0, nf, len(inames), B, len(channels), W - 1, sigma, lo, hi,
+        resid, resid_many, x0, nf, len(inames), B, len(channels), W - 1, sigma, lo, hi,
         2 if reweight else 1, max_iter, rms_sigma, kind.name, tuple(np.array(prob.names)[free]))
     m = B * len(channels) * (W - 1)
     ncol = nf + len(inames) * B
@@ -375,13 +484,14 @@ def _param_covariance(Sinv: np.ndarray, s2: float, fac: float, B: int, m: int, n
     return Sinv * s2 * fac, fac
 
 
-def _refine_schur(resid, x0, nf, ni, B, C, W1, sigma, lo, hi, passes, max_iter, rms_sigma,
-                  kind_name, free_names):
+def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes, max_iter,
+                  rms_sigma, kind_name, free_names):
     """Levenberg-Marquardt with the window initial states eliminated (Schur complement).
 
     Unknowns: model parameters theta (nf) and, per window b, its initial state s_b (ni). With
-    G_b = d r_b / d theta and L_b = d r_b / d s_b (forward differences, grouped: one simulation
-    per parameter and one per initial state, all windows at once), the damped normal equations
+    G_b = d r_b / d theta and L_b = d r_b / d s_b (forward differences, grouped: one perturbed
+    set per parameter and one per initial state, all windows at once; all the sets' windows
+    the lanes of one core call, :func:`fd_jacobian`), the damped normal equations
     are solved by eliminating each s_b: S = A - sum_b B_b C_b^-1 B_b^T, A = sum G_b^T G_b,
     B_b = G_b^T L_b, C_b = L_b^T L_b. The theta block of the inverse normal matrix is S^-1 (the
     covariance); the cluster-robust score of window b is psi_b = G_b^T r_b - B_b C_b^-1 L_b^T r_b.
@@ -389,25 +499,25 @@ def _refine_schur(resid, x0, nf, ni, B, C, W1, sigma, lo, hi, passes, max_iter, 
     """
     M = C * W1
 
-    def rb(x, sig):  # residuals as (B, M)
-        return resid(x, sig).reshape(C, B, W1).transpose(1, 0, 2).reshape(B, M)
+    def by_window(r):  # residuals (C, B, W1) flat -> (B, M)
+        return r.reshape(C, B, W1).transpose(1, 0, 2).reshape(B, M)
+
+    def rb(x, sig):
+        return by_window(resid(x, sig))
 
     def jac(x, f0, sig):
-        def fun(x1: np.ndarray) -> np.ndarray:
-            return rb(x1, sig)
-
-        G = _fd_params(fun, x, f0, nf, hi)
-        L = np.empty((B, M, ni))
-        for j, (df, h) in enumerate(_fd_states(fun, x, f0, nf, ni, B)):
-            L[:, :, j] = df / h[:, None]
-        return G, L
+        return fd_jacobian(lambda xs: [by_window(r) for r in resid_many(xs, sig)], x, f0, nf,
+                           ni, hi)
 
     def normal(G, L, f):
-        A = np.einsum("bmi,bmj->ij", G, G)
-        g = np.einsum("bmi,bm->i", G, f)
-        Bm = np.einsum("bmi,bmk->bik", G, L)
-        Cm = np.einsum("bmk,bml->bkl", L, L)
-        h = np.einsum("bmk,bm->bk", L, f)
+        # window by window (stacked matrix products: a fifth of einsum's time on (B, M, nf)
+        # Jacobians; one product over all windows goes to the threaded BLAS, slower here)
+        Gt, Lt = G.transpose(0, 2, 1), L.transpose(0, 2, 1)
+        A = np.matmul(Gt, G).sum(axis=0)
+        g = np.matmul(Gt, f[:, :, None]).sum(axis=0)[:, 0]
+        Bm = np.matmul(Gt, L)
+        Cm = np.matmul(Lt, L)
+        h = np.matmul(Lt, f[:, :, None])[:, :, 0]
         return A, g, Bm, Cm, h
 
     def solve(A, g, Bm, Cm, h, mu):
@@ -478,10 +588,11 @@ def _refine_schur(resid, x0, nf, ni, B, C, W1, sigma, lo, hi, passes, max_iter, 
             Ci = np.linalg.inv(Cm)
             BC = np.einsum("bik,bkl->bil", Bm, Ci)
             S = A - np.einsum("bil,bjl->ij", BC, Bm)
-            psi = np.einsum("bmi,bm->bi", G, f) - np.einsum("bil,bl->bi", BC, h)
+            psi = np.matmul(G.transpose(0, 2, 1), f[:, :, None])[:, :, 0] \
+                - np.einsum("bil,bl->bi", BC, h)
         else:
             S = A
-            psi = np.einsum("bmi,bm->bi", G, f)
+            psi = np.matmul(G.transpose(0, 2, 1), f[:, :, None])[:, :, 0]
         Sinv = np.linalg.inv(S)
     except np.linalg.LinAlgError as exc:
         raise _singular(kind_name, free_names) from exc

@@ -18,6 +18,10 @@ def check_params(owner: str, values: dict[str, Any], *, positive: tuple[str, ...
     The message names the parameter as ``<owner>.<name>`` and gives the offending value.
     """
     for name, value in values.items():
+        if isinstance(value, (int, float)) and math.isfinite(value) \
+                and (name not in positive or value > 0) \
+                and (name not in nonnegative or value >= 0):
+            continue  # a number that passes: no array to build
         arr = np.asarray(value, dtype=float)
         if not np.all(np.isfinite(arr)):
             raise UsvidError(f"{owner}.{name} must be finite (got {_show(arr)})")

@@ -99,6 +99,12 @@ class ParamSpec:
     def check(self, owner: str, value: Any) -> None:
         """Raise :class:`UsvidError` naming ``owner.name`` when ``value`` (scalar or batch array)
         is not finite or out of bounds."""
+        if isinstance(value, (int, float)):  # a number within bounds: no array to build
+            v = float(value)
+            if math.isfinite(v) and (self.gt is None or v > self.gt) \
+                    and (self.ge is None or v >= self.ge) and (self.lt is None or v < self.lt) \
+                    and (self.le is None or v <= self.le):
+                return
         arr = np.asarray(value, dtype=float)
         where = f"{owner}.{self.name}"
         if not np.all(np.isfinite(arr)):
@@ -124,6 +130,9 @@ def submodel(family: str, meaning: str, *, default: Any = None) -> Any:
     dataclass of :mod:`usvid.models.thrust`); never estimated by identification."""
     spec = dict(unit="", meaning=meaning, fit=False, default=default, submodel=family)
     return field(default=default, metadata={"usvid": spec})
+
+
+_SPECS: dict[type, tuple[ParamSpec, ...]] = {}  # Dynamics.param_specs by class
 
 
 class Dynamics:
@@ -153,14 +162,15 @@ class Dynamics:
 
     @classmethod
     def param_specs(cls) -> tuple[ParamSpec, ...]:
-        """The declared parameters, in field order."""
-        out = []
-        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
-            meta = f.metadata.get("usvid")
-            if meta is None:
-                continue
-            out.append(ParamSpec(name=f.name, **meta))
-        return tuple(out)
+        """The declared parameters, in field order (made once per class: every construction
+        checks them)."""
+        specs = _SPECS.get(cls)
+        if specs is None:
+            specs = _SPECS[cls] = tuple(
+                ParamSpec(name=f.name, **f.metadata["usvid"])
+                for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+                if "usvid" in f.metadata)
+        return specs
 
     @classmethod
     def fit_names(cls) -> tuple[str, ...]:

@@ -3,7 +3,7 @@
 One kernel integrates simulations (a batch of runs), output-error windows, closed-loop zig-zag
 replays and servo fits: the same right-hand side (the kind's ``rhs``, :mod:`usvid.models.kind`),
 the same servo and limits, the same input hold. It is specialised per kind at first use (numba)
-and cached on disk; chunks of lanes run in parallel on a thread pool.
+and cached on disk; chunks of lanes run in parallel on the process's thread pool.
 
 Joint state of a lane (a row of ``Z``, lanes along the first axis): x, y [m, NED], psi [rad],
 the kind's states, the servo angle delta [rad] and rate [rad/s], the disturbance filter (w1, w2).
@@ -57,6 +57,8 @@ the angle-sum formula (:func:`usvid.sim.scalar._rot`) instead of library calls.
 
 from __future__ import annotations
 
+import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numba
@@ -124,13 +126,14 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     ``acc`` (B, 3), ``zz`` (B, N_ZZ), ``zzt`` (B, N_ZZ + 1), ``status`` (B, 2); ``SER``
     (n_series, 1 or B, N) and ``rec`` (n_channels, B, N_rec). Lanes are integrated in chunks of
     ``chunk`` lanes that step together (:func:`usvid.sim.chunk._chunk`, vectorised across the
-    chunk's lanes); chunks run in parallel on a thread pool (the driver is compiled ``nogil``),
-    as many threads as numba's thread count. The vector step's variant (:func:`vector_step`)
-    follows from the batch: the servo kind, whether it has a disturbance or input series,
-    whether x or y is recorded, and each chunk's switch value. ``wind``: ``P`` carries the
-    environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the kind's parameters: the
-    per-lane step of :func:`usvid.sim.specialise.wind_step` and the vector step's wind variant
-    (its loads at every RK4 stage, vectorised across the lanes like the rest of the step).
+    chunk's lanes); chunks run in parallel on the process's thread pool (:func:`_pool`; the
+    driver is compiled ``nogil``), as many threads as numba's thread count. The vector step's
+    variant (:func:`vector_step`) follows from the batch: the servo kind, whether it has a
+    disturbance or input series, whether x or y is recorded, and each chunk's switch value.
+    ``wind``: ``P`` carries the environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the
+    kind's parameters: the per-lane step of :func:`usvid.sim.specialise.wind_step` and the
+    vector step's wind variant (its loads at every RK4 stage, vectorised across the lanes like
+    the rest of the step).
     """
     B, nz = Z.shape
     chunk = max(1, min(chunk, CH))
@@ -183,7 +186,47 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         for lo in starts:
             task(lo)
         return
-    with ThreadPoolExecutor(max_workers=threads) as pool:
-        for fut in [pool.submit(task, lo) for lo in starts]:
+    todo = iter(starts)
+    lock = threading.Lock()
+    stop = threading.Event()  # the caller was interrupted: no further chunk
+
+    def worker() -> None:  # takes the next chunk until none is left (chunks may differ in cost)
+        while not stop.is_set():
+            with lock:
+                lo = next(todo, None)
+            if lo is None:
+                return
+            task(lo)
+
+    pool = _pool()
+    futs = [pool.submit(worker) for _ in range(threads)]
+    try:
+        for fut in futs:
             fut.result()
+    except BaseException:
+        stop.set()
+        raise
+
+
+_POOL: dict[int, ThreadPoolExecutor] = {}  # process id -> the process's pool
+_POOL_LOCK = threading.Lock()
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The process's thread pool for the chunks of :func:`run` (started once, its threads kept
+    between calls; output error runs hundreds of batches). Up to numba's thread count of workers
+    (:data:`numba.config.NUMBA_NUM_THREADS`); each call occupies ``numba.get_num_threads()`` of
+    them. A forked child (Dask's workers, the tests' forks) has none of its parent's threads: it
+    starts its own pool, keyed by process id."""
+    pid = os.getpid()
+    pool = _POOL.get(pid)
+    if pool is None:
+        with _POOL_LOCK:
+            pool = _POOL.get(pid)
+            if pool is None:
+                _POOL.clear()  # (a parent's pool object: its threads do not exist here)
+                pool = _POOL[pid] = ThreadPoolExecutor(
+                    max_workers=max(1, int(numba.config.NUMBA_NUM_THREADS)),
+                    thread_name_prefix="usvid-core")
+    return pool
 
