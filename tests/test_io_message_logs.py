@@ -362,6 +362,27 @@ def test_dataflash_format_shorter_than_its_header(tmp_path):
         signal.signal(signal.SIGALRM, old)
 
 
+def test_dataflash_parameter_message_with_fewer_fields_than_its_format(tmp_path):
+    """A damaged log whose PARM format lost fields (a mutation found by the fuzzing, seed
+    ``messages:dataflash:3727986263``): pymavlink raises IndexError on ``m.Name``; the message
+    is skipped like any damaged one and the read ends in a one-line LogReadError or a trial,
+    never a traceback."""
+    import random
+
+    from fuzzing import binary_mutate
+
+    p = write_dataflash(small_trial(T=1.0), tmp_path / "log.bin")
+    q = tmp_path / "bad.bin"
+    q.write_bytes(binary_mutate(p.read_bytes(),
+                                random.Random("messages:dataflash:3727986263")))
+    try:
+        tr = read_trial(q, "ardupilot_rover")
+    except LogReadError as exc:
+        assert "\n" not in str(exc)
+    else:
+        assert len(tr.t) > 0
+
+
 def test_typestore_cache_keeps_the_digest_check(small_logs, tmp_path):
     """A bag's typestore is kept across reads keyed by its definitions and digests: a ROS 1 bag
     whose md5sum of a type no longer matches the (same) definition is refused, even just after

@@ -567,7 +567,9 @@ def _df_info(dfr: Any) -> dict[str, Any]:
                     elif out["firmware"] is None and _FIRMWARE.search(str(m.Message)):
                         out["firmware"] = str(m.Message).strip()
                         break
-                except (AttributeError, TypeError, ValueError):  # a damaged message: skipped
+                # a damaged message: skipped (pymavlink's __getattr__ of a message whose
+                # format lost fields raises IndexError)
+                except (AttributeError, TypeError, ValueError, IndexError):
                     continue
     return out
 
