@@ -170,3 +170,33 @@ def test_both_sides_test_and_given_particulars():
     assert "Y_P0" not in free and "N_P0" not in free       # left to identification
     assert given["N_P0"] == -0.01 and given["Y_P0"] == 0.0  # held: given, the other at 0
     assert one["Y_P0"] == 0.0 and one["N_P0"] == 0.0        # held: one side
+
+
+def test_insignificant_asymmetry_is_held_and_fitted_again():
+    from usvid.models.kinds.mmg.fit import held_when_insignificant
+
+    params = {"Y_P0": -0.0157, "N_P0": -0.0142}
+    ci95 = {"Y_P0": [-0.0315, 0.00005], "N_P0": [-0.0206, -0.0078]}
+    drop = held_when_insignificant(params, ci95, {})
+    assert set(drop) == {"Y_P0"} and drop["Y_P0"][0] == 0.0
+    assert "not distinguishable from 0" in drop["Y_P0"][1]
+    assert held_when_insignificant(params, ci95, {"Y_P0": 0.0}) == {}  # held already
+    assert set(held_when_insignificant(params, {"Y_P0": [math.nan, 1.0],
+                                                "N_P0": [-1.0, 1.0]}, {})) == {"Y_P0", "N_P0"}
+
+
+def test_symmetric_vessel_keeps_the_symmetric_model():
+    # zig-zags to both sides of a symmetric truth: the asymmetry is estimated, found
+    # indistinguishable from 0, held there and the model fitted again (said in a warning and in
+    # the diagnostics); least squares (its 35 deg turn is not the point here: checks recorded)
+    truth = _truth(asym=False)
+    amp = np.radians([20.0, 15.0])
+    zz = simulate(truth, ZigZag(amp, amp, first=np.array([1, -1])), t_end=150.0, dt=0.02)
+    trials = _trials(truth, [(zz, 0), (zz, 1)])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        est = ModelEstimator("mmg", "ls", checks="record").fit(trials)
+    assert est.params_["Y_P0"] == 0.0 and est.params_["N_P0"] == 0.0
+    held = est.result_.diagnostics["held_insignificant"]
+    assert set(held) == {"Y_P0", "N_P0"}
+    assert any("not distinguishable from 0" in str(w.message) for w in caught)

@@ -41,7 +41,7 @@ import hashlib
 import html
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -605,10 +605,14 @@ class ModelEstimator(FittedAttributes):
         raise IdentificationError(text)
 
     def _fit(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
-             psi_switch: float | None) -> ModelEstimator:
-        """One fit by ``self.method`` of prepared, checked trials (see :meth:`fit`)."""
+             psi_switch: float | None,
+             held: Mapping[str, tuple[float, str]] | None = None) -> ModelEstimator:
+        """One fit by ``self.method`` of prepared, checked trials (see :meth:`fit`).
+        ``held``: parameters held at a value (name -> (value, why)) after a first fit found
+        them indistinguishable from it (the kind's ``held_when_insignificant``)."""
         kind = self.kind_
         fixed = self._fixed(trials)
+        fixed.update({k: v for k, (v, _) in (held or {}).items()})
         series = self._series(trials, fixed)
         tseries = self._series(turning, fixed) if turning else []
         if len({round(s.h, 9) for s in series + tseries}) > 1:
@@ -679,6 +683,15 @@ class ModelEstimator(FittedAttributes):
         self.ci95_ = dict(zip(names, interval95([self.params_[n] for n in names], se,
                                                 q).tolist(), strict=True))
         diag["ci95_quantile"] = q
+        insignificant = getattr(kind.dynamics, "held_when_insignificant", None)
+        drop = (insignificant(self.params_, self.ci95_, fixed) if insignificant is not None
+                else {})
+        if drop:  # e.g. the MMG propeller asymmetry: the data show none; fit without it
+            warnings.warn(f"{self.kind}: " + "; ".join(why for _, why in drop.values()),
+                          IdentificationWarning, stacklevel=3)
+            return self._fit(trials, turning, psi_switch, held={**(held or {}), **drop})
+        if held:
+            diag["held_insignificant"] = {k: why for k, (_, why) in held.items()}
         weak = self._warn_weak(names, se, q)
         if weak:
             diag["warnings"] = [weak]

@@ -162,6 +162,7 @@ MMG = dataclasses.make_dataclass(
     bases=(Dynamics,),
     namespace={"kind": "mmg", "validate": _validate, "lanes": _lanes, "physics": _physics,
                "held_names": staticmethod(_mmg_fit.held_names),
+               "held_when_insignificant": staticmethod(_mmg_fit.held_when_insignificant),
                "__doc__": "MMG model parameters (Yasukawa & Yoshimura 2015): particulars SI, "
                           "coefficients non-dimensional as in the paper "
                           "(:mod:`usvid.models.kinds.mmg.params`)."},

@@ -194,7 +194,7 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
     speed carries no hull information and is dropped.
     """
     p = physics_of(fixed)
-    asym = p.variant != "twin" and not any(k in fixed for k in _m.ASYMMETRY)
+    asym = tuple(k for k in _m.ASYMMETRY if k not in fixed) if p.variant != "twin" else ()
     parts: list[list[Any]] = [[], [], []]
     diff_thrust: list[np.ndarray] = []
     rows: list[int] = []
@@ -238,7 +238,8 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
     if p.variant == "twin" and fixed.get("pwm_neutral") is not None:
         names = (names[0], names[1], (*names[2], "thrust_asymmetry"))
     elif asym:
-        names = (names[0], (*names[1], "Y_P0"), (*names[2], "N_P0"))
+        names = (names[0], (*names[1], *(k for k in asym if k == "Y_P0")),
+                 (*names[2], *(k for k in asym if k == "N_P0")))
     U0 = float(np.median(np.concatenate([np.hypot(_series_arrays(s)["u"],
                                                   _series_arrays(s)["v"]) for s in series])))
     prior = prior_hull(p, U0)
@@ -346,6 +347,23 @@ def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
         warnings.warn(f"mmg {eq} equation: the data cannot separate {', '.join(bad)}; they are "
                       f"held near their priors (ridge towards Kijima 1990 / 0). {notes}",
                       CollinearityWarning, stacklevel=4)
+
+
+def held_when_insignificant(params: Mapping[str, float], ci95: Mapping[str, Sequence[float]],
+                            fixed: Mapping[str, Any]) -> dict[str, tuple[float, str]]:
+    """The propeller asymmetry parameters (Y_P0, N_P0) that were estimated but whose 95 %
+    interval ``ci95`` contains 0: the data do not tell the vessel from a symmetric one there,
+    so the estimator holds them at 0 and fits again (the symmetric Y&Y 2015 model is the
+    default; an asymmetry is only added where the data show it). Name -> (0, the reason)."""
+    out = {}
+    for k in _m.ASYMMETRY:
+        if k in fixed or k not in ci95 or k not in params:
+            continue
+        lo, hi = (float(x) for x in ci95[k])
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0.0 <= hi:
+            out[k] = (0.0, f"{k} = {params[k]:.3g} is not distinguishable from 0 (95 % "
+                           f"interval {lo:.3g} .. {hi:.3g}): held at 0, the model fitted again")
+    return out
 
 
 def to_params(theta: Mapping[str, float], fixed: Mapping[str, Any], form: str,

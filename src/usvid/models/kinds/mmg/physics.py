@@ -720,7 +720,7 @@ CONFOUNDED: dict[str, str] = {
 def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vdot: Any,
                     rdot: Any, delta: Any = 0.0, n: Any = 0.0, *, n_port: Any = None,
                     n_stbd: Any = None, external: Any = None,
-                    asymmetry: bool = False) -> list[RegressionBlock]:
+                    asymmetry: tuple[str, ...] = ()) -> list[RegressionBlock]:
     """Regression form of Y&Y 2015 eq. 4: the hull forces are linear in the hull coefficients.
 
     With the particulars, masses, added masses and propeller/rudder/thruster parameters of
@@ -743,11 +743,12 @@ def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vd
     ``(R_0, X_vv, X_vr, X_rr, X_vvvv)``; Y and N: ``(v', r', v'^3, v'^2 r', v' r'^2, r'^3)``).
     Below U_min the kernel's U^2/U_min^2 scaling multiplies Phi, so ``Phi @ theta = y`` holds
     exactly for the model at every sample; such samples carry little information.
-    ``asymmetry`` (rudder and pod variants): the propeller-induced side force and yaw moment
-    ``Y_P = Y_P0 T``, ``N_P = N_P0 L T`` (module docstring) are estimated too: one more
-    regressor ``T / (0.5 rho L d U^2)`` (T the gross thrust [N]) appended to the Y block for
-    Y_P0 and to the N block for N_P0; otherwise they are held at the values of ``params``
-    (subtracted with the propeller's force like the other held loads).
+    ``asymmetry`` (rudder and pod variants): the names among ``("Y_P0", "N_P0")`` of the
+    propeller-induced side force and yaw moment ``Y_P = Y_P0 T``, ``N_P = N_P0 L T`` (module
+    docstring) to estimate too: one more regressor ``T / (0.5 rho L d U^2)`` (T the gross
+    thrust [N]) appended to the Y block for Y_P0 and to the N block for N_P0; the others are
+    held at the values of ``params`` (subtracted with the propeller's force like the other
+    held loads).
 
     Separability (:data:`CONFOUNDED`): X_vr is exactly collinear with the m_y inertia term and
     X_rr with the x_G one; Y_r (N_r) is collinear with (m' + m_x') r' cos beta (x_G' m' r'
@@ -785,16 +786,17 @@ def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vd
                    axis=-1) * scale[..., None]
     k = lat.shape[-1]
     lat = lat.reshape(-1, k)
-    ynames, nnames = Y_REGRESSORS, N_REGRESSORS
-    if asymmetry:
-        if params.variant == "twin":
-            raise UsvidError("the propeller asymmetry Y_P0, N_P0 belongs to the rudder and pod "
-                             "variants (twin thrusters: thrust_asymmetry)")
-        lat = np.column_stack([lat, (f["T"] / qf).reshape(-1)])
-        ynames, nnames = (*ynames, "Y_P0"), (*nnames, "N_P0")
+    if asymmetry and params.variant == "twin":
+        raise UsvidError("the propeller asymmetry Y_P0, N_P0 belongs to the rudder and pod "
+                         "variants (twin thrusters: thrust_asymmetry)")
+    col = (f["T"] / qf).reshape(-1, 1)
+    latY = np.hstack([lat, col]) if "Y_P0" in asymmetry else lat
+    latN = np.hstack([lat, col]) if "N_P0" in asymmetry else lat.copy()
     return [RegressionBlock("X", PhiX.reshape(-1, 5), yX.reshape(-1), X_REGRESSORS),
-            RegressionBlock("Y", lat, yY.reshape(-1), ynames),
-            RegressionBlock("N", lat.copy(), yN.reshape(-1), nnames)]
+            RegressionBlock("Y", latY, yY.reshape(-1),
+                            (*Y_REGRESSORS, *(("Y_P0",) if "Y_P0" in asymmetry else ()))),
+            RegressionBlock("N", latN, yN.reshape(-1),
+                            (*N_REGRESSORS, *(("N_P0",) if "N_P0" in asymmetry else ())))]
 
 
 __all__ = [
