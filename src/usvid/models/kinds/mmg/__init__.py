@@ -449,14 +449,13 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     given = {f.name for f in FIELDS} & set(extra)
     for k in given:
         out[k] = extra[k] if k in ("variant", "thrust_law", "wake_model") else float(extra[k])
+    asym_why = None
     if given & set(_m.ASYMMETRY):  # given: held (both; the other at 0 if not given)
         out.update({k: float(extra.get(k, 0.0)) for k in _m.ASYMMETRY})
     elif variant != "twin":
-        why = _mmg_fit.asymmetry_held(data)
-        if why is not None:
+        asym_why = _mmg_fit.asymmetry_held(data)
+        if asym_why is not None:
             out.update(dict.fromkeys(_m.ASYMMETRY, 0.0))
-            warnings.warn(f"mmg: the propeller asymmetry Y_P0, N_P0 held at 0: {why}",
-                          _mmg_fit.CollinearityWarning, stacklevel=3)
     generic = [k for k in GENERIC if k not in given and not (
         (k == "t_P" and get("thrust_deduction") is not None)
         or (k == "w_P0" and get("wake_fraction") is not None)
@@ -485,6 +484,9 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     if missing:
         warnings.warn("mmg particulars not given (format spec vessel block): "
                       + "; ".join(missing), ParticularsWarning, stacklevel=3)
+    if asym_why is not None:
+        warnings.warn(f"mmg: the propeller asymmetry Y_P0, N_P0 held at 0: {asym_why}",
+                      _mmg_fit.CollinearityWarning, stacklevel=3)
     out.pop("kt_scale_from_thrust", None)
     if pwm:
         return out
