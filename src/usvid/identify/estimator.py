@@ -41,7 +41,7 @@ import hashlib
 import html
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -328,6 +328,15 @@ class IdentifiedModel:
         if self.disturbance is not None:
             out["disturbance"] = dict(self.disturbance)
         return out
+
+
+class _HoldAndRefit(Exception):  # noqa: N818 - a control-flow signal, not an error
+    """Raised by a fit that found parameters indistinguishable from their neutral value
+    (``drop``: name -> (value, why)); :meth:`ModelEstimator._fit` fits again holding them."""
+
+    def __init__(self, drop: dict[str, tuple[float, str]]) -> None:
+        super().__init__("hold and fit again")
+        self.drop = drop
 
 
 class ModelEstimator(FittedAttributes):
@@ -674,9 +683,37 @@ class ModelEstimator(FittedAttributes):
 
     def _fit(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
              psi_switch: float | None) -> ModelEstimator:
-        """One fit by ``self.method`` of prepared, checked trials (see :meth:`fit`)."""
+        """One fit by ``self.method`` of prepared, checked trials (see :meth:`fit`). Where the
+        kind names parameters to hold when the data cannot tell them from their neutral value
+        (``held_when_insignificant``, e.g. the MMG propeller asymmetry), a fit that finds such
+        a parameter's 95 % interval containing it is repeated with it held there; only the
+        last fit's warnings are shown, after the one saying what was held and why."""
+        if getattr(self.kind_.dynamics, "held_when_insignificant", None) is None:
+            return self._fit_once(trials, turning, psi_switch, {})
+        held: dict[str, tuple[float, str]] = {}
+        while True:
+            caught: list[warnings.WarningMessage] = []
+            try:
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always")
+                    return self._fit_once(trials, turning, psi_switch, held)
+            except _HoldAndRefit as again:  # the first fit's warnings are not shown
+                held.update(again.drop)
+                caught = []
+                for _, why in again.drop.values():
+                    warnings.warn(f"{self.kind}: {why}", IdentificationWarning, stacklevel=3)
+            finally:
+                for w in caught:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno,
+                                           source=w.source)
+
+    def _fit_once(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
+                  psi_switch: float | None,
+                  held: Mapping[str, tuple[float, str]]) -> ModelEstimator:
+        """:meth:`_fit` with ``held``: parameters held at a value (name -> (value, why))."""
         kind = self.kind_
         fixed = self._fixed(trials)
+        fixed.update({k: v for k, (v, _) in held.items()})
         series = self._series(trials, fixed)
         tseries = self._series(turning, fixed) if turning else []
         if len({round(s.h, 9) for s in series + tseries}) > 1:
@@ -753,6 +790,13 @@ class ModelEstimator(FittedAttributes):
         self.ci95_ = dict(zip(names, interval95([self.params_[n] for n in names], se,
                                                 q).tolist(), strict=True))
         diag["ci95_quantile"] = q
+        insignificant = getattr(kind.dynamics, "held_when_insignificant", None)
+        drop = (insignificant(self.params_, self.ci95_, fixed) if insignificant is not None
+                else {})
+        if drop:  # e.g. the MMG propeller asymmetry: the data show none; fit without it
+            raise _HoldAndRefit(drop)
+        if held:
+            diag["held_insignificant"] = {k: why for k, (_, why) in held.items()}
         weak = self._warn_weak(names, se, q)
         if weak:
             diag["warnings"] = [weak]

@@ -47,8 +47,9 @@ S0 = 3
 #: the kind's state names; a lane's joint state is a tuple of ``7 + n_states`` floats kept in
 #: registers, and the compile time grows with its length).
 MAX_STATES = 16
-#: Most packed parameter values of a kind (the length of the right-hand side's tuple).
-MAX_PARAMS = 64
+#: Most packed parameter values of a kind (the length of the right-hand side's tuple; mmg
+#: uses 66).
+MAX_PARAMS = 80
 #: Actuator inputs a kind may read (``ModelKind.inputs``).
 INPUTS = ("delta", "n", "n_port", "n_stbd")
 #: The actuator tuple ``a`` of the right-hand side, in this order: the effective steering angle

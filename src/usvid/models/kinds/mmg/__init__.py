@@ -14,8 +14,10 @@ import kvlcc2``; :mod:`usvid.models.mmg` is the same API under its earlier name)
 States u, v [m/s] (v at midship), r [rad/s]; inputs delta [rad] (positive turns to starboard),
 n [rps] (NaN: the nominal ``n``), and for ``variant='twin'`` the thruster speeds n_port, n_stbd
 [rps] (NaN: ``n +- steer_gain delta``, more port thrust for a positive delta, which turns to
-starboard). Identification estimates the 17 hull coefficients (R_0, X_vv, ..., N_rrr), and
-output error also refines the rudder lift gradient f_alpha (rudder variant,
+starboard). Identification estimates the 17 hull coefficients (R_0, X_vv, ..., N_rrr), the
+propeller asymmetry Y_P0, N_P0 (rudder and pod variants, when the runs turn to both sides;
+held at 0 with the reason otherwise, or at the value given as a particular), and output error
+also refines the rudder lift gradient f_alpha (rudder variant,
 :data:`usvid.models.kinds.mmg.fit.REFINED`); the particulars, added masses and the other
 propeller/rudder interaction coefficients are held.
 """
@@ -91,7 +93,8 @@ _POSITIVE = ("L", "B", "d", "m", "I_zG", "rho")
 
 
 def _field(f: FieldInfo) -> tuple[str, Any, Any]:
-    kw: dict[str, Any] = {"fit": f.name in HULL_COEFFICIENTS or f.name in _mmg_fit.REFINED}
+    kw: dict[str, Any] = {"fit": f.name in HULL_COEFFICIENTS or f.name in _mmg_fit.REFINED
+                               or f.name in _m.ASYMMETRY}
     if f.default is not REQUIRED:
         kw["default"] = f.default
     if f.lo is not None:
@@ -159,6 +162,7 @@ MMG = dataclasses.make_dataclass(
     bases=(Dynamics,),
     namespace={"kind": "mmg", "validate": _validate, "lanes": _lanes, "physics": _physics,
                "held_names": staticmethod(_mmg_fit.held_names),
+               "held_when_insignificant": staticmethod(_mmg_fit.held_when_insignificant),
                "__doc__": "MMG model parameters (Yasukawa & Yoshimura 2015): particulars SI, "
                           "coefficients non-dimensional as in the paper "
                           "(:mod:`usvid.models.kinds.mmg.params`)."},
@@ -359,7 +363,10 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     values (the asymmetric pairs by their mean), each with a :class:`ParticularsWarning` naming
     it. With a measured ``thrust``
     channel [N] the open-water K_T(J) law is scaled to it (least squares of one factor on the
-    samples with n > 0).
+    samples with n > 0). The propeller asymmetry Y_P0, N_P0 (rudder and pod variants) is held
+    at its given value (``--vessel Y_P0=...``), at 0 when the runs do not turn to both sides
+    (:func:`usvid.models.kinds.mmg.fit.asymmetry_held`; a ``CollinearityWarning`` says why), and
+    left to identification otherwise.
     """
     extra = dict(getattr(vessel, "extra", None) or {})
     extra.update({k: v for k, v in options.items() if v is not None and not hasattr(v, "kind")})
@@ -442,6 +449,13 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     given = {f.name for f in FIELDS} & set(extra)
     for k in given:
         out[k] = extra[k] if k in ("variant", "thrust_law", "wake_model") else float(extra[k])
+    asym_why = None
+    if given & set(_m.ASYMMETRY):  # given: held (both; the other at 0 if not given)
+        out.update({k: float(extra.get(k, 0.0)) for k in _m.ASYMMETRY})
+    elif variant != "twin":
+        asym_why = _mmg_fit.asymmetry_held(data)
+        if asym_why is not None:
+            out.update(dict.fromkeys(_m.ASYMMETRY, 0.0))
     generic = [k for k in GENERIC if k not in given and not (
         (k == "t_P" and get("thrust_deduction") is not None)
         or (k == "w_P0" and get("wake_fraction") is not None)
@@ -470,6 +484,9 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     if missing:
         warnings.warn("mmg particulars not given (format spec vessel block): "
                       + "; ".join(missing), ParticularsWarning, stacklevel=3)
+    if asym_why is not None:
+        warnings.warn(f"mmg: the propeller asymmetry Y_P0, N_P0 held at 0: {asym_why}",
+                      _mmg_fit.CollinearityWarning, stacklevel=3)
     out.pop("kt_scale_from_thrust", None)
     if pwm:
         return out

@@ -14,6 +14,10 @@ coefficient moves freely while a direction the data cannot see stays at its prio
 Priors: Kijima et al. 1990 for Y_v, Y_r, N_v, N_r (:func:`.physics.priors`), R_0 the
 ITTC 1957 friction line with form factor 1.3 (``R_0 = 1.3 C_F S / (L d)``, wetted surface by
 Denny-Mumford ``S = 1.7 L d + V / d``); the nonlinear terms 0.
+
+The propeller asymmetry Y_P0, N_P0 (rudder and pod variants, :mod:`.physics`) is one more
+column of the Y and N regressions when the runs turn to both sides (prior 0); otherwise it is
+held at 0 with the reason (:func:`asymmetry_held`, said by the kind's particulars).
 """
 
 from __future__ import annotations
@@ -53,13 +57,56 @@ REFINED = ("f_alpha",)
 
 def held_names(fixed: Mapping[str, Any]) -> tuple[str, ...]:
     """Fitted names output error keeps at their equation-error (prior) values for the held
-    particulars ``fixed``: :data:`TWIN_HELD` for the twin variant, the thrust asymmetry
-    otherwise, and :data:`REFINED` where there is no rudder (pod, twin)."""
+    particulars ``fixed``: :data:`TWIN_HELD` and the propeller asymmetry for the twin variant,
+    the thrust asymmetry otherwise, :data:`REFINED` where there is no rudder (pod, twin), and
+    the propeller asymmetry Y_P0, N_P0 where ``fixed`` holds it (:func:`asymmetry_held`)."""
+    held = tuple(k for k in _m.ASYMMETRY if k in fixed)
     if fixed.get("variant", "rudder") == "rudder":
-        return ("thrust_asymmetry",)
+        return ("thrust_asymmetry", *held)
     if fixed.get("variant") == "twin":
-        return (*TWIN_HELD, *REFINED)
-    return ("thrust_asymmetry", *REFINED)
+        return (*TWIN_HELD, *REFINED, *_m.ASYMMETRY)
+    return ("thrust_asymmetry", *REFINED, *held)
+
+
+#: Both-sides test of the propeller asymmetry (:func:`asymmetry_held`): a side counts when at
+#: least SIDE_FRACTION of all samples turn to it faster than SIDE_LEVEL times the data's turning
+#: rate (the 95th percentile of |r|). A turning test to one side and its approach give the
+#: other side nothing (at most the small opposite yaw of the first seconds of the turn).
+SIDE_LEVEL = 0.3
+SIDE_FRACTION = 0.05
+
+
+def asymmetry_held(data: Sequence[Mapping[str, np.ndarray]]) -> str | None:
+    """Why the data cannot separate the propeller asymmetry Y_P0, N_P0 from the hull
+    coefficients, or None when they can (the runs turn to both sides).
+
+    The asymmetry is a constant side force and yaw moment per unit thrust (:mod:`.physics`);
+    the hull forces are odd in (v', r'). Only turns to both sides tell a constant from the hull
+    polynomial (in a turn to one side the constant and Y_v v', N_r r' ... move together). A
+    side is present when at least :data:`SIDE_FRACTION` of the samples yaw towards it faster
+    than :data:`SIDE_LEVEL` times the 95th percentile of |r| (the yaw rate ``r`` [rad/s], else
+    the rudder angle ``delta`` [rad])."""
+    for ch in ("r", "delta"):
+        arrs = [np.asarray(s[ch], float) for s in data if ch in s]
+        x = np.concatenate(arrs) if arrs else np.zeros(0)
+        x = x[np.isfinite(x)]
+        if x.size:
+            break
+    else:
+        return "the logs carry neither the yaw rate r nor the rudder angle delta"
+    ref = float(np.percentile(np.abs(x), 95.0))
+    if not ref > 0.0:
+        return f"the {ch} channel never leaves 0"
+    stbd = float(np.mean(x > SIDE_LEVEL * ref))
+    port = float(np.mean(x < -SIDE_LEVEL * ref))
+    if min(stbd, port) < SIDE_FRACTION:
+        side = "port" if port < stbd else "starboard"
+        return (f"the runs turn to one side only: {100 * min(stbd, port):.1f} % of the samples "
+                f"turn to {side} ({ch} beyond {SIDE_LEVEL:g} of its 95th percentile of "
+                f"|{ch}|; {100 * SIDE_FRACTION:g} % needed), so a constant side force and yaw "
+                "moment cannot be told from the hull's terms in v', r'; give runs to both sides "
+                "(zig-zags, turns to port and starboard)")
+    return None
 
 
 #: Series of known external loads along the measured track (X, Y [N], N [N m], body axes:
@@ -147,6 +194,7 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
     speed carries no hull information and is dropped.
     """
     p = physics_of(fixed)
+    asym = tuple(k for k in _m.ASYMMETRY if k not in fixed) if p.variant != "twin" else ()
     parts: list[list[Any]] = [[], [], []]
     diff_thrust: list[np.ndarray] = []
     rows: list[int] = []
@@ -176,7 +224,7 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
                 diff_thrust.append(_moving_mean(dT, max(int(round(DIFF_SMOOTH_S / h)), 1)))
         else:
             bl = _m.hull_regression(p, a["u"], a["v"], a["r"], a["udot"], a["vdot"], a["rdot"],
-                                    delta, n, external=ext)
+                                    delta, n, external=ext, asymmetry=asym)
         U = np.hypot(a["u"], a["v"])
         keep = (U > low_speed_floor(U)) & np.all(
             [np.isfinite(b.y) & np.all(np.isfinite(b.Phi), axis=1) for b in bl], axis=0)
@@ -189,6 +237,9 @@ def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any],
     names = (_m.X_REGRESSORS, _m.Y_REGRESSORS, _m.N_REGRESSORS)
     if p.variant == "twin" and fixed.get("pwm_neutral") is not None:
         names = (names[0], names[1], (*names[2], "thrust_asymmetry"))
+    elif asym:
+        names = (names[0], (*names[1], *(k for k in asym if k == "Y_P0")),
+                 (*names[2], *(k for k in asym if k == "N_P0")))
     U0 = float(np.median(np.concatenate([np.hypot(_series_arrays(s)["u"],
                                                   _series_arrays(s)["v"]) for s in series])))
     prior = prior_hull(p, U0)
@@ -298,14 +349,34 @@ def _diagnose(eq: str, Phi: np.ndarray, names: Sequence[str]) -> None:
                       CollinearityWarning, stacklevel=4)
 
 
+def held_when_insignificant(params: Mapping[str, float], ci95: Mapping[str, Sequence[float]],
+                            fixed: Mapping[str, Any]) -> dict[str, tuple[float, str]]:
+    """The propeller asymmetry parameters (Y_P0, N_P0) that were estimated but whose 95 %
+    interval ``ci95`` contains 0: the data do not tell the vessel from a symmetric one there,
+    so the estimator holds them at 0 and fits again (the symmetric Y&Y 2015 model is the
+    default; an asymmetry is only added where the data show it). Name -> (0, the reason)."""
+    out = {}
+    for k in _m.ASYMMETRY:
+        if k in fixed or k not in ci95 or k not in params:
+            continue
+        lo, hi = (float(x) for x in ci95[k])
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0.0 <= hi:
+            out[k] = (0.0, f"{k} = {params[k]:.3g} is not distinguishable from 0 (95 % "
+                           f"interval {lo:.3g} .. {hi:.3g}): held at 0, the model fitted again")
+    return out
+
+
 def to_params(theta: Mapping[str, float], fixed: Mapping[str, Any], form: str,
               h: float) -> dict[str, float]:
     """The hull coefficients are the regression coefficients (and the twin PWM map's thrust
-    asymmetry where it was regressed; 0 otherwise, held by :func:`held_names`); the
+    asymmetry where it was regressed; 0 otherwise, held by :func:`held_names`; the propeller
+    asymmetry Y_P0, N_P0 where it was regressed, else its held value); the
     :data:`REFINED` interaction coefficients keep their held values (output error refines
     them)."""
     out = {k: float(theta[k]) for k in _m.HULL_COEFFICIENTS}
     out["thrust_asymmetry"] = float(theta.get("thrust_asymmetry", 0.0))
+    for k in _m.ASYMMETRY:  # regressed, or held (the particulars' value, else 0)
+        out[k] = float(theta.get(k, fixed.get(k, 0.0)))
     for k in REFINED:
         out[k] = float(fixed.get(k, getattr(_m.MMGParameters, k)))
     return out

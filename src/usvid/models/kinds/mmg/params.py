@@ -55,8 +55,8 @@ class FieldInfo(NamedTuple):
 
     name; unit (SI, or ``-`` for non-dimensional, ``L`` for a fraction of L); meaning (one line);
     lo, hi: physical bounds (inclusive, None = unbounded); group (particulars, added_mass, hull,
-    propeller, rudder, thruster, model); choices for the string fields; default (``REQUIRED``
-    when the field must be given).
+    propeller, rudder, thruster, asymmetry, model); choices for the string fields; default
+    (``REQUIRED`` when the field must be given).
     """
 
     name: str
@@ -169,15 +169,21 @@ FIELDS: tuple[FieldInfo, ...] = (
               "rudder", default=0.5),
     FieldInfo("gamma_R_minus", "-", "flow straightening coefficient for beta_R < 0", 0.0, 2.0,
               "rudder", default=0.5),
+    # port/starboard asymmetry of a single propeller (0: a symmetric vessel)
+    FieldInfo("Y_P0", "-", "propeller-induced side force per unit gross thrust, Y_P = Y_P0 T "
+              "(single-propeller asymmetry; + to starboard)", -0.5, 0.5, "asymmetry",
+              default=0.0),
+    FieldInfo("N_P0", "-", "propeller-induced yaw moment per unit L times gross thrust, "
+              "N_P = N_P0 L T (single-propeller asymmetry; + turns to starboard)", -0.5, 0.5,
+              "asymmetry", default=0.0),
 )
 FIELD_NAMES = tuple(f.name for f in FIELDS)
 HULL_COEFFICIENTS = ("R_0", "X_vv", "X_vr", "X_rr", "X_vvvv", "Y_v", "Y_r", "Y_vvv", "Y_vvr",
                      "Y_vrr", "Y_rrr", "N_v", "N_r", "N_vvv", "N_vvr", "N_vrr", "N_rrr")
-_REQUIRED = ("L", "B", "d", "m", "I_zG")
-FIELD_NAMES = tuple(f.name for f in FIELDS)
-HULL_COEFFICIENTS = ("R_0", "X_vv", "X_vr", "X_rr", "X_vvvv", "Y_v", "Y_r", "Y_vvv", "Y_vvr",
-                     "Y_vrr", "Y_rrr", "N_v", "N_r", "N_vvv", "N_vvr", "N_vrr", "N_rrr")
 _REQUIRED = tuple(f.name for f in FIELDS if f.default is REQUIRED)
+#: The port/starboard asymmetry of a single propeller (rudder and pod variants): the
+#: propeller-induced side force and yaw moment per unit gross thrust (:mod:`.physics`).
+ASYMMETRY = ("Y_P0", "N_P0")
 
 
 class _Physics:
@@ -289,5 +295,5 @@ MMGParameters = dataclasses.make_dataclass(
 )
 MMGParameters.__module__ = __name__
 
-__all__ = ["FIELDS", "FIELD_NAMES", "HULL_COEFFICIENTS", "THRUST_LAWS", "VARIANTS",
+__all__ = ["ASYMMETRY", "FIELDS", "FIELD_NAMES", "HULL_COEFFICIENTS", "THRUST_LAWS", "VARIANTS",
            "WAKE_MODELS", "FieldInfo", "MMGParameters"]

@@ -32,6 +32,24 @@ alpha_R``, ``alpha_R = delta - atan(v_R/u_R)``, ``v_R = U gamma_R beta_R``, ``be
 r'``, ``u_R = epsilon u (1 - w_P) sqrt(eta {1 + kappa (sqrt(1 + 8 K_T/(pi J^2)) - 1)}^2 +
 (1 - eta))``, ``eta = D_p/H_R``.
 
+Port/starboard asymmetry of a single propeller (rudder and pod variants; usvid's lumped form):
+``Y_P = Y_P0 T``, ``N_P = N_P0 L T`` with T the gross thrust [N] and Y_P0, N_P0 [-] constants
+(0: the symmetric Y&Y 2015 model, bit for bit). A right-handed propeller going ahead pushes the
+stern to starboard (the "transverse thrust" or paddle-wheel effect, Crenshaw 1975, Naval
+Shiphandling, ch. 3) and its rotating slipstream meets the rudder obliquely, so a single-screw
+ship holds a small rudder angle to run straight and turns differently to port and starboard.
+Y&Y 2015 carry no such term; their asymmetric pairs (C_2, gamma_R by the sign of beta_P,
+beta_R) change the gain of each side, not the balance at zero. Scaling with the thrust keeps
+the force where the propeller's loading is (it grows as the ship slows in a turn at constant n
+and vanishes with n = 0). A rudder neutral angle delta_0 (``alpha_R = delta - delta_0 -
+atan(v_R/u_R)``) gives, to first order in delta_0 and delta, ``dY_R = (1 + a_H) q_R U_R u_R
+delta_0`` and ``dN_R = (x_R + a_H x_H) L q_R U_R u_R delta_0`` (q_R = 0.5 rho A_R f_alpha):
+U_R u_R ~ u_R^2 is the slipstream's, which grows with the thrust loading (the
+``8 K_T n^2 D^2 / pi`` term of u_R), so along a manoeuvre at constant n this is a pair (Y, N)
+in a fixed ratio, nearly proportional to T, that Y_P0, N_P0 span; the two cannot be told apart
+from free-running data, so usvid identifies the pair Y_P0, N_P0 only (the equivalent neutral
+angle is ``delta_0 = N_P0 L T / ((x_R + a_H x_H) L q_R U_R u_R)``).
+
 Numerically safe forms used by the kernels (identical to the paper for u > 0, n > 0, U >= U_min):
 
 * ``U_g = max(U, U_min)`` with ``U_min = 0.005 sqrt(g L)`` (Froude number 0.005; 0.04 m/s for
@@ -60,7 +78,9 @@ Actuator variants, each a scalar numba kernel with the same
   thrust turns to starboard; the catamaran paper, the catamaran paper eq. 26-27; gross thrust for
   the moment since the thrust deduction is a hull-suction force near the centre line).
 
-Pod and twin share the hull, the masses and the wake model; they have no rudder forces.
+Pod and twin share the hull, the masses and the wake model; they have no rudder forces. The
+rudder and pod variants add the asymmetry ``(Y, N)_P += (Y_P0 T, N_P0 L T)`` (above); the twin
+variant has none (its asymmetry is the PWM map's ``thrust_asymmetry``).
 """
 
 from __future__ import annotations
@@ -80,6 +100,7 @@ from usvid.models.hull import (
     zhou_added_mass,
 )
 from usvid.models.kinds.mmg.params import (
+    ASYMMETRY,
     FIELD_NAMES,
     FIELDS,
     HULL_COEFFICIENTS,
@@ -282,7 +303,9 @@ IDX_ETA = 55             # D_p / H_R
 IDX_L_R = 56
 IDX_GAMMA_PLUS = 57
 IDX_GAMMA_MINUS = 58
-N_PACKED = 59
+IDX_Y_P0 = 59            # Y_P0 [-]: propeller-induced side force per unit gross thrust
+IDX_N_P0_M = 60          # N_P0 L [m]: propeller-induced yaw moment per unit gross thrust
+N_PACKED = 61
 
 #: Names of the packed rows, in index order (``PACKED_NAMES[IDX_L] == "L"``).
 PACKED_NAMES: tuple[str, ...] = (
@@ -291,7 +314,7 @@ PACKED_NAMES: tuple[str, ...] = (
     "D_p", "rho D^4", "rho D^3", "rho D^2", "k_0", "k_1", "k_2", "t_P", "w_P0", "x_P", "C_1",
     "C_2_plus", "C_2_minus", "C_w", "pod_c", "pod_d", "x_P L", "y_P L",
     "t_R", "a_H", "(x_R + a_H x_H) L", "0.5 rho A_R f_alpha", "epsilon", "kappa", "eta", "l_R",
-    "gamma_R_plus", "gamma_R_minus",
+    "gamma_R_plus", "gamma_R_minus", "Y_P0", "N_P0 L",
 )
 assert len(PACKED_NAMES) == N_PACKED
 
@@ -352,6 +375,8 @@ def pack(p: MMGParameters) -> np.ndarray:
     row[IDX_L_R] = p.l_R
     row[IDX_GAMMA_PLUS] = p.gamma_R_plus
     row[IDX_GAMMA_MINUS] = p.gamma_R_minus
+    row[IDX_Y_P0] = p.Y_P0
+    row[IDX_N_P0_M] = p.N_P0 * p.L
     return row
 
 
@@ -493,9 +518,11 @@ def mmg_accelerations_cs(p: Any, u: float, v: float, r: float, cd: float,
     """:func:`mmg_accelerations` with ``cd, sd = cos(delta), sin(delta)`` given."""
     XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u, v, r)
     uP = (1.0 - _wake_nb(p, beta, rp)) * u
-    XP = (1.0 - p[IDX_T_P]) * _kt_thrust_nb(p, n, uP)
+    T = _kt_thrust_nb(p, n, uP)
+    XP = (1.0 - p[IDX_T_P]) * T
     XR, YR, NR, uR, vR, FN = _rudder_nb(p, U, beta, rp, uP, n, cd, sd)
-    return _solve_nb(p, u, v, r, XH + XR + XP, YH + YR, NH + NR)
+    return _solve_nb(p, u, v, r, XH + XR + XP, YH + YR + p[IDX_Y_P0] * T,
+                     NH + NR + p[IDX_N_P0_M] * T)
 
 
 @numba.njit(cache=True, inline="always")
@@ -525,8 +552,8 @@ def mmg_pod_accelerations(p: Any, u: float, v: float, r: float, delta: float,
     uP = (1.0 - _wake_nb(p, beta, rp)) * u
     T, Te = _thrust_nb(p, n, u, uP)
     YP = -Te * math.sin(delta)
-    return _solve_nb(p, u, v, r, XH + Te * math.cos(delta), YH + YP,
-                     NH + p[IDX_XP_M] * YP)
+    return _solve_nb(p, u, v, r, XH + Te * math.cos(delta), YH + YP + p[IDX_Y_P0] * T,
+                     NH + p[IDX_XP_M] * YP + p[IDX_N_P0_M] * T)
 
 
 @numba.njit(cache=True, inline="always")
@@ -583,10 +610,11 @@ def _components_nb(p: np.ndarray, u: np.ndarray, v: np.ndarray, r: np.ndarray,
         if var == 0.0:
             XR, YR, NR, uR, vR, FN = _rudder_nb(p, U, beta, rp, uP, n[i], cd, sd)
             alpha = delta[i] - math.atan2(vR, uR)
-            XP, YP, NP = Te, 0.0, 0.0
+            XP, YP, NP = Te, p[IDX_Y_P0] * T, p[IDX_N_P0_M] * T
         elif var == 1.0:
             XP, YP = Te * cd, -Te * sd
-            NP = p[IDX_XP_M] * YP
+            NP = p[IDX_XP_M] * YP + p[IDX_N_P0_M] * T
+            YP += p[IDX_Y_P0] * T
         else:
             T2, Te2 = _thrust_nb(p, n2[i], u[i], uP)
             XP, YP, NP = Te + Te2, 0.0, (T - T2) * p[IDX_YP_M]
@@ -691,7 +719,8 @@ CONFOUNDED: dict[str, str] = {
 
 def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vdot: Any,
                     rdot: Any, delta: Any = 0.0, n: Any = 0.0, *, n_port: Any = None,
-                    n_stbd: Any = None, external: Any = None) -> list[RegressionBlock]:
+                    n_stbd: Any = None, external: Any = None,
+                    asymmetry: tuple[str, ...] = ()) -> list[RegressionBlock]:
     """Regression form of Y&Y 2015 eq. 4: the hull forces are linear in the hull coefficients.
 
     With the particulars, masses, added masses and propeller/rudder/thruster parameters of
@@ -714,6 +743,12 @@ def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vd
     ``(R_0, X_vv, X_vr, X_rr, X_vvvv)``; Y and N: ``(v', r', v'^3, v'^2 r', v' r'^2, r'^3)``).
     Below U_min the kernel's U^2/U_min^2 scaling multiplies Phi, so ``Phi @ theta = y`` holds
     exactly for the model at every sample; such samples carry little information.
+    ``asymmetry`` (rudder and pod variants): the names among ``("Y_P0", "N_P0")`` of the
+    propeller-induced side force and yaw moment ``Y_P = Y_P0 T``, ``N_P = N_P0 L T`` (module
+    docstring) to estimate too: one more regressor ``T / (0.5 rho L d U^2)`` (T the gross
+    thrust [N]) appended to the Y block for Y_P0 and to the N block for N_P0; the others are
+    held at the values of ``params`` (subtracted with the propeller's force like the other
+    held loads).
 
     Separability (:data:`CONFOUNDED`): X_vr is exactly collinear with the m_y inertia term and
     X_rr with the x_G one; Y_r (N_r) is collinear with (m' + m_x') r' cos beta (x_G' m' r'
@@ -750,13 +785,22 @@ def hull_regression(params: MMGParameters, u: Any, v: Any, r: Any, udot: Any, vd
     lat = np.stack([vp, rp, vp ** 3, vp ** 2 * rp, vp * rp ** 2, rp ** 3],
                    axis=-1) * scale[..., None]
     k = lat.shape[-1]
+    lat = lat.reshape(-1, k)
+    if asymmetry and params.variant == "twin":
+        raise UsvidError("the propeller asymmetry Y_P0, N_P0 belongs to the rudder and pod "
+                         "variants (twin thrusters: thrust_asymmetry)")
+    col = (f["T"] / qf).reshape(-1, 1)
+    latY = np.hstack([lat, col]) if "Y_P0" in asymmetry else lat
+    latN = np.hstack([lat, col]) if "N_P0" in asymmetry else lat.copy()
     return [RegressionBlock("X", PhiX.reshape(-1, 5), yX.reshape(-1), X_REGRESSORS),
-            RegressionBlock("Y", lat.reshape(-1, k), yY.reshape(-1), Y_REGRESSORS),
-            RegressionBlock("N", lat.reshape(-1, k).copy(), yN.reshape(-1), N_REGRESSORS)]
+            RegressionBlock("Y", latY, yY.reshape(-1),
+                            (*Y_REGRESSORS, *(("Y_P0",) if "Y_P0" in asymmetry else ()))),
+            RegressionBlock("N", latN, yN.reshape(-1),
+                            (*N_REGRESSORS, *(("N_P0",) if "N_P0" in asymmetry else ())))]
 
 
 __all__ = [
-    "COMPONENTS", "CONFOUNDED", "FIELDS", "FIELD_NAMES", "HULL_COEFFICIENTS",
+    "ASYMMETRY", "COMPONENTS", "CONFOUNDED", "FIELDS", "FIELD_NAMES", "HULL_COEFFICIENTS",
     "KVLCC2_COEFFICIENTS", "KVLCC2_HSVA_PARTICULARS", "KVLCC2_PAPER_PARTICULARS", "N_PACKED",
     "PACKED_NAMES", "PRIOR_SOURCES", "THRUST_LAWS", "VARIANTS", "WAKE_MODELS", "FieldInfo",
     "MMGParameters", "RegressionBlock", "accelerations", "forces", "fujii_f_alpha",
