@@ -180,13 +180,16 @@ def _heldload(p, pe, z, tau, fs, cps, sps):
     A zero-order hold of the wind and wave-drift forcing over the step (the hull, rudder,
     servo and kinematics keep classical RK4): the loads' variation within a step, through the
     vessel's velocity and heading, is left out, a first-order error in dt of the forcing
-    alone. Chosen by measurement: at every stage the loads were 4.2-4.9x the calm step's cost
-    (four evaluations of the apparent and of the still air's loads, each a square root and
-    four divisions in a dependency chain of the stage), held 1.2-1.5x; the 35 deg turning of
-    the Lanxin 3-DOF model in an 8 m/s wind and a 0.5 m/s current at the default dt = 0.02 s
-    moves advance, transfer, tactical diameter and the IMO drift by less than 1e-4 of their
-    values from the per-stage evaluation (tests/test_sim_wind_hold.py), far below what the
-    wind-load coefficients are known to (Blendermann 1994 quotes 10-20 %)."""
+    alone. Chosen by measurement (the 3-DOF zig-zag of ``benchmarks/bench_sim.py --wind``, load
+    averages 11-15): evaluated at every stage, the loads made the step 4.2-4.9x the calm
+    step's cost (four evaluations of the apparent and of the still air's loads, each a square
+    root and four divisions in the stage's dependency chain); held (with the cheaper
+    Blendermann form and the leaner variant), 2.2x. A 35 deg turning of the Lanxin 3-DOF model
+    in an 8 m/s wind and a 0.5 m/s current at the default dt = 0.02 s moves advance, transfer
+    and tactical diameter by 1e-5 to 2e-4 of their values from the per-stage evaluation and
+    the IMO drift by 3e-5 m/s, halving with dt (tests/test_sim_wind_hold.py, against the
+    continuous model), far below what the wind-load coefficients are known to (Blendermann
+    1994: 10-20 %)."""
     uw = z[ZU] if ZU >= 0 else p[SPEEDROW]
     vw = z[ZV] if ZV >= 0 else 0.0
     cx = fs[8] + tau * (fs[20] - fs[8])
