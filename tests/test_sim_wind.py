@@ -1,7 +1,7 @@
 """Wind and waves inside the integration step, and a current in a turning test.
 
-* the wind's loads follow the state: at every RK4 stage the apparent wind of the stage's
-  velocity over ground and heading through the wind-load model, less the still air's load
+* the wind's loads follow the state: at each RK4 step's start the apparent wind of the
+  velocity over ground and heading there through the wind-load model, less the still air's load
   (zero wind is calm water); a head wind gives the kind's steady speed with the hand-computed
   drag, a beam wind the hand-computed side force and yaw moment (their signs);
 * a response kind takes the wind's yaw moment as the rudder-equivalent angle N / N_delta;
