@@ -152,12 +152,13 @@ WINDAGE = dict(length=7.02, speed=5.14, beam=0.489 * _S, draft=0.32, mass=1500.0
     ("threedof", "blendermann1994"), ("threedof", "fujiwara1998"), ("nomoto1", "blendermann1994"),
 ])
 def test_simd_path_equals_per_lane_path_in_wind_current_and_waves(kind, wind_model):
-    """The wind loads and the mean wave drift, computed at every RK4 stage from the stage's
-    velocity over ground and heading, on the vector step (its wind variant, which the batch
-    must take) give the per-lane path's runs: a gusty wind series per run (every direction of
-    the apparent wind within the batch), a current, a sea state (mean drift), noise on some
-    lanes, zig-zags of both signs; a force kind and a response kind (the wind's yaw moment as a
-    rudder-equivalent angle), both published wind-load models."""
+    """The wind loads and the mean wave drift, computed at each RK4 step's start from the
+    velocity over ground and heading there and held over the step, on the vector step (its
+    wind variant, which the batch must take) give the per-lane path's runs: a gusty wind
+    series per run (every direction of the apparent wind within the batch), a current, a sea
+    state (mean drift), noise on some lanes, zig-zags of both signs; a force kind and a
+    response kind (the wind's yaw moment as a rudder-equivalent angle), both published
+    wind-load models."""
     dyn = mu2018_threedof(x_l=3.5) if kind == "threedof" else registry.get(kind).dynamics.example()
     vessel = Vessel(**WINDAGE)
     model = VesselModel(dyn, servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5,

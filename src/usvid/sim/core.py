@@ -132,8 +132,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     disturbance or input series, whether x or y is recorded, and each chunk's switch value.
     ``wind``: ``P`` carries the environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the
     kind's parameters: the per-lane step of :func:`usvid.sim.specialise.wind_step` and the
-    vector step's wind variant (its loads at every RK4 stage, vectorised across the lanes like
-    the rest of the step).
+    vector step's wind variant (its loads held over each step, :func:`usvid.sim.lane._heldload`,
+    vectorised across the lanes like the rest of the step).
     """
     B, nz = Z.shape
     chunk = max(1, min(chunk, CH))
@@ -157,7 +157,10 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     vaddr = dict.fromkeys(starts, 0)
     if simd:
         ID = S0 + kind.n_states
-        nod = (not bool(np.any(sidx[:NSER] >= 0)) and not bool(np.any(Dq[:, 0] > 0.0))
+        # no disturbance and no series (with wind: none but the environment's, which the wind
+        # variant reads in any case)
+        nod = (not bool(np.any(sidx[:SFORCE if wind else NSER] >= 0))
+               and not bool(np.any(Dq[:, 0] > 0.0))
                and not bool(np.any(Z[:, ID + 2:ID + 4] != 0.0)))
         xy = bool(slots[0] >= 0 or slots[1] >= 0)
         wcode = -1  # the wind-load model's code of every lane: a literal in the variant

@@ -123,17 +123,18 @@ class Environment:
     ``wind_speed`` [m/s] and ``wind_dir`` [rad]: the true wind's speed and the direction it
     comes FROM, from north, clockwise (a series: e.g. :func:`usvid.models.environment.gust_series`
     on ``t``; interpolated as the air's velocity, so that a direction through north is not
-    turned the long way). Its loads are computed inside the integration step, at every RK4
-    stage, from the apparent wind of the stage's velocity over ground and heading
-    (:func:`usvid.sim.lane._envload`: the load of the apparent wind less that of the still air,
-    so zero wind is calm water) through ``wind_model`` (a
+    turned the long way). Its loads are computed inside the integration, at the start of every
+    RK4 step from the apparent wind of the velocity over ground and heading there, and held
+    over the step (:func:`usvid.sim.lane._heldload`, a zero-order hold of the wind forcing, first
+    order in dt; :func:`usvid.sim.lane._envload`: the load of the apparent wind less that of the
+    still air, so zero wind is calm water) through ``wind_model`` (a
     :class:`~usvid.models.environment.WindLoadModel`; None: ``wind_load_model(model.vessel)``,
     Fujiwara et al. 1998 or Blendermann 1994 from the vessel's windage particulars).
 
     ``sea``: a :class:`~usvid.models.environment.SeaState` (constant): its mean wave drift force
     (:func:`~usvid.models.environment.drift_coefficients` from the vessel's length, beam and
-    draft; :func:`~usvid.models.environment.mean_drift_scalar` at the stage's heading) inside
-    the step, and, with ``wave_motion``, the first-order wave-induced motion
+    draft; :func:`~usvid.models.environment.mean_drift_scalar` at the step start's heading, held
+    over the step), and, with ``wave_motion``, the first-order wave-induced motion
     (:func:`~usvid.models.environment.wave_motion`, ``wave_components`` components drawn with
     ``wave_seed``, run b from the stream (wave_seed, b), or (wave_seed, ``wave_stream[b]``) when
     ``wave_stream`` gives each run its stream) added to the recorded x, y, psi after the run

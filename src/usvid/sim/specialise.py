@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import hashlib
+import importlib
 import types
 from dataclasses import dataclass
 from typing import Any
@@ -45,26 +46,31 @@ from usvid.sim.scalar import _FM
 INLINE_MAX_PARAMS = 40
 
 #: The per-lane path's templates (:mod:`usvid.sim.lane`); the C callback :func:`lane._lstep`.
-LANE_TEMPLATES = ("_inputs", "_deriv", "_rk4", "_substeps")
+LANE_TEMPLATES = ("_inputs", "_heldload", "_deriv", "_rk4", "_substeps")
 #: The vector path's templates (:mod:`usvid.sim.vector`); the C callback :func:`vector._vstep`.
-VECTOR_TEMPLATES = ("_steer", "_vderiv", "_vrk4")
+VECTOR_TEMPLATES = ("_steer", "_heldload", "_hbase", "_vheld", "_vderiv", "_vrk4")
 #: The generated joint-state helpers of a vector-step variant (:func:`layout.joint_helpers`).
 VARIANT_HELPERS = ("_vaxpy", "_vrk4sum", "_vput")
 #: Templates inlined by LLVM where they are called (tuples only: no reference counting; numba's
 #: own inlining, inline="always", copies the IR at every call site, most of the compile time).
 #: ``_deriv`` stays out of line in the per-lane step (integrating only the steps with an event
 #: inside, or lanes the vector step does not take): a quarter of the compile work.
-_FORCEINLINE = ("_rk4", "_inputs", "_substeps", "_steer", "_vderiv", "_vrk4", "_chval",
-                "_finite_rows")
+_FORCEINLINE = ("_rk4", "_heldload", "_hbase", "_vheld", "_inputs", "_substeps", "_steer",
+                "_vderiv", "_vrk4", "_chval", "_finite_rows")
 
 _MODULES = (_scalar, _layout, _lane_mod, _vector_mod, _chunk_mod)
+#: The modules of the environment's numba functions the templates compile into themselves
+#: (numba's cache of a function is keyed to its own file only: without these in the digest, an
+#: edited load formula would leave the cached kernels with the old one).
+_INLINED = tuple(importlib.import_module(f"usvid.models.environment.{m}")
+                 for m in ("wind", "wind_loads", "waves"))
 
 
 @functools.cache
 def core_digest() -> str:
     """A hash of the core's sources (the modules whose code the templates compile)."""
     h = hashlib.sha256()
-    for path in [m.__file__ for m in _MODULES] + [__file__]:
+    for path in [m.__file__ for m in _MODULES + _INLINED] + [__file__]:
         with open(path, "rb") as f:
             h.update(f.read())
     return h.hexdigest()[:10]
@@ -271,9 +277,7 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     lay = code.layout
     if lay.npk > INLINE_MAX_PARAMS or generic:
         sk, nod, xy = -1, False, True
-    if wind:
-        nod, xy = False, True
-    else:
+    if not wind:
         wcode = -1
     vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode))
     if vk in _VSTEPS:

@@ -6,9 +6,10 @@ its address): the trig bases, one RK4 step (:func:`_vrk4` of :func:`_vderiv`) an
 the step of every lane slot, with the lane loop innermost so that LLVM vectorises it (SIMD);
 the right-hand side of the kind is inlined. A variant fixes at compile time the servo kind
 (``SK``), the absence of disturbance and input series (``NOD``), whether x and y are
-integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the loads at every
-RK4 stage by :func:`usvid.sim.lane._envload`, no library call in it, so the lane loop still
-vectorises) and, for a kind with a switch row, its value (a literal in ``_ptup``).
+integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the loads of the
+step's start held over it, :func:`usvid.sim.lane._heldload`, computed for every lane in a loop
+of their own before the step's, no library call in it, so both loops vectorise) and, for a
+kind with a switch row, its value (a literal in ``_ptup``).
 
 Globals the specialisation sets: the kind's ``rhs``, ``TRIG``, the layout constants (``VB``,
 ``NT``, ``VROWS``, ``ZR``), the variant's constants and the generated joint-state helpers
@@ -21,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from usvid.sim.lane import _envload
+from usvid.sim.lane import _heldload
 from usvid.sim.layout import (
     CH,
     DIST_A0,
@@ -63,8 +64,9 @@ from usvid.sim.scalar import _clip, _rot_nan, _rotv
 #: recorded: no other quantity depends on them, and with them goes the heading's rotation).
 SK, NOD, XY = 2, False, True
 #: Variant constant: the batch has wind loads or wave drift (the environment block after the
-#: kind's parameters, ``_etup``; loads at every stage, :func:`usvid.sim.lane._envload`), with
-#: series (not NOD) and x, y (XY).
+#: kind's parameters, ``_etup``; the loads of the step's start held over it,
+#: :func:`usvid.sim.lane._heldload`), with x, y (XY) and the environment's series (force,
+#: current, wind: with WIND, NOD means no disturbance and no delta or n series only).
 WIND = False
 ZU = 0  # position of u in the joint-state tuple (-1: the constant speed, parameter SPEEDROW)
 ZV = 0  # position of v in the joint-state tuple (-1: none, zero)
@@ -90,10 +92,33 @@ def _steer(V, j):
     return (d if np.isnan(fd) else fd) + DIST_B * V[RW2 * CH + j]
 
 
-def _vderiv(p, pe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
+def _hbase(V, j):
+    """Lane slot j's heading and its cosine and sine at the step start (the trig base of the
+    step): rotated from the previous step's base by the series of :func:`_rot_nan` (NaN when
+    the heading moved more than 0.05 rad) and renormalised."""
+    a = V[RPSI * CH + j]
+    o = VT * CH + j
+    c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
+    g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+    return a, c_ * g_, s_ * g_
+
+
+def _vheld(V, j, c0, s0):
+    """Lane slot j's environment loads held over the step (:func:`usvid.sim.lane._heldload`)
+    at the step start: its joint state, the environment series there and the cosine ``c0``
+    and sine ``s0`` of its heading (:func:`_hbase`)."""
+    o = VF * CH + j
+    nan = np.nan
+    fs = (nan, nan, nan, nan, nan, nan, nan, nan, V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
+          V[o + 11 * CH], nan, nan, nan, nan, nan, nan, nan, nan, V[o + 20 * CH],
+          V[o + 21 * CH], V[o + 22 * CH], V[o + 23 * CH])
+    return _heldload(_ptup(V, j), _etup(V, j), _ztup(V, j), 0.0, fs, c0, s0)
+
+
+def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     """:func:`_deriv` for the vector step, with the variant's constants :data:`SK`,
     :data:`NOD`, :data:`XY`, :data:`WIND` (the branches of the other variants vanish at compile
-    time; ``pe`` the lane's environment block, read only with WIND); returns
+    time; ``fe`` the environment's loads held over the step, read only with WIND); returns
     (the derivative, the largest |angle - base angle| of its rotations). ``first``: the step
     start (stage 1), where the angles are the bases' own (no rotation)."""
     zdl = z[JDL]
@@ -122,6 +147,11 @@ def _vderiv(p, pe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
         f = NOF
         cx = 0.0
         cy = 0.0
+        if WIND:  # but the environment's series (force, current; the wind's are in fe)
+            f = (fs[4] + tau * (fs[16] - fs[4]), fs[5] + tau * (fs[17] - fs[5]),
+                 fs[6] + tau * (fs[18] - fs[6]), fs[7] + tau * (fs[19] - fs[7]))
+            cx = fs[8] + tau * (fs[20] - fs[8])
+            cy = fs[9] + tau * (fs[21] - fs[9])
     else:
         fd = fs[0] + tau * (fs[12] - fs[0])
         de = (d if np.isnan(fd) else fd) + DIST_B * z[JW2]
@@ -141,16 +171,7 @@ def _vderiv(p, pe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             sd = tr[5]
         else:
             cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
-    if WIND:  # the loads of the stage's own velocity over ground and heading (as _deriv; the
-        # heading's rotation is the XY block's below, and so is its flag)
-        cpw = tr[1]
-        spw = tr[2]
-        if not first:
-            cpw, spw, _ = _rotv(z[JPSI], tr[0], tr[1], tr[2])
-        uw = z[ZU] if ZU >= 0 else p[SPEEDROW]
-        vw = z[ZV] if ZV >= 0 else 0.0
-        fe = _envload(pe, fs[10] + tau * (fs[22] - fs[10]), fs[11] + tau * (fs[23] - fs[11]),
-                      uw * cpw - vw * spw + cx, uw * spw + vw * cpw + cy, cpw, spw)
+    if WIND:  # the loads of the step's start, held (:func:`usvid.sim.lane._heldload`)
         f = (f[0] + fe[0], f[1] + fe[1], f[2] + fe[2], f[3] + fe[3])
     u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), f)
     k0 = 0.0
@@ -163,7 +184,7 @@ def _vderiv(p, pe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             hm = max(hm, hp)
         k0 = u * cps - v * sps
         k1 = u * sps + v * cps
-        if not NOD:  # the velocity over ground: through the water plus the current
+        if WIND or not NOD:  # the velocity over ground: through the water plus the current
             k0 += cx
             k1 += cy
     acc = 0.0
@@ -180,14 +201,15 @@ def _vderiv(p, pe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     return _joint(k0, k1, r, rate, acc, k5, k6, ds), hm
 
 
-def _vrk4(p, pe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
-    """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``); the heading
+def _vrk4(p, fe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
+    """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``; with WIND the
+    environment's loads of its start held over it, :func:`usvid.sim.lane._heldload`); the heading
     is NaN when an angle moved more than 0.05 rad from its base (the lane is then flagged)."""
-    k1, m1 = _vderiv(p, pe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
+    k1, m1 = _vderiv(p, fe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
     tm = 0.5 * frac
-    k2, m2 = _vderiv(p, pe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
-    k3, m3 = _vderiv(p, pe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
-    k4, m4 = _vderiv(p, pe, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
+    k2, m2 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
+    k3, m3 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
+    k4, m4 = _vderiv(p, fe, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
     far = max(max(m1, m2), max(m3, m4)) > 0.05
     return _vrk4sum(z, h / 6.0, k1, k2, k3, k4, far)
 
@@ -230,16 +252,29 @@ def _vstep(Vp, h, frac, zig, sk):
     w1 = 1.0 if sk == 1.0 else 0.0
     w2 = 1.0 if sk == 2.0 else 0.0
     nslow = 0.0
+    if WIND:  # the heading's bases and the held loads of every lane first (:func:`_vheld`),
+        # the loads into the scratch rows VB.. (read below before they are overwritten)
+        for j in range(CH):
+            o = VT * CH + j
+            a, c0, s0 = _hbase(V, j)
+            V[o] = a
+            V[o + CH] = c0
+            V[o + 2 * CH] = s0
+            fe = _vheld(V, j, c0, s0)
+            V[VB * CH + j] = fe[0]
+            V[(VB + 1) * CH + j] = fe[1]
+            V[(VB + 2) * CH + j] = fe[2]
+            V[(VB + 3) * CH + j] = fe[3]
     for j in range(CH):
         a = V[RPSI * CH + j]
         c0 = 1.0
         s0 = 0.0
-        if XY:
+        if WIND:  # (the bases of the loop above)
+            c0 = V[(VT + 1) * CH + j]
+            s0 = V[(VT + 2) * CH + j]
+        elif XY:
             o = VT * CH + j
-            c_, s_ = _rot_nan(a, V[o], V[o + CH], V[o + 2 * CH])
-            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
-            c0 = c_ * g_
-            s0 = s_ * g_
+            a, c0, s0 = _hbase(V, j)
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
@@ -263,7 +298,7 @@ def _vstep(Vp, h, frac, zig, sk):
         o = VS * CH + j
         srv = (ma, V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
                V[o + 6 * CH], w0, w1, w2)
-        if NOD:
+        if NOD and not WIND:
             fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
                   np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
                   np.nan, np.nan, np.nan, np.nan)
@@ -276,7 +311,11 @@ def _vstep(Vp, h, frac, zig, sk):
                   V[o + 19 * CH], V[o + 20 * CH], V[o + 21 * CH], V[o + 22 * CH],
                   V[o + 23 * CH])
         z = _ztup(V, j)
-        y = _vrk4(_ptup(V, j), _etup(V, j), z, h, frac, srv, V[VCMD * CH + j],
+        fe = NOF
+        if WIND:
+            fe = (V[VB * CH + j], V[(VB + 1) * CH + j], V[(VB + 2) * CH + j],
+                  V[(VB + 3) * CH + j])
+        y = _vrk4(_ptup(V, j), fe, z, h, frac, srv, V[VCMD * CH + j],
                   V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
         quiet = V[(VL + LQ) * CH + j] > 0.0
         # max |delta| of the quiet lanes at the step start (the measured angle is absent on
