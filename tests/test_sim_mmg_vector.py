@@ -67,5 +67,5 @@ def test_mmg_vector_step_equals_per_lane_path(variant):
     _assert_same(a, b)
     # one run, calm water (the quiet steps on the vector step of one vector of lanes)
     a, b = _both(model, ZigZag(math.radians(20.0), math.radians(20.0)), t_end=60.0, dt=0.05)
-    assert a.zigzag_metrics()[0].overshoot_deg  # a real zig-zag: overshoots were reached
+    assert np.ptp(a["psi"][0]) > 0.05  # the run turned (not a trivial straight line)
     _assert_same(a, b)
