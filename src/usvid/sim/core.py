@@ -87,6 +87,7 @@ from usvid.sim.layout import (
     ZIGZAG,
 )
 from usvid.sim.specialise import INLINE_MAX_PARAMS, KindCode
+from usvid.sim.vector import VW
 
 __all__ = ["CH", "CHANNELS", "COMMANDED", "COURSE", "DIST_A0", "DIST_A1", "DIST_B",
            "FORCE_GENERIC", "INLINE_MAX_PARAMS", "N_ZZ", "NCH", "NSER", "R_MAX", "SERIES",
@@ -106,11 +107,11 @@ def kernel(kind: ModelKind) -> KindCode:
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool,
-                wind: bool = False, wcode: int = -1) -> int:
+                wind: bool = False, wcode: int = -1, narrow: bool = False) -> int:
     """Address of a vector-step variant of ``kind`` (:func:`usvid.sim.specialise.vector_step`;
     the generic one for every batch when :data:`FORCE_GENERIC`)."""
     return specialise.vector_step(kind, swi, sk, nod, xy, generic=bool(FORCE_GENERIC),
-                                  wind=wind, wcode=wcode)
+                                  wind=wind, wcode=wcode, narrow=narrow)
 
 
 def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: np.ndarray,
@@ -167,12 +168,14 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         if wind:
             codes = P[:, kind.n_params]
             wcode = int(codes[0]) if bool(np.all(codes == codes[0])) else -1
-        steps: dict[int, int] = {}
+        steps: dict[tuple[int, bool], int] = {}
         for lo in starts:
-            swi = code.chunk_switch(P, lo, min(B, lo + chunk))
-            if swi not in steps:
-                steps[swi] = vector_step(kind, swi, skind, nod, xy, wind, wcode)
-            vaddr[lo] = steps[swi]
+            hi = min(B, lo + chunk)
+            swi = code.chunk_switch(P, lo, hi)
+            narrow = hi - lo <= VW  # a single run: the vector step of one vector of lanes
+            if (swi, narrow) not in steps:
+                steps[swi, narrow] = vector_step(kind, swi, skind, nod, xy, wind, wcode, narrow)
+            vaddr[lo] = steps[swi, narrow]
 
     # the environment's series constant in time (and no other series): loaded once by the driver
     used = [i for i in range(NSER) if sidx[i] >= 0]

@@ -11,7 +11,8 @@ specialisation is never taken for another's:
   line once, RK4, the sub-steps at events), named for the kind, a hash of its sources and the
   core's; with an environment (force or current series, :func:`lane_step`) a second one;
 * per kind and variant (:func:`vector_step`): its vector step (a C callback, the right-hand
-  side inlined four times), compiled only for the variants a batch needs.
+  side inlined four times; a large kind's generic step calls it out of line), compiled only
+  for the variants a batch needs.
 
 The joint-state and parameter helpers of a kind are generated from its state names
 (:mod:`usvid.sim.layout`) and compiled into these functions (LLVM inlines them).
@@ -40,9 +41,10 @@ from usvid.sim import vector as _vector_mod
 from usvid.sim.scalar import _FM
 
 #: Kinds with more parameters than this keep one out-of-line copy of their right-hand side in
-#: the vector step instead of four inlined ones per RK4 step (an MMG model's rhs inlined eight
-#: times took minutes to compile; its lanes gain little from SIMD), and one vector-step variant
-#: per switch value.
+#: their generic vector step (lanes of mixed switch values: every branch of the right-hand side
+#: would be inlined four times per RK4 step, minutes of compilation for an MMG model) and one
+#: generic variant; the vector step of a switch value (only its branch, a constant) inlines it
+#: whatever the kind's size, like a small kind's.
 INLINE_MAX_PARAMS = 40
 
 #: The per-lane path's templates (:mod:`usvid.sim.lane`); the C callback :func:`lane._lstep`.
@@ -250,7 +252,8 @@ def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
-                generic: bool = False, wind: bool = False, wcode: int = -1) -> int:
+                generic: bool = False, wind: bool = False, wcode: int = -1,
+                narrow: bool = False) -> int:
     """Address of the vector step (:func:`usvid.sim.vector._vstep`, a C callback) of ``kind``
     for the switch value ``swi`` (index into the kind's switch values; the last: generic), the
     servo kind ``sk``, without disturbance and input series (``nod``), with x and y (``xy``);
@@ -260,11 +263,11 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     servo's blend of the three kinds, the disturbance filter, the first-order-hold series and,
     when neither x nor y is recorded, the position and the heading's rotation (the quiet lanes'
     x and y then stay as they were: nothing reads them). The switch row of the parameters is a
-    literal in the variant of a switch value (e.g. one thrust law in the code, not all). A kind
-    whose right-hand side is not inlined (:data:`INLINE_MAX_PARAMS`: its lane loop is not
-    vectorised, the variants would gain little), and every kind with ``generic``, has one
-    variant per switch value: any servo kind (``sk`` -1: the per-lane path's blend),
-    disturbance, series, x and y.
+    literal in the variant of a switch value (e.g. one thrust law in the code, not all). The
+    generic step of a kind whose right-hand side is then not inlined (more parameters than
+    :data:`INLINE_MAX_PARAMS`, no switch literal: its lane loop is not vectorised, the variants
+    would gain little), and every kind with ``generic``, has one variant per switch value: any
+    servo kind (``sk`` -1: the per-lane path's blend), disturbance, series, x and y.
 
     ``wind``: the variant of a batch with the state-dependent environment (wind loads, wave
     drift; the chunk array of :func:`wind_step`, its ``kinfo``), the loads computed at every
@@ -272,18 +275,25 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     series and x, y (the heading's rotation); without it the variants compile as if the
     environment code did not exist (``WIND`` a compile-time False). ``wcode``: the wind-load
     model's code (:mod:`usvid.models.environment.wind_loads`) common to the batch's lanes, a
-    literal in the variant (only that model's code compiled); -1: read per lane."""
+    literal in the variant (only that model's code compiled); -1: read per lane.
+
+    ``narrow``: the variant for a chunk of at most :data:`usvid.sim.vector.VW` lanes (a single
+    run, a few runs): its lane loop computes VW lane slots instead of :data:`CH` (a constant
+    trip count either way, so that LLVM vectorises it), compiled only when such a chunk runs."""
     code = kernel(kind)
     lay = code.layout
-    if lay.npk > INLINE_MAX_PARAMS or generic:
+    literal = code.swr >= 0 and swi < len(code.swv)  # the switch row a constant
+    inline = lay.npk <= INLINE_MAX_PARAMS or literal
+    if not inline or generic:
         sk, nod, xy = -1, False, True
     if not wind:
         wcode = -1
-    vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode))
+    vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode), bool(narrow))
     if vk in _VSTEPS:
         return _VSTEPS[vk].address
     const = {code.swr: code.swv[swi]} if code.swr >= 0 and swi < len(code.swv) else {}
-    gv = dict(_wind_globals(code) if wind else code.g, SK=sk, NOD=bool(nod), XY=bool(xy))
+    gv = dict(_wind_globals(code) if wind else code.g, SK=sk, NOD=bool(nod), XY=bool(xy),
+              NLANES=_vector_mod.VW if narrow else _layout.CH)
     if wind and wcode >= 0:
         gv["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(
             lay, gv, read=True, const={0: float(wcode)}))
@@ -292,10 +302,9 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     for name in VARIANT_HELPERS:
         gv[name] = _helper(helpers[name])
     tag = (f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
-           + (f"w{wcode if wcode >= 0 else 'g'}" if wind else ""))
+           + (f"w{wcode if wcode >= 0 else 'g'}" if wind else "") + ("n" if narrow else ""))
     for name in VECTOR_TEMPLATES:
         _specialise(gv, name, f"{name}{tag}__{code.key}",
-                    forceinline=False if (name == "_vderiv" and lay.npk > INLINE_MAX_PARAMS)
-                    else None)
+                    forceinline=False if (name == "_vderiv" and not inline) else None)
     _VSTEPS[vk] = _specialise(gv, "_vstep", f"_vstep{tag}__{code.key}", _vector_mod.VSIG)
     return _VSTEPS[vk].address

@@ -76,6 +76,11 @@ VB = 0  # first scratch row
 NT = 1  # joint-state length
 VROWS = 1  # rows of the chunk array
 ZR = 0  # position of r in the joint-state tuple
+#: Lanes of one vector (the AVX2 width of float64): a chunk of at most VW lanes (a single run)
+#: takes the vector step of VW lane slots, not CH, and the driver's vectorised loops compute
+#: the chunk's lanes rounded up to a multiple of VW, so that one run costs one vector of lanes.
+VW = 4
+NLANES = CH  # the vector step's lane slots (CH, or VW: set by the specialisation)
 rhs = _ztup = _zput = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _ptup = None
 _etup = None
 
@@ -215,14 +220,16 @@ def _vrk4(p, fe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
 
 
 def _vstep(Vp, h, frac, zig, sk):
-    """One step of all :data:`CH` lane slots of a chunk, vectorised across lanes (the lane loop
-    innermost; a C callback, see :func:`vector_step`): the step's trig bases, one RK4 step of
-    length h [s] (the fraction ``frac`` of the step), and the end of the step of the quiet
-    lanes (row LQ); returns the number of active lanes flagged (row LFLAG = 1) for the per-lane
-    branch of :func:`_chunk`. The trip count is the constant CH whatever the chunk's number of
-    lanes (unused slots hold zeros or stale values and are ignored): every lane is computed by
-    the same vector code, so a lane's result does not depend on its position or on the
-    chunking.
+    """One step of the first :data:`NLANES` lane slots of a chunk (all :data:`CH`, or
+    :data:`VW` in the variant for a chunk of at most VW lanes, e.g. a single run), vectorised
+    across lanes (the lane loop innermost; a C callback, see :func:`vector_step`): the step's
+    trig bases, one RK4 step of length h [s] (the fraction ``frac`` of the step), and the end of
+    the step of the quiet lanes (row LQ); returns the number of active lanes flagged (row
+    LFLAG = 1) for the per-lane branch of :func:`_chunk`. The trip count is the constant
+    NLANES whatever the chunk's number of lanes (unused slots hold zeros or stale values and
+    are ignored; a trip count known at compile time: LLVM then vectorises the loop, which it
+    does not with a run-time one here): every lane is computed by the same vector code, so a
+    lane's result does not depend on its position or on the chunking.
 
     ``Vp`` points to the chunk's work array ``V`` (rows: joint state, servo values, command /
     ramp rate / noise, input series, trig bases, logic variables, parameters, scratch;
@@ -254,7 +261,7 @@ def _vstep(Vp, h, frac, zig, sk):
     nslow = 0.0
     if WIND:  # the heading's bases and the held loads of every lane first (:func:`_vheld`),
         # the loads into the scratch rows VB.. (read below before they are overwritten)
-        for j in range(CH):
+        for j in range(NLANES):
             o = VT * CH + j
             a, c0, s0 = _hbase(V, j)
             V[o] = a
@@ -265,7 +272,7 @@ def _vstep(Vp, h, frac, zig, sk):
             V[(VB + 1) * CH + j] = fe[1]
             V[(VB + 2) * CH + j] = fe[2]
             V[(VB + 3) * CH + j] = fe[3]
-    for j in range(CH):
+    for j in range(NLANES):
         a = V[RPSI * CH + j]
         c0 = 1.0
         s0 = 0.0
@@ -353,7 +360,7 @@ def _vstep(Vp, h, frac, zig, sk):
         V[(VB + NT) * CH + j] = ovmax
         V[(VB + NT + 2) * CH + j] = ov if upd else ovmax
         _vput(V, j, y, dl, dd)
-    for j in range(CH):
+    for j in range(NLANES):
         V[(VL + LMAXD) * CH + j] = V[(VB + NT + 1) * CH + j]
         V[(VL + LOVMAX) * CH + j] = V[(VB + NT + 2) * CH + j]
     return nslow

@@ -35,6 +35,7 @@ import numpy as np
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
+from usvid.models import vmath as _vmath
 from usvid.models.kind import (
     REQUIRED,
     Dynamics,
@@ -184,7 +185,7 @@ def _pwm_n(c, c0, k, g):
     ``s = clip((c - c0) k, -1, 1)``, so that the pod law ``T = d |n| n`` (c = 0) gives the
     declared linear map ``T = g d s``."""
     s = min(max((c - c0) * k, -1.0), 1.0)
-    return math.copysign(math.sqrt(g * abs(s)), s)
+    return math.copysign(_vmath.sqrt(g * abs(s)), s)
 
 
 pwm_to_law = _mmg_fit.pwm_to_law
@@ -198,7 +199,12 @@ def law_to_pwm(n: Any, neutral: float, span: float) -> Any:
 @numba.njit(cache=True, inline="always")
 def rhs(p, s, a, f):
     """Y&Y 2015 eq. 4 with the variant's actuator forces and the external force f = (X, Y, K,
-    N) [N, N, N m, N m] about midship (K unused: no roll); returns (u, v, r, (u', v', r'))."""
+    N) [N, N, N m, N m] about midship (K unused: no roll); returns (u, v, r, (u', v', r')).
+
+    Straight-line arithmetic within a variant (selects, square roots, the branch-free asin and
+    exp of :mod:`usvid.models.vmath`; the steering angle's cos and sin from ``a``): the core's
+    vector step inlines it and vectorises its lane loop, with the variant a constant
+    (the kind's switch row)."""
     u = s[0]
     v = s[1]
     r = s[2]
@@ -209,13 +215,13 @@ def rhs(p, s, a, f):
     if var == 0.0:
         du, dv, dr = _m.mmg_accelerations_cs(p, u, v, r, a[1], a[2], nn)
     elif var == 1.0:
-        du, dv, dr = _m.mmg_pod_accelerations(p, u, v, r, delta, nn)
+        du, dv, dr = _m.mmg_pod_accelerations_cs(p, u, v, r, a[1], a[2], nn)
     else:
         npo = nn + p[IDX_STEER] * delta if np.isnan(a[4]) else a[4]
         nst = nn - p[IDX_STEER] * delta if np.isnan(a[5]) else a[5]
-        if p[IDX_PWM_K] > 0.0:
-            npo = _pwm_n(npo, p[IDX_PWM0], p[IDX_PWM_K], 1.0 + p[IDX_ASYM])
-            nst = _pwm_n(nst, p[IDX_PWM0], p[IDX_PWM_K], 1.0 - p[IDX_ASYM])
+        pwm = p[IDX_PWM_K] > 0.0
+        npo = _pwm_n(npo, p[IDX_PWM0], p[IDX_PWM_K], 1.0 + p[IDX_ASYM]) if pwm else npo
+        nst = _pwm_n(nst, p[IDX_PWM0], p[IDX_PWM_K], 1.0 - p[IDX_ASYM]) if pwm else nst
         du, dv, dr = _m.mmg_twin_accelerations(p, u, v, r, npo, nst)
     # the external force through the inverse mass matrix of eq. 4 (the accelerations are linear
     # in the forces)
@@ -576,6 +582,9 @@ KIND = ModelKind(
                           priors=_mmg_fit.priors_of),
     particulars=particulars,
     uses_trig=True,
+    # the variant (rudder, pod, twin): one vector step per variant, only its forces compiled
+    switch_row=_m.IDX_VARIANT,
+    switch_values=(0.0, 1.0, 2.0),
     state_estimation=True,
 )
 

@@ -93,6 +93,7 @@ import numpy as np
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
+from usvid.models import vmath
 from usvid.models._validate import check_params
 from usvid.models.hull import (
     clarke83_added_mass,
@@ -398,7 +399,7 @@ def _hull_nb(p: Any, u: float, v: float,
     """(X_H, Y_H, N_H [N, N m], U [m/s], beta [rad], v', r') of the Y&Y 2015 hull force model."""
     L = p[IDX_L]
     U2 = u * u + v * v
-    U = math.sqrt(U2)
+    U = vmath.sqrt(U2)
     Ug = max(U, p[IDX_U_MIN])
     vp = min(1.0, max(-1.0, v / Ug))
     rp = r * L / Ug
@@ -413,7 +414,7 @@ def _hull_nb(p: Any, u: float, v: float,
     NH = p[IDX_QN] * U2 * (p[IDX_N_V] * vp + p[IDX_N_R] * rp
                               + p[IDX_N_VVV] * vp2 * vp + p[IDX_N_VVR] * vp2 * rp
                               + p[IDX_N_VRR] * vp * rp2 + p[IDX_N_RRR] * rp2 * rp)
-    beta = math.asin(-vp)
+    beta = vmath.asin(-vp)  # (branch-free: the kernels' lane loops vectorise)
     return XH, YH, NH, U, beta, vp, rp
 
 
@@ -423,14 +424,14 @@ def _wake_nb(p: Any, beta: float, rp: float) -> float:
 
     wake_model 0: ``w_P = 1 - (1 - w_P0)(1 + (1 - exp(-C_1 |beta_P|))(C_2 - 1))`` (Y&Y 2015,
     C_2 by the sign of beta_P); 1: ``w_P = w_P0 exp(-C_w beta_P^2)`` (shipmmg's form). Blended by
-    the 0/1 flag (no branch)."""
+    the 0/1 flag: one exponential of the model's argument (selects, no branch)."""
     bP = beta - p[IDX_X_P] * rp
     pos = 1.0 if bP > 0.0 else 0.0
     C2 = p[IDX_C_2_MINUS] + (p[IDX_C_2_PLUS] - p[IDX_C_2_MINUS]) * pos
-    wy = 1.0 - (1.0 - p[IDX_W_P0]) * (
-        1.0 + (1.0 - math.exp(-p[IDX_C_1] * abs(bP))) * (C2 - 1.0))
-    wg = p[IDX_W_P0] * math.exp(-p[IDX_C_W] * bP * bP)
     s = p[IDX_WAKE_MODEL]
+    e = vmath.exp(-p[IDX_C_W] * bP * bP if s != 0.0 else -p[IDX_C_1] * abs(bP))
+    wy = 1.0 - (1.0 - p[IDX_W_P0]) * (1.0 + (1.0 - e) * (C2 - 1.0))
+    wg = p[IDX_W_P0] * e
     return (1.0 - s) * wy + s * wg
 
 
@@ -471,16 +472,16 @@ def _rudder_nb(p: Any, U: float, beta: float, rp: float, uP: float, n: float,
     an = abs(n)
     ktn2d2 = (p[IDX_K_0] * n * n * D * D + p[IDX_K_1] * an * D * uP
               + p[IDX_K_2] * uP * uP)
-    s = math.sqrt(max(0.0, uP * uP + _EIGHT_PI * ktn2d2))
+    s = vmath.sqrt(max(0.0, uP * uP + _EIGHT_PI * ktn2d2))
     kap = p[IDX_KAPPA]
     w = (1.0 - kap) * uP + kap * s
     eta = p[IDX_ETA]
-    uR = p[IDX_EPSILON] * math.sqrt(eta * w * w + (1.0 - eta) * uP * uP)
+    uR = p[IDX_EPSILON] * vmath.sqrt(eta * w * w + (1.0 - eta) * uP * uP)
     bR = beta - p[IDX_L_R] * rp
     pos = 1.0 if bR > 0.0 else 0.0
     gam = p[IDX_GAMMA_MINUS] + (p[IDX_GAMMA_PLUS] - p[IDX_GAMMA_MINUS]) * pos
     vR = U * gam * bR
-    UR = math.sqrt(uR * uR + vR * vR)
+    UR = vmath.sqrt(uR * uR + vR * vR)
     FN = p[IDX_Q_R] * UR * (uR * sd - vR * cd)
     XR = -(1.0 - p[IDX_T_R]) * FN * sd
     YR = -(1.0 + p[IDX_A_H]) * FN * cd
@@ -548,11 +549,18 @@ def mmg_pod_accelerations(p: Any, u: float, v: float, r: float, delta: float,
     starboard) with effective thrust T_e [N] (K_T law with w_P and t_P, or the pod law):
     ``X_P = T_e cos delta``, ``Y_P = -T_e sin delta``, ``N_P = x_P L Y_P``. n [rps].
     """
+    return mmg_pod_accelerations_cs(p, u, v, r, math.cos(delta), math.sin(delta), n)
+
+
+@numba.njit(cache=True, inline="always")
+def mmg_pod_accelerations_cs(p: Any, u: float, v: float, r: float, cd: float, sd: float,
+                             n: float) -> tuple[float, float, float]:
+    """:func:`mmg_pod_accelerations` with ``cd, sd = cos(delta), sin(delta)`` given."""
     XH, YH, NH, U, beta, vp, rp = _hull_nb(p, u, v, r)
     uP = (1.0 - _wake_nb(p, beta, rp)) * u
     T, Te = _thrust_nb(p, n, u, uP)
-    YP = -Te * math.sin(delta)
-    return _solve_nb(p, u, v, r, XH + Te * math.cos(delta), YH + YP + p[IDX_Y_P0] * T,
+    YP = -Te * sd
+    return _solve_nb(p, u, v, r, XH + Te * cd, YH + YP + p[IDX_Y_P0] * T,
                      NH + p[IDX_XP_M] * YP + p[IDX_N_P0_M] * T)
 
 
