@@ -229,6 +229,10 @@ class OEProblem:
             env = self.env_block(x)
             envs.append(None if env is None else np.broadcast_to(env, (env.shape[0], B)))
         S, nsteps, series = self._tiled(K)
+        if self.disturbance is not None:  # each set's own current / biases (as :meth:`simulate`)
+            per = [self.disturbance.series(x, self.names, self.win.trial_index, self.win.width)
+                   for x in xs]
+            series = {**series, **{k: np.vstack([d[k] for d in per]) for k in per[0]}}
         lanes = replace(base, P=np.hstack(Ps), Z0=np.hstack(Zs), S=S, nsteps=nsteps,
                         series=series,
                         env_block=None if envs[0] is None else np.hstack(envs))
