@@ -9,10 +9,11 @@ import math
 import numpy as np
 import pytest
 
+from test_sim_simd import _both  # the SIMD vs per-lane pair of runs, one definition
 from usvid.models import SecondOrderServo, VesselModel
 from usvid.models import mmg as _mmg
 from usvid.models.kinds.mmg import equilibrium_rps, from_physics
-from usvid.sim import Disturbance, ZigZag, core, simulate
+from usvid.sim import Disturbance, ZigZag, core
 from usvid.trial import Vessel
 
 #: As tests/test_sim_simd.py: the two paths run the same arithmetic; the vector one inlines the
@@ -34,15 +35,6 @@ def _model(variant: str) -> VesselModel:
     return VesselModel(dyn, servo=servo, vessel=Vessel(length=p.L, speed=U0))
 
 
-def _both(model, logic, **kw):
-    try:
-        core.SIMD = True
-        a = simulate(model, logic, **kw)
-        core.SIMD = False
-        b = simulate(model, logic, **kw)
-    finally:
-        core.SIMD = True
-    return a, b
 
 
 def _assert_same(a, b) -> None:
