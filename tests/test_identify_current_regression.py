@@ -164,3 +164,57 @@ def test_options_at_the_edge():
     with pytest.raises(UsvidError, match="output error"):
         ModelEstimator("mmg", "oe-zigzag", disturbance="current")
     ModelEstimator("catamaran", "rls", disturbance="current")  # accepted
+
+
+def test_report_shows_the_current_per_log():
+    """The HTML report's model section: the current as an arrow pointing towards its direction,
+    speed and direction, each component and bias with its 95 % interval, the warning."""
+    from usvid.report.validation_html import _disturbance
+
+    d = {"terms": ["current", "bias"], "estimated_by": "regression",
+         "warning": "catamaran: the current is not separable",
+         "trials": [{"trial": "run<1>.csv", "current_speed_m_s": 0.2,
+                     "current_towards_deg": 60.0,
+                     "current_north": {"value": 0.1, "ci95": [0.09, 0.11], "unit": "m/s"},
+                     "current_east": {"value": 0.1732, "ci95": [0.16, 0.19], "unit": "m/s"},
+                     "bias_N": {"value": 1.5, "ci95": [1.2, 1.8], "unit": "N m"}}]}
+    html = _disturbance(d)
+    assert "rotate(60.0" in html and "towards 60 deg" in html
+    assert "run&lt;1&gt;.csv" in html  # escaped
+    assert "0.1 [0.09, 0.11]" in html and "1.5 [1.2, 1.8]" in html
+    assert "yaw-moment bias [N m]" in html and "sway-force bias" not in html
+    assert "by the regression" in html and "not separable" in html
+    assert _disturbance(None) == "" and _disturbance({"trials": []}) == ""
+
+
+def test_cli_json_model_file_and_report(turning, tmp_path, capsys):
+    """``usvid identify LOG --model catamaran --method ls --disturbance current --json --report
+    DIR``: the current in the JSON, the model file's identification block and the report; a
+    bad term exits 2 naming the option."""
+    import json
+
+    from usvid.cli import main
+    from usvid.io.writers import write_csv
+
+    log = write_csv(turning, tmp_path / "run.csv")
+    out = tmp_path / "m.json"
+    rep = tmp_path / "rep"
+    args = ["identify", str(log), "--model", "catamaran", "--method", "ls", "--vessel",
+            "thruster_spacing=0.8", "--vessel", "thrust_per_command=0.5", "--out", str(out),
+            "--json"]
+    code = main([*args, "--disturbance", "current", "--report", str(rep)])
+    cap = capsys.readouterr()
+    assert code == 0, cap.err
+    d = json.loads(cap.out)["disturbance"]
+    (row,) = d["trials"]
+    assert row["current_speed_m_s"] == pytest.approx(CURRENT, abs=0.02)
+    assert json.loads(out.read_text())["identification"]["disturbance"]["trials"][0][
+        "current_north"]["value"] == row["current_north"]["value"]
+    html = (rep / "report.html").read_text()
+    assert "Disturbance per training log" in html and "towards" in html
+    code = main([*args, "--disturbance", "current,tide"])
+    cap = capsys.readouterr()
+    assert code == 2 and "--disturbance" in cap.err and "'tide'" in cap.err
+    code = main([*args, "--disturbance", "bias"])
+    cap = capsys.readouterr()
+    assert code == 2 and "output error" in cap.err
