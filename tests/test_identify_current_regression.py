@@ -210,6 +210,9 @@ def test_cli_json_model_file_and_report(turning, tmp_path, capsys):
     assert row["current_speed_m_s"] == pytest.approx(CURRENT, abs=0.02)
     assert json.loads(out.read_text())["identification"]["disturbance"]["trials"][0][
         "current_north"]["value"] == row["current_north"]["value"]
+    from usvid.io.modelfile import load_model
+
+    assert load_model(out).identification["disturbance"]["estimated_by"] == "regression"
     html = (rep / "report.html").read_text()
     assert "Disturbance per training log" in html and "towards" in html
     code = main([*args, "--disturbance", "current,tide"])

@@ -237,6 +237,11 @@ def regression_current(kind: Any, series: Sequence[Any], fixed: Mapping[str, Any
     ratio of the marginal to the conditional variance: the latter with the coefficients held
     at their values): near 1, the data cannot tell the current from the hull.
 
+    The currents are found by batch least squares also when the hull is then fitted by
+    recursive least squares (``rls``) on the series through the water. A regression that
+    leaves rows out by the speed (near rest) may leave out a different number at another
+    current: the residual vector is then cut or zero-padded to its length at zero current.
+
     Returns ``(series through the water, x (T, 2) [m/s], cov (2T, 2T), R (2T,))``; ``series``
     are :class:`usvid.identify.series.Series` with the kind's regression arrays."""
     from scipy.optimize import least_squares
