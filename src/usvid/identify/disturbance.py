@@ -38,7 +38,8 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
-from usvid.identify.series import IdentificationWarning
+from usvid.identify.ls import autocorrelation_factor
+from usvid.identify.series import IdentificationWarning, Series
 
 #: The terms of ``--disturbance`` and the per-trial quantities each adds (fit names
 #: ``QUANTITY[TRIAL INDEX]``).
@@ -245,9 +246,6 @@ def regression_current(kind: Any, series: Sequence[Any], fixed: Mapping[str, Any
     Returns ``(series through the water, x (T, 2) [m/s], cov (2T, 2T), R (2T,))``; ``series``
     are :class:`usvid.identify.series.Series` with the kind's regression arrays."""
     from scipy.optimize import least_squares
-
-    from usvid.identify.ls import autocorrelation_factor
-    from usvid.identify.series import Series
 
     reg = kind.regression
     T = len(series)

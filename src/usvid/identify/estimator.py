@@ -745,8 +745,16 @@ class ModelEstimator(FittedAttributes):
                 reg_series = [s.decimated(m) for s in series]
                 h_reg = h * m
             if "current" in self.disturbance:
-                reg_series, *current = _dist.regression_current(
+                water, *current = _dist.regression_current(
                     kind, reg_series, fixed, form=self.form, h=h_reg, cond_max=self.cond_max)
+                if self.method != "oe" or max(current[2]) <= _dist.CORR_MAX:
+                    reg_series = water  # (the output error's start: only a separable one)
+                else:
+                    diag["disturbance_start"] = (
+                        "none: the regression cannot separate the current from the hull "
+                        f"(correlation {max(current[2]):.3f}); the output error starts from "
+                        "no current and the calm-water regression")
+                    current = None
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 ee = fit_equation_error(kind, reg_series, fixed, form=self.form, h=h_reg,
