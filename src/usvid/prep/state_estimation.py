@@ -65,8 +65,8 @@ ship's or a zig-zag's hardly, and the speed changes a real turn has are cheap in
 per-trial summary therefore reports the smoothed correlation of u (v) with the current along the
 same body axis (near -1: only their sum is seen). Measured on a virtual 1.5 m catamaran in a
 0.2 m/s current (random thrust levels and differentials, 240 s, 10 Hz GNSS and Doppler): the
-kinematic estimate is off by 0.12 m/s (0.3 m/s without the logged u, v) with a correlation of
--0.96 to -0.99. A current is only separable with a model of the hull: the identification
+kinematic estimate is off by 0.14 m/s (0.33 m/s without the logged u, v), correlation -0.96
+(-0.93); weaving about one course 0.34 m/s (0.26 m/s), correlation -0.99 (-1.00). A current is only separable with a model of the hull: the identification
 estimates it with the hull's coefficients (:mod:`usvid.identify.disturbance`), from the
 current-free state estimate. A force bias (sway force, yaw moment) has no state here: in a
 kinematic model a force is an acceleration (u', v', r' are states already), and a bias state
