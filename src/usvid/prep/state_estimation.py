@@ -55,24 +55,25 @@ then the velocities through the water and the position moves with the sum::
     x' = u cos psi - v sin psi + c_N,     y' = u sin psi + v cos psi + c_E,     c_N' = c_E' = w_c
 
 (Fossen 2021, ch. 10.3: ground velocity = body velocity through the water rotated + current);
-logged body u, v (an INS), speed and course over ground are then predicted over ground
-(through the water plus the current). ``q_c`` is held (default :data:`Q_CURRENT`, 1e-6
-m^2/s^3), not tuned by the likelihood: the likelihood cannot tell a slow current from slow
-changes of u, v. What separates them in a kinematic model is only the smoothness prior of u, v
-(white jerk): a current seen from the turning body frame is a velocity oscillating with the
-heading, which costs jerk ``|c| r^2``; a steady turn of an agile craft makes that visible, a
-ship's or a zig-zag's hardly, and the speed changes a real turn has are cheap in the prior. The
-per-trial summary therefore reports the smoothed correlation of u (v) with the current along the
-same body axis (near -1: only their sum is seen). Measured on a virtual 1.5 m catamaran in a
-0.2 m/s current (random thrust levels and differentials, 240 s, 10 Hz GNSS and Doppler): the
-kinematic estimate is off by 0.14 m/s (0.33 m/s without the logged u, v), correlation -0.96
-(-0.93); weaving about one course 0.34 m/s (0.26 m/s), correlation -0.99 (-1.00). A current is only separable with a model of the hull: the identification
-estimates it with the hull's coefficients (:mod:`usvid.identify.disturbance`), from the
-current-free state estimate. A force bias (sway force, yaw moment) has no state here: in a
-kinematic model a force is an acceleration (u', v', r' are states already), and a bias state
-``b`` entering ``v' = a_v + b`` would be the same observation twice; Fossen's bias observers
-(2021, ch. 13) separate it through the vessel's model ``M nu' + D nu = tau + b``, which is
-again the identification's job (the output error's bias parameters).
+logged body u, v (an INS), speed and course over ground are then predicted over ground (through
+the water plus the current). ``q_c`` is held (default :data:`Q_CURRENT`, 1e-6 m^2/s^3), not
+tuned by the likelihood: the likelihood cannot tell a slow current from slow changes of u, v.
+What separates them in a kinematic model is only the smoothness prior of u, v (white jerk): a
+current seen from the turning body frame is a velocity oscillating with the heading, which costs
+jerk ``|c| r^2``; a steady turn of an agile craft makes that visible, a ship's or a zig-zag's
+hardly, and the speed changes a real turn has are cheap in the prior. The per-trial summary
+therefore reports the smoothed correlation of u (v) with the current along the same body axis
+(near -1: only their sum is seen). Measured on a virtual 1.5 m catamaran in a 0.2 m/s current
+(random thrust levels and differentials, 240 s, 10 Hz GNSS and Doppler): the kinematic estimate
+is off by 0.14 m/s (0.33 m/s without the logged u, v), correlation -0.96 (-0.93); weaving about
+one course 0.34 m/s (0.26 m/s), correlation -0.99 (-1.00). A current is only separable with a
+model of the hull: the identification estimates it with the hull's coefficients
+(:mod:`usvid.identify.disturbance`), from the current-free state estimate. A force bias (sway
+force, yaw moment) has no state here: in a kinematic model a force is an acceleration (u', v',
+r' are states already), and a bias state ``b`` entering ``v' = a_v + b`` would be the same
+observation twice; Fossen's bias observers (2021, ch. 13) separate it through the vessel's model
+``M nu' + D nu = tau + b``, which is again the identification's job (the output error's bias
+parameters).
 
 Noise defaults, from the data (each overridable in SI units):
 
