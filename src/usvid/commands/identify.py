@@ -84,11 +84,13 @@ TurningOpt = Annotated[list[Path] | None, typer.Option(
 XlOpt = Annotated[float | None, typer.Option(
     "--x-l", help="Thruster arm behind the pivot [m] (threedof; else vessel.extra.x_l).")]
 DisturbanceOpt = Annotated[str | None, typer.Option(
-    "--disturbance", help="Estimate what was not logged with the output error (--method oe; "
-    "kinds with surge and sway): current (a constant current per trial, north and east "
-    "[m/s]), bias (a constant sway force [N] and yaw moment [N m] per trial), or current,bias; "
-    "reported per trial with 95 % intervals (JSON and model file: identification."
-    "disturbance), with a warning when the manoeuvres cannot separate them from the hull.")]
+    "--disturbance", help="Estimate what was not logged, with the hull (kinds with surge and "
+    "sway): current (a constant current per trial, north and east [m/s]), bias (a constant "
+    "sway force [N] and yaw moment [N m] per trial), or current,bias; by the output error "
+    "(--method oe, the default with this option) or, current only, by the regression "
+    "(--method ls/rls); reported per trial with 95 % intervals (JSON and model file: "
+    "identification.disturbance), with a warning when the manoeuvres cannot separate them "
+    "from the hull.")]
 VesselOpt = Annotated[list[str] | None, typer.Option(
     "--vessel", help="A vessel particular NAME=VALUE in SI units, overriding the format spec's "
     "vessel block (e.g. propeller_diameter=0.46); repeat for several.")]

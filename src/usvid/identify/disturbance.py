@@ -31,14 +31,15 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
-from usvid.identify.series import IdentificationWarning
+from usvid.identify.ls import autocorrelation_factor
+from usvid.identify.series import IdentificationWarning, Series
 
 #: The terms of ``--disturbance`` and the per-trial quantities each adds (fit names
 #: ``QUANTITY[TRIAL INDEX]``).
@@ -184,5 +185,178 @@ def _plain(name: str, dist: Disturbance) -> str:
     return name
 
 
-__all__ = ["CORR_MAX", "Disturbance", "SERIES_OF", "TERMS", "UNITS", "disturbance_for",
-           "parse_disturbance", "report"]
+# ------------------------------------------------------------------------------------------
+# the current in the regression (least squares on the smoothed states)
+# ------------------------------------------------------------------------------------------
+
+#: Terms the regression (``--method ls`` / ``rls``) estimates: the current only (a force bias
+#: enters each kind's regression in its own normalisation; the output error estimates it).
+REGRESSION_TERMS = ("current",)
+
+
+def through_water(data: Mapping[str, np.ndarray], cn: float, ce: float) -> dict[str, np.ndarray]:
+    """The series ``data`` (smoothed ``u_s``, ``v_s``, ``r_s``, ``psi_s``, ``udot_s``,
+    ``vdot_s``, over ground) with the velocities through the water of a constant current
+    ``(cn, ce)`` [m/s, north, east, towards] (Fossen 2021, ch. 10.3): with the current in body
+    axes ``u_c = c_N cos psi + c_E sin psi``, ``v_c = -c_N sin psi + c_E cos psi``,
+
+    .. math:: u_r = u - u_c, \\quad v_r = v - v_c, \\quad \\dot u_r = \\dot u - r v_c, \\quad
+              \\dot v_r = \\dot v + r u_c
+
+    (``d u_c/dt = r v_c``, ``d v_c/dt = -r u_c`` for a constant current). For an irrotational
+    constant current the rigid-body terms satisfy ``M_RB nu' + C_RB(nu) nu = M_RB nu_r' +
+    C_RB(nu_r) nu_r`` (Fossen 2021, Property 10.1), so a kind's calm-water regression holds in
+    the relative velocities. The other entries are shared, not copied."""
+    d = dict(data)
+    psi, r = d["psi_s"], d["r_s"]
+    c, s = np.cos(psi), np.sin(psi)
+    uc = cn * c + ce * s
+    vc = -cn * s + ce * c
+    d["u_s"] = d["u_s"] - uc
+    d["v_s"] = d["v_s"] - vc
+    d["udot_s"] = d["udot_s"] - r * vc
+    d["vdot_s"] = d["vdot_s"] + r * uc
+    return d
+
+
+def regression_current(kind: Any, series: Sequence[Any], fixed: Mapping[str, Any], *,
+                       form: str, h: float, cond_max: float = 1e8
+                       ) -> tuple[list[Any], np.ndarray, np.ndarray, np.ndarray]:
+    """A constant current per trial estimated with the hull by the kind's regression: the
+    series through the water (:func:`through_water`) of the currents minimising the
+    regression's residuals, the hull's coefficients eliminated by variable projection (Golub &
+    Pereyra 1973: for given currents the coefficients are the linear least-squares solution,
+    so only the currents are iterated; scipy's Levenberg-Marquardt, numerical Jacobian).
+
+    Each equation's residuals are scaled by their RMS at zero current (the equations' units
+    differ). The currents' covariance is ``s^2 (J'J)^-1 f`` of the projected residuals' Jacobian
+    ``J`` (Kaufman 1975's approximation of the variable-projection Jacobian), ``s^2`` the scaled
+    residual variance and ``f`` the largest equation's residual autocorrelation factor
+    (:func:`usvid.identify.ls.autocorrelation_factor`, as the regression's own intervals).
+    ``collinear``: per current, the multiple correlation ``R = sqrt(1 - 1/VIF)`` of its effect
+    on the residuals with that of the hull coefficients and the other currents (``VIF`` the
+    ratio of the marginal to the conditional variance: the latter with the coefficients held
+    at their values): near 1, the data cannot tell the current from the hull.
+
+    The currents are found by batch least squares also when the hull is then fitted by
+    recursive least squares (``rls``) on the series through the water. A regression that
+    leaves rows out by the speed (near rest) may leave out a different number at another
+    current: the residual vector is then cut or zero-padded to its length at zero current.
+
+    Returns ``(series through the water, x (T, 2) [m/s], cov (2T, 2T), R (2T,))``; ``series``
+    are :class:`usvid.identify.series.Series` with the kind's regression arrays."""
+    from scipy.optimize import least_squares
+
+    reg = kind.regression
+    T = len(series)
+    base = [s.data for s in series]
+    for s in series:
+        missing = [k for k in ("u_s", "v_s", "r_s", "psi_s", "udot_s", "vdot_s") if k not in s]
+        if missing:
+            raise IdentificationError(
+                f"--disturbance current: trial {s.name} has no {', '.join(missing)} (the "
+                f"{kind.name} regression has no surge and sway velocities to carry a current)")
+
+    def blocks(x: np.ndarray) -> list[Any]:
+        data = [through_water(d, float(x[2 * k]), float(x[2 * k + 1]))
+                for k, d in enumerate(base)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return reg.blocks(data, fixed, form, h)
+
+    def solve(blk: Any) -> np.ndarray:
+        return np.linalg.lstsq(blk.Phi, blk.y, rcond=None)[0]
+
+    x0 = np.zeros(2 * T)
+    b0 = blocks(x0)
+    scale = []
+    for blk in b0:
+        res = blk.y - blk.Phi @ solve(blk)
+        scale.append(max(float(np.sqrt(np.mean(res * res))), 1e-300))
+    n_ref = [blk.y.size for blk in b0]
+
+    def fixed_len(r: np.ndarray, n: int) -> np.ndarray:  # rows left out vary with the speed
+        return r[:n] if r.size >= n else np.concatenate([r, np.zeros(n - r.size)])
+
+    def resid(x: np.ndarray, theta: list[np.ndarray] | None = None) -> np.ndarray:
+        out = []
+        for i, blk in enumerate(blocks(x)):
+            th = solve(blk) if theta is None else theta[i]
+            out.append(fixed_len((blk.y - blk.Phi @ th) / scale[i], n_ref[i]))
+        return np.concatenate(out)
+
+    sol = least_squares(resid, x0, method="lm", diff_step=1e-6, xtol=1e-10, ftol=1e-10)
+    x = sol.x
+    J = sol.jac
+    r = sol.fun
+    dof = max(r.size - x.size - sum(blk.Phi.shape[1] for blk in b0), 1)
+    s2 = float(r @ r) / dof
+    fac = max(autocorrelation_factor(r[sum(n_ref[:i]):sum(n_ref[:i + 1])],
+                                     max_lag=min(200, max(n_ref[i] // 4, 1)))
+              for i in range(len(n_ref)))
+    JtJ = J.T @ J
+    try:
+        cov = np.linalg.inv(JtJ) * s2 * fac
+    except np.linalg.LinAlgError:
+        cov = np.full((x.size, x.size), np.inf)
+    # conditional variance: the coefficients held at their values at the solution
+    theta = [solve(blk) for blk in blocks(x)]
+    Jc = np.empty_like(J)
+    for j in range(x.size):
+        step = 1e-6 * max(1.0, abs(x[j]))
+        xp, xm = x.copy(), x.copy()
+        xp[j] += step
+        xm[j] -= step
+        Jc[:, j] = (resid(xp, theta) - resid(xm, theta)) / (2 * step)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cond_var = s2 * fac / np.einsum("ij,ij->j", Jc, Jc)
+        R = np.sqrt(np.clip(1.0 - cond_var / np.diag(cov), 0.0, 1.0))
+    R[~np.isfinite(np.diag(cov))] = 1.0
+    out = [Series(s.name, s.h, through_water(d, float(x[2 * k]), float(x[2 * k + 1])))
+           for k, (s, d) in enumerate(zip(series, base, strict=True))]
+    return out, x.reshape(T, 2), cov, R
+
+
+def regression_report(trials: Sequence[str], x: np.ndarray, cov: np.ndarray, R: np.ndarray,
+                      q: float, kind: str) -> dict[str, Any]:
+    """The JSON-ready per-trial current of :func:`regression_current` in the keys of
+    :func:`report` (``terms``, ``trials``, ``not_separable``, ``warning``) and
+    ``estimated_by`` (how): a current whose multiple correlation with the hull and the other
+    currents exceeds :data:`CORR_MAX` (or whose interval is not finite) is not separable;
+    warned as :func:`report` does."""
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    rows, bad = [], []
+    for k, tname in enumerate(trials):
+        row: dict[str, Any] = {"trial": tname}
+        for j, qn in enumerate(TERMS["current"]):
+            i = 2 * k + j
+            v, se = float(x[k, j]), float(sd[i])
+            row[qn] = {"value": v, "std_error": se, "ci95": [v - q * se, v + q * se],
+                       "unit": UNITS[qn], "correlation_with_hull": float(R[i])}
+            if not (math.isfinite(se) and se > 0.0):
+                bad.append({"quantity": f"{qn}[{tname}]", "reason": "no finite interval"})
+            elif R[i] > CORR_MAX:
+                bad.append({"quantity": f"{qn}[{tname}]",
+                            "with": "the hull coefficients and the other currents",
+                            "correlation": round(float(R[i]), 4)})
+        cn, ce = row["current_north"]["value"], row["current_east"]["value"]
+        row["current_speed_m_s"] = float(math.hypot(cn, ce))
+        row["current_towards_deg"] = float(math.degrees(math.atan2(ce, cn)) % 360.0)
+        rows.append(row)
+    text = None
+    if bad:
+        parts = [f"{b['quantity']} with {b['with']} (correlation {b['correlation']:.3f})"
+                 if "with" in b else f"{b['quantity']} ({b['reason']})" for b in bad[:6]]
+        more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
+        text = (f"{kind}: the current is not separable from the hull in these data "
+                f"(collinear: {'; '.join(parts)}{more}): its values and the hull's coefficients "
+                "are not determined separately; runs with turns through a wide range of "
+                "headings separate them")
+        warnings.warn(text, IdentificationWarning, stacklevel=3)
+    return {"terms": ["current"], "trials": rows, "not_separable": bad, "warning": text,
+            "estimated_by": "regression"}
+
+
+__all__ = ["CORR_MAX", "Disturbance", "REGRESSION_TERMS", "SERIES_OF", "TERMS", "UNITS",
+           "disturbance_for", "parse_disturbance", "regression_current", "regression_report",
+           "report", "through_water"]

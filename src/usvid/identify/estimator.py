@@ -467,9 +467,13 @@ class ModelEstimator(FittedAttributes):
         self.disturbance = _dist.parse_disturbance(disturbance)
         if self.disturbance:
             _dist.disturbance_for(k, self.disturbance, ())  # a kind that can carry them
-            if not self._auto and method != "oe":
+            other = [t for t in self.disturbance if t not in _dist.REGRESSION_TERMS]
+            if not self._auto and method != "oe" and (method not in ("ls", "rls") or other):
                 raise UsvidError(f"--disturbance {','.join(self.disturbance)} is estimated by "
-                                 f"the output error (--method oe), not by {method}")
+                                 f"the output error (--method oe), not by {method}"
+                                 + (f" (the regression estimates the current only: "
+                                    f"--disturbance current; {','.join(other)} needs the "
+                                    "output error)" if method in ("ls", "rls") else ""))
 
     def _estimator_label(self) -> str:
         return f"ModelEstimator({self.kind!r})"
@@ -723,6 +727,7 @@ class ModelEstimator(FittedAttributes):
         h = series[0].h
         diag: dict[str, Any] = {}
         fit_series = series
+        current = None  # the regression's current per trial (usvid.identify.disturbance)
         if self.kind == "norrbin" and self.norrbin == "two_step":
             turn = [_is_turning(tr, psi_switch) for tr in trials]
             zz = [s for s, tu in zip(series, turn, strict=True) if not tu]
@@ -739,6 +744,17 @@ class ModelEstimator(FittedAttributes):
                 m = self._decimation(series[0])
                 reg_series = [s.decimated(m) for s in series]
                 h_reg = h * m
+            if "current" in self.disturbance:
+                water, *current = _dist.regression_current(
+                    kind, reg_series, fixed, form=self.form, h=h_reg, cond_max=self.cond_max)
+                if self.method != "oe" or max(current[2]) <= _dist.CORR_MAX:
+                    reg_series = water  # (the output error's start: only a separable one)
+                else:
+                    diag["disturbance_start"] = (
+                        "none: the regression cannot separate the current from the hull "
+                        f"(correlation {max(current[2]):.3f}); the output error starts from "
+                        "no current and the calm-water regression")
+                    current = None
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 ee = fit_equation_error(kind, reg_series, fixed, form=self.form, h=h_reg,
@@ -755,6 +771,10 @@ class ModelEstimator(FittedAttributes):
         if self.method == "oe":
             win = self._windows(fit_series, self.window_s, self.overlap)
             params = self._valid_start(params, fixed, fit_series, diag)
+            if current is not None:  # the output error starts from the regression's current
+                params = {**params, **{f"{q}[{k}]": float(current[0][k, j])
+                                       for k in range(len(fit_series))
+                                       for j, q in enumerate(_dist.TERMS["current"])}}
             dist = _dist.disturbance_for(kind, self.disturbance,
                                          [s.name or f"trial {i + 1}"
                                           for i, s in enumerate(fit_series)])
@@ -802,6 +822,15 @@ class ModelEstimator(FittedAttributes):
             diag["warnings"] = [weak]
         self._wind_scale(wf, oe, q, diag)
         dist_out = None
+        if current is not None and oe is None:  # the regression's current: reported
+            dist_out = _dist.regression_report([s.name for s in fit_series], *current, q,
+                                               self.kind)
+            if dist_out["warning"]:
+                diag.setdefault("warnings", []).append(dist_out["warning"])
+        elif current is not None:  # the output error's start
+            diag["disturbance_start"] = {
+                s.name: dict(zip(_dist.TERMS["current"], current[0][k].tolist(), strict=True))
+                for k, s in enumerate(fit_series)}
         if oe is not None and oe.disturbance is not None:
             dist_out = _dist.report(oe.disturbance, oe.x, oe.x_names, oe.x_cov, q,
                                     oe.free_names, self.kind)

@@ -2,18 +2,20 @@
 by :mod:`usvid.report.validation_run`): one self-contained file that works offline.
 
 Sections: the model (equation, parameters with standard errors and 95 % intervals, correlation
-matrix of the estimates), then the **training** trials and the **held-out** trials in separate
-sections (a model judged on the data it was fitted to says little about its prediction). Per
-trial: measured vs predicted manoeuvre metrics with labels and units, the IMO MSC.137(76)
-criteria with their applicability (the Standards apply to ships of 100 m in length and over),
-and interactive figures (plotly, its JavaScript embedded once, no network): measured heading and
-yaw rate against the free-run replay with its 95 % prediction band, the residuals, the track
-(axes scaled independently so a long run is not squashed) and the predicted manoeuvre against
-the measured one. A held-out run predicted in its own conditions (its logged wind, the current
-estimated from its approach) shows them: the wind speed and direction over the manoeuvre, the
-current as an arrow with its numbers (or why there is none), and that prediction beside the
-calm-water one in the table and the manoeuvre figure. Print CSS keeps each heading with its
-figure.
+matrix of the estimates, the disturbance estimated per training log when there is one: the
+current as an arrow with its speed and direction, each component and bias with its 95 %
+interval, the separability warning), then the **training** trials and the **held-out** trials in
+separate sections (a model judged on the data it was fitted to says little about its
+prediction). Per trial: measured vs predicted manoeuvre metrics with labels and units, the IMO
+MSC.137(76) criteria with their applicability (the Standards apply to ships of 100 m in length
+and over), and interactive figures (plotly, its JavaScript embedded once, no network): measured
+heading and yaw rate against the free-run replay with its 95 % prediction band, the residuals,
+the track (axes scaled independently so a long run is not squashed) and the predicted manoeuvre
+against the measured one. A held-out run predicted in its own conditions (its logged wind, the
+current estimated from its approach) shows them: the wind speed and direction over the
+manoeuvre, the current as an arrow with its numbers (or why there is none), and that prediction
+beside the calm-water one in the table and the manoeuvre figure. Print CSS keeps each heading
+with its figure.
 """
 
 from __future__ import annotations
@@ -318,7 +320,62 @@ def _model(model: Mapping[str, Any]) -> str:
     notes += "".join(f'<p class="bad">check failed: {esc(c.get("message", ""))}</p>'
                      for c in model.get("checks", []) if isinstance(c, Mapping)
                      and not c.get("passed", True))
-    return head + notes + table + ctab
+    return head + notes + table + ctab + _disturbance(model.get("disturbance"))
+
+
+def _arrow_svg(towards_deg: float, size: int = 28) -> str:
+    """A small inline SVG arrow pointing the way a current flows (north up, clockwise)."""
+    h = size / 2
+    return (f'<svg width="{size}" height="{size}" viewBox="0 0 {size} {size}" role="img" '
+            f'aria-label="towards {towards_deg:.0f} deg" style="vertical-align:middle">'
+            f'<circle cx="{h}" cy="{h}" r="{h - 1}" fill="none" stroke="#bbb"/>'
+            f'<g transform="rotate({towards_deg:.1f} {h} {h})">'
+            f'<line x1="{h}" y1="{size - 4}" x2="{h}" y2="5" stroke="#2e7d32" '
+            'stroke-width="2"/>'
+            f'<polygon points="{h},2 {h - 4},9 {h + 4},9" fill="#2e7d32"/></g></svg>')
+
+
+def _disturbance(d: Mapping[str, Any] | None) -> str:
+    """What was not logged, estimated per training log (``identification.disturbance``): the
+    current as an arrow with its speed and direction, each quantity with its 95 % interval, the
+    separability warning; empty without one."""
+    if not d or not d.get("trials"):
+        return ""
+    qs = [("current_north", "current north", "m/s"), ("current_east", "current east", "m/s"),
+          ("bias_Y", "sway-force bias", "N"), ("bias_N", "yaw-moment bias", "N m")]
+    present = [q for q in qs if any(q[0] in row for row in d["trials"])]
+    has_current = any("current_speed_m_s" in row for row in d["trials"])
+    rows = []
+    for row in d["trials"]:
+        cells = [esc(row.get("trial", ""))]
+        if has_current:
+            if "current_speed_m_s" in row:
+                cells.append(f"{_arrow_svg(float(row['current_towards_deg']))} "
+                             f"{fmt(row['current_speed_m_s'], 3)} m/s towards "
+                             f"{row['current_towards_deg']:.0f} deg")
+            else:
+                cells.append("&mdash;")
+        for q, _, _ in present:
+            v = row.get(q)
+            if not isinstance(v, Mapping):
+                cells.append("&mdash;")
+                continue
+            lo, hi = (v.get("ci95") or [None, None])[:2]
+            cells.append(f"{fmt(v.get('value'), 4)} [{fmt(lo, 3)}, {fmt(hi, 3)}]")
+        rows.append(cells)
+    head = (["log"] + (["current"] if has_current else [])
+            + [f"{label} [{unit}] (95 %)" for _, label, unit in present])
+    by = {"regression": "by the regression with the hull (variable projection)"}.get(
+        str(d.get("estimated_by")), "by the output error with the hull")
+    out = ('<h3 id="disturbance">Disturbance per training log</h3>'
+           f"<p>Estimated {esc(by)}: "
+           f"{esc(', '.join(d.get('terms', [])))}; the current flows towards the direction "
+           "shown (north up). It belongs to the training logs, not to the model: the model "
+           "file's hull is the calm-water hull.</p>"
+           + _table(head, rows, 1))
+    if d.get("warning"):
+        out += f'<p class="bad">warning: {esc(d["warning"])}</p>'
+    return out
 
 
 def build_validation_html(run: Mapping[str, Any]) -> str:

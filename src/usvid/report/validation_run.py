@@ -5,7 +5,8 @@
 ``run.json`` (JSON, SI units unless a key names another unit): ``usvid_run`` 1, ``run_kind``
 "validation", ``title``, ``created_by``, ``usvid_version``, ``model`` (``kind``, ``file``,
 ``method``, ``equation``, ``vessel``, ``params`` with ``std_errors``, ``ci95``, ``units``,
-``correlation`` {``names``, ``matrix``} when the covariance is known, ``fit``), ``training``
+``correlation`` {``names``, ``matrix``} when the covariance is known, ``fit``, ``disturbance``
+the model file's ``identification.disturbance`` when identified with one), ``training``
 and ``held_out`` (one entry per trial: the ``usvid validate`` row plus ``series`` for the
 figures, decimated to at most :data:`MAX_POINTS` samples, and ``band`` the 95 % prediction band
 of the replay from the parameter uncertainty).
@@ -84,6 +85,8 @@ def _model_block(model: Any, file: str | None, unc: Uncertainty | None) -> dict[
         "warnings": list((ident.get("diagnostics") or {}).get("warnings") or []),
         "checks": ident.get("checks", []),
     }
+    if ident.get("disturbance"):  # the per-log current / biases of --disturbance
+        out["disturbance"] = ident["disturbance"]
     if unc is not None and unc.names:
         c = np.asarray(unc.cov, dtype=float)
         sd = np.sqrt(np.clip(np.diag(c), 0, None))

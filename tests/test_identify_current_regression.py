@@ -1,0 +1,261 @@
+"""The current estimated with the hull by the regression (``--method ls --disturbance current``,
+usvid.identify.disturbance.regression_current): a twin-thruster catamaran simulated in a known
+current, logged by noisy sensors, identified by least squares on the state estimate; the
+verdict when the manoeuvres cannot separate the current; the formula of the water-relative
+states; the options at the edge."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from usvid.errors import UsvidError
+from usvid.identify import disturbance as dist
+from usvid.identify.estimator import ModelEstimator
+from usvid.models import Catamaran
+from usvid.models.model import VesselModel
+from usvid.sim import Commanded, Environment
+from usvid.sim.simulate import simulate
+from usvid.sim.virtual import SensorModel, virtual_trial_uniform
+from usvid.trial import Vessel
+
+SENSORS = SensorModel(speed_sigma_m_s=0.02)  # GNSS Doppler class; the other sensors default
+CAT = Catamaran(m11=80.0, m22=120.0, m33=30.0, d11=25.0, d22=70.0, d33=40.0, b=0.8,
+                thrust=0.5)
+#: The truth: a current of 0.2 m/s towards 060 deg (no force bias: the regression estimates the
+#: current only).
+CURRENT, TOWARDS = 0.2, math.radians(60.0)
+HULL = ("m11", "m22", "m33", "d11", "d22", "d33")
+
+
+def _trial(weave: bool = False, t_end: float = 240.0, seed: int = 0):
+    """Commands held 15 s: random levels and differentials (every third segment straight),
+    from rest in the current, logged at 10 Hz; ``weave``: level 20 and a differential of +-6
+    switched every 4 s (the heading keeps within a narrow sector)."""
+    t = np.arange(0.0, t_end + 0.01, 0.1)
+    rng = np.random.default_rng(seed)
+    seg = (t // 15).astype(int)
+    lev = rng.uniform(20, 100, seg.max() + 1)[seg]
+    dif = rng.uniform(-40, 40, seg.max() + 1)
+    dif[::3] = 0.0
+    dif = dif[seg]
+    if weave:
+        lev = np.full_like(t, 20.0)
+        dif = 6.0 * np.where((t // 4).astype(int) % 2 == 0, 1.0, -1.0)
+    res = simulate(VesselModel(CAT, vessel=Vessel(length=1.5)),
+                   Commanded(t=t, n_port=lev + dif, n_stbd=lev - dif), t_end=t_end, dt=0.02,
+                   u0=0.0, environment=Environment(current_speed=CURRENT, current_dir=TOWARDS))
+    return virtual_trial_uniform(res, SENSORS, seed=seed + 2, rate_hz=10.0)
+
+
+def _fit(trial, terms, method="ls", **kw):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        est = ModelEstimator("catamaran", method, thrust=0.5, disturbance=terms,
+                             particulars={"thruster_spacing": 0.8}, **kw).fit(trial)
+    return est, [str(w.message) for w in caught]
+
+
+@pytest.fixture(scope="module")
+def turning():
+    return _trial()
+
+
+def test_through_water_by_hand():
+    """psi = 90 deg (heading east), r = 0.1 rad/s, a current of 1 m/s towards north: in body
+    axes u_c = 0, v_c = -1 m/s (from the port side), so u_r = u, v_r = v + 1,
+    u_r' = u' - r v_c = u' + 0.1, v_r' = v' + r u_c = v'."""
+    d = {"psi_s": np.array([math.pi / 2]), "r_s": np.array([0.1]), "u_s": np.array([2.0]),
+         "v_s": np.array([0.3]), "udot_s": np.array([0.05]), "vdot_s": np.array([-0.02])}
+    w = dist.through_water(d, 1.0, 0.0)
+    assert w["u_s"][0] == pytest.approx(2.0)
+    assert w["v_s"][0] == pytest.approx(1.3)
+    assert w["udot_s"][0] == pytest.approx(0.15)
+    assert w["vdot_s"][0] == pytest.approx(-0.02)
+    assert d["u_s"][0] == 2.0  # the input is not modified
+
+
+def test_current_recovered_with_the_hull(turning):
+    """Turns through every heading separate the current from the hull in the regression.
+    Tolerances: the current within 0.02 m/s and 10 deg (the accuracy asked of a current from
+    free-running trials; measured 0.001 m/s, 0.1 deg); the hull within 5 % (measured 2.2 %,
+    m33; the calm-water recovery of this kind, tests/test_identify_3dof.py, asks 10 %); the
+    truth inside the 95 % interval (measured half-width 0.0035 m/s)."""
+    est, warned = _fit(turning, "current")
+    d = est.result_.summary()["disturbance"]
+    assert d["terms"] == ["current"] and d["estimated_by"] == "regression"
+    assert not d["not_separable"] and d["warning"] is None
+    row = d["trials"][0]
+    print({k: (row[k]["value"], row[k]["ci95"], row[k]["correlation_with_hull"])
+           for k in ("current_north", "current_east")},
+          {k: round(est.params_[k] / getattr(CAT, k) - 1, 4) for k in HULL})
+    cn, ce = CURRENT * math.cos(TOWARDS), CURRENT * math.sin(TOWARDS)
+    assert math.hypot(row["current_north"]["value"] - cn,
+                      row["current_east"]["value"] - ce) < 0.02
+    assert row["current_speed_m_s"] == pytest.approx(CURRENT, abs=0.02)
+    assert abs((row["current_towards_deg"] - 60.0 + 180) % 360 - 180) < 10.0
+    for k, truth in (("current_north", cn), ("current_east", ce)):
+        lo, hi = row[k]["ci95"]
+        assert lo < truth < hi and hi - lo < 0.02, k
+        assert row[k]["unit"] == "m/s" and row[k]["correlation_with_hull"] < dist.CORR_MAX
+    for k in HULL:
+        assert est.params_[k] == pytest.approx(getattr(CAT, k), rel=0.05), k
+    ident = est.model_.identification
+    assert ident["disturbance"]["trials"][0]["current_east"]["value"] == \
+        row["current_east"]["value"]
+    assert ident["options"]["disturbance"] == ["current"]
+    assert not any("not separable" in w for w in warned)
+
+
+def test_without_the_current_the_hull_is_biased(turning):
+    """The same data by least squares in calm water: the hull absorbs the current (measured:
+    m33 +267 %, m11 +8 %), the test that the recovery above is the current's doing."""
+    calm, _ = _fit(turning, None)
+    off = {k: calm.params_[k] / getattr(CAT, k) - 1.0 for k in HULL}
+    print({k: round(v, 3) for k, v in off.items()})
+    assert "disturbance" not in calm.model_.identification
+    assert max(abs(v) for v in off.values()) > 0.5
+
+
+def test_output_error_starts_from_the_regression_current(turning):
+    """``--method oe --disturbance current``: the regression's current is the output error's
+    start (kept in the diagnostics, within 0.005 m/s of the truth as above), the output error's
+    the one reported (the old keys, no ``estimated_by``). Its own estimate moves away from the
+    start on these data (measured 0.147 m/s east against 0.173 true: the windows' estimated
+    initial states absorb part of a current, usvid.identify.disturbance), so the tolerance on it
+    is the 0.05 m/s of a current that is not there being 0.2 m/s off."""
+    est, _ = _fit(turning, "current", method="oe")
+    ident = est.model_.identification
+    start = ident["diagnostics"]["disturbance_start"]
+    (row,) = ident["disturbance"]["trials"]
+    assert "estimated_by" not in ident["disturbance"]
+    (s0,) = start.values()
+    truth = {"current_north": CURRENT * math.cos(TOWARDS),
+             "current_east": CURRENT * math.sin(TOWARDS)}
+    print(s0, {k: row[k]["value"] for k in truth})
+    for k, v in truth.items():
+        assert s0[k] == pytest.approx(v, abs=0.005)
+        assert row[k]["value"] == pytest.approx(v, abs=0.05)
+
+
+def test_few_headings_do_not_separate_the_current():
+    """A weave about one course: the current barely turns in the body frame and the hull's
+    damping takes it; the regression says so (a warning naming the current, kept in the
+    diagnostics; multiple correlation with the hull measured 0.998-1.000). The model fails its
+    own replay check on these data (recorded, not refused, here)."""
+    tr = _trial(weave=True, t_end=240.0)
+    assert np.degrees(np.ptp(np.unwrap(tr["psi"]))) < 60.0
+    est, warned = _fit(tr, "current", checks="record")
+    d = est.result_.summary()["disturbance"]
+    print(d["not_separable"])
+    assert {b["quantity"] for b in d["not_separable"]} >= {"current_north[virtual]"}
+    assert all(b["correlation"] > dist.CORR_MAX for b in d["not_separable"])
+    assert any("current is not separable" in w for w in warned)
+    assert d["warning"] in est.model_.identification["diagnostics"]["warnings"]
+
+
+def test_options_at_the_edge():
+    """The regression estimates the current only; other methods refuse with the reason."""
+    with pytest.raises(UsvidError, match="regression estimates the current only"):
+        ModelEstimator("catamaran", "ls", disturbance="current,bias")
+    with pytest.raises(UsvidError, match="output error"):
+        ModelEstimator("mmg", "oe-zigzag", disturbance="current")
+    ModelEstimator("catamaran", "rls", disturbance="current")  # accepted
+
+
+def test_report_shows_the_current_per_log():
+    """The HTML report's model section: the current as an arrow pointing towards its direction,
+    speed and direction, each component and bias with its 95 % interval, the warning."""
+    from usvid.report.validation_html import _disturbance
+
+    d = {"terms": ["current", "bias"], "estimated_by": "regression",
+         "warning": "catamaran: the current is not separable",
+         "trials": [{"trial": "run<1>.csv", "current_speed_m_s": 0.2,
+                     "current_towards_deg": 60.0,
+                     "current_north": {"value": 0.1, "ci95": [0.09, 0.11], "unit": "m/s"},
+                     "current_east": {"value": 0.1732, "ci95": [0.16, 0.19], "unit": "m/s"},
+                     "bias_N": {"value": 1.5, "ci95": [1.2, 1.8], "unit": "N m"}}]}
+    html = _disturbance(d)
+    assert "rotate(60.0" in html and "towards 60 deg" in html
+    assert "run&lt;1&gt;.csv" in html  # escaped
+    assert "0.1 [0.09, 0.11]" in html and "1.5 [1.2, 1.8]" in html
+    assert "yaw-moment bias [N m]" in html and "sway-force bias" not in html
+    assert "by the regression" in html and "not separable" in html
+    assert _disturbance(None) == "" and _disturbance({"trials": []}) == ""
+
+
+def test_cli_json_model_file_and_report(turning, tmp_path, capsys):
+    """``usvid identify LOG --model catamaran --method ls --disturbance current --json --report
+    DIR``: the current in the JSON, the model file's identification block and the report; a
+    bad term exits 2 naming the option."""
+    import json
+
+    from usvid.cli import main
+    from usvid.io.writers import write_csv
+
+    log = write_csv(turning, tmp_path / "run.csv")
+    out = tmp_path / "m.json"
+    rep = tmp_path / "rep"
+    args = ["identify", str(log), "--model", "catamaran", "--method", "ls", "--vessel",
+            "thruster_spacing=0.8", "--vessel", "thrust_per_command=0.5", "--out", str(out),
+            "--json"]
+    code = main([*args, "--disturbance", "current", "--report", str(rep)])
+    cap = capsys.readouterr()
+    assert code == 0, cap.err
+    d = json.loads(cap.out)["disturbance"]
+    (row,) = d["trials"]
+    assert row["current_speed_m_s"] == pytest.approx(CURRENT, abs=0.02)
+    assert json.loads(out.read_text())["identification"]["disturbance"]["trials"][0][
+        "current_north"]["value"] == row["current_north"]["value"]
+    from usvid.io.modelfile import load_model
+
+    assert load_model(out).identification["disturbance"]["estimated_by"] == "regression"
+    html = (rep / "report.html").read_text()
+    assert "Disturbance per training log" in html and "towards" in html
+    code = main([*args, "--disturbance", "current,tide"])
+    cap = capsys.readouterr()
+    assert code == 2 and "--disturbance" in cap.err and "'tide'" in cap.err
+    code = main([*args, "--disturbance", "bias"])
+    cap = capsys.readouterr()
+    assert code == 2 and "output error" in cap.err
+
+
+def test_threedof_zigzags_and_turn_in_a_current():
+    """A vector-thruster 3-DOF USV (the recovery case of tests/test_identify_3dof.py) in 0.3 m/s
+    towards 120 deg: a 30/10 and a 20/20 zig-zag from below their steady speed and a -25 deg
+    turn, 10 Hz GNSS, Doppler (0.02 m/s) and compass. Each log's current within 0.02 m/s and
+    10 deg (measured 0.003 m/s, 0.3 deg), the hull within 3 % (measured 0.5 %; calm least squares
+    on the same logs: m11 +33 %, d11 -25 %)."""
+    from usvid.models import ThreeDOF
+    from usvid.models.servo import SecondOrderServo
+    from usvid.sim import Turning, ZigZag
+
+    dyn = ThreeDOF(m11=120.0, m22=180.0, m33=60.0, d11=30.0, d22=90.0, d33=50.0, x_l=1.0,
+                   thrust=60.0)
+    model = VesselModel(dyn, servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5),
+                        vessel=Vessel(length=2.0))
+    speed, towards = 0.3, math.radians(120.0)
+    env = Environment(current_speed=speed, current_dir=towards)
+    zz = simulate(model, ZigZag(delta_amp=np.radians([30, 20]), psi_switch=np.radians([10, 20])),
+                  t_end=200.0, dt=0.02, u0=np.array([0.5, 1.0]), environment=env)
+    tc = simulate(model, Turning(np.radians(-25), t_start=5.0), t_end=120.0, dt=0.02, u0=1.5,
+                  environment=env)
+    trials = [virtual_trial_uniform(zz, SENSORS, seed=1, i=i, rate_hz=10.0) for i in range(2)]
+    trials.append(virtual_trial_uniform(tc, SENSORS, seed=3, rate_hz=10.0))
+    for tr in trials:
+        tr.data["thrust"] = 60.0  # the logged thrust [N]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        est = ModelEstimator("threedof", "ls", x_l=1.0, thrust=60.0,
+                             disturbance="current").fit(trials)
+    d = est.result_.summary()["disturbance"]
+    assert len(d["trials"]) == 3 and not d["not_separable"]
+    for row in d["trials"]:
+        print(row["current_speed_m_s"], row["current_towards_deg"])
+        assert row["current_speed_m_s"] == pytest.approx(speed, abs=0.02)
+        assert abs((row["current_towards_deg"] - 120.0 + 180) % 360 - 180) < 10.0
+    for k in ("m11", "m22", "m33", "d11", "d22", "d33"):
+        assert est.params_[k] == pytest.approx(getattr(dyn, k), rel=0.03), k
