@@ -28,7 +28,7 @@ demo: $(STAMP)
 test: $(TSTAMP) browser
 	$(BIN)/python -m pytest -n auto --dist loadfile
 
-# the loaders' Hypothesis fuzzing alone: 10,000 examples per loader and per message-log format
+# the loaders' fuzzing alone: 10,000 seeded examples per loader and per message-log format
 # (as in make test; see tests/fuzzing.py and tests/test_fuzz_messages.py)
 fuzz: $(TSTAMP)
 	USVID_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -n auto -m fuzz

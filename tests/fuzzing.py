@@ -1,17 +1,24 @@
 """Shared engine and input generators of the ``fuzz`` tests (tests/test_fuzz_*.py).
 
-Every loader is fuzzed with :func:`fuzz`: N Hypothesis examples, each one input built by a
-seeded generator from the example's 32-bit seed and given to the loader in process; the
-example passes when the loader returns (and what it returns honours its contract) or raises a
+Every loader is fuzzed with :func:`fuzz`: N examples, each one input built by a generator
+seeded from the example's 32-bit seed and given to the loader in process; the example passes
+when the loader returns (and what it returns honours its contract) or raises a
 :class:`usvid.errors.UsvidError` subclass, and fails on any other exception. :func:`fuzz`
-counts the examples actually executed and asserts that all N ran.
+counts the examples run and asserts that all N ran.
 
-Why a seed per example rather than Hypothesis strategies for the structure: drawing structured
-data through Hypothesis cost 10-20 ms per example on the 2-core development machine, a bare
-32-bit seed 0.45-0.65 ms (the engine's own overhead, with shrinking, the example database and
-the deadline switched off, numpy's global generator left alone: see :func:`fuzz`), against
-0.1-4 ms for the loaders themselves. A failure is reported with its seed;
-``random.Random(f"{salt}:{seed}")`` regenerates the input.
+The seeds are drawn by a plain loop from ``random.Random(salt)`` (the same inputs on every run,
+different inputs for each salt), and each input from ``random.Random(f"{salt}:{seed}")``; a
+failure names the salt, the seed and how to regenerate the input. Until 2026-11 the seeds were
+drawn by Hypothesis (``@given(st.integers(0, 2**32 - 1))``, derandomised, with shrinking, the
+example database and the deadline switched off): with the structure drawn from the seed, not
+from Hypothesis strategies, Hypothesis added nothing but its own per-example overhead, against
+0.1-4 ms per example for the loaders themselves. Measured when it was replaced (CPU, user +
+sys, of each test file run alone with ``-n 0``, Hypothesis engine then this loop, on the 2-core
+development machine shared with other jobs, load 6-20: +-15 %): the bounded JSON loader 12.7 s
+then 3.0 s for 10,000 examples, the model-file loader 21.8 then 8.3 s, YAML 22.3 then 11.0 s,
+NMEA 0183 51.0 then 34.1 s, DataFlash 57.2 then 41.1 s: 0.4-1.6 ms per example; the 21 test
+files (17 loaders x 10,000 examples) 539 then 346 s. Drawing the structure through Hypothesis
+strategies instead cost 10-20 ms per example.
 
 The costliest loaders run their examples in two test files of half the examples each, with
 different salts (``test_fuzz_X.py`` and ``test_fuzz_X_2.py``): ``pytest --dist loadfile`` keeps
@@ -20,7 +27,6 @@ a file on one worker, and halves balance the two workers of ``make test``.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import random
@@ -28,14 +34,12 @@ import warnings
 from collections.abc import Callable
 
 import numpy as np
-from hypothesis import HealthCheck, Phase, given, settings
-from hypothesis import strategies as st
 
 from usvid.errors import UsvidError
 
-#: Hypothesis examples per loader in ``make test`` (at least 10,000 each), the
-#: costliest loaders' split over two files (:func:`halves`), the message-log formats one file
-#: each (tests/test_fuzz_messages.py). ``USVID_FUZZ_EXAMPLES`` sets the count for all.
+#: Examples per loader in ``make test`` (at least 10,000 each), the costliest loaders' split
+#: over two files (:func:`halves`), the message-log formats one file each
+#: (tests/test_fuzz_messages.py). ``USVID_FUZZ_EXAMPLES`` sets the count for all.
 N_EXAMPLES = int(os.environ.get("USVID_FUZZ_EXAMPLES", "10000"))
 
 
@@ -44,47 +48,29 @@ def halves(n: int = N_EXAMPLES) -> tuple[int, int]:
     return n - n // 2, n // 2
 
 
-@contextlib.contextmanager
-def _numpy_random_left_alone():
-    """Hypothesis saves, seeds and restores numpy's global generator around every example
-    (0.13-0.15 ms of its 0.6 ms per example here, measured): needless for the loaders, which
-    draw no random numbers, and for the inputs, drawn from the example's own ``Random``. The
-    generator is taken off Hypothesis's list for the run and put back; a Hypothesis without
-    that (private) list leaves it managed, which changes only the speed."""
-    try:
-        from hypothesis.internal import entropy
-
-        entropy.get_seeder_and_restorer(0)  # registers numpy's generator when not yet done
-        rng = entropy.NP_RANDOM
-        keys = [k for k, r in list(entropy.RANDOMS_TO_MANAGE.items()) if r is rng]
-        for k in keys:
-            del entropy.RANDOMS_TO_MANAGE[k]
-    except Exception:  # noqa: BLE001 - another Hypothesis: leave its bookkeeping as it is
-        keys = []
-    try:
-        yield
-    finally:
-        for k in keys:
-            entropy.RANDOMS_TO_MANAGE[k] = rng
+def seeds(n: int, salt: str) -> list[int]:
+    """The 32-bit seeds of the ``n`` examples of ``salt``: the first ``n`` draws of
+    ``random.Random(salt)`` (so a larger ``n`` extends the same sequence)."""
+    gen = random.Random(salt)
+    return [gen.getrandbits(32) for _ in range(n)]
 
 
 def fuzz(check: Callable[[random.Random], None], n: int, salt: str) -> int:
-    """Run ``check(rng)`` on ``n`` Hypothesis examples (generation phase only, derandomised:
-    the same inputs on every run); ``rng`` is seeded from the example's seed and ``salt`` (so
-    two tests of one loader draw different inputs). Returns the number of examples run, which
-    is asserted to be ``n``."""
+    """Run ``check(rng)`` on ``n`` examples, ``rng = random.Random(f"{salt}:{seed}")`` for each
+    seed of :func:`seeds` (the same inputs on every run; two tests of one loader use two salts
+    and draw different inputs). The first failing example stops the run with an
+    ``AssertionError`` naming the salt, the example and its seed, chained to the original
+    exception. Returns the number of examples run, which is asserted to be ``n``."""
     count = 0
-
-    @settings(max_examples=n, deadline=None, derandomize=True, database=None,
-              phases=[Phase.generate], suppress_health_check=list(HealthCheck))
-    @given(st.integers(0, 2**32 - 1))
-    def run(seed: int) -> None:
-        nonlocal count
+    for i, seed in enumerate(seeds(n, salt)):
+        try:
+            check(random.Random(f"{salt}:{seed}"))
+        except Exception as exc:  # noqa: BLE001 - any escape fails the example, named
+            raise AssertionError(
+                f"fuzz {salt!r}: example {i + 1} of {n} (seed {seed}) failed with "
+                f"{type(exc).__name__}: {str(exc)[:500]}; its input is regenerated by giving "
+                f"random.Random({f'{salt}:{seed}'!r}) to the test's check function") from exc
         count += 1
-        check(random.Random(f"{salt}:{seed}"))
-
-    with _numpy_random_left_alone():
-        run()
     assert count == n, f"{salt}: {count} examples run, {n} asked"
     return count
 

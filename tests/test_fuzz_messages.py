@@ -9,7 +9,8 @@ a UsvidError, and write nothing beside the log. See tests/fuzzing.py.
 spreads them over the workers. CPU of 10,000 examples (user + sys of the test file less
 pytest's start, 2-core development machine shared with other jobs, load 2-3, 2026-11-24):
 ROS 2 MCAP 20 s, ROS 2 SQLite 31 s, ROS 1 14 s, ULog 21 s, DataFlash 36 s, tlog 42 s (164 s;
-0.4 ms of each example is Hypothesis's own). Before 2026-11-24 they would have been 166, 176,
+0.4 ms of each example was Hypothesis's own, gone since the engine is a plain seeded loop:
+tests/fuzzing.py). Before 2026-11-24 they would have been 166, 176,
 65, 19, 30 and 42 s (1,000 examples measured, times 10), when ``make test`` ran 100-500:
 
 - a successful read of a small bag (1 in 10 examples) took 65-90 ms, rosbags re-parsing the
