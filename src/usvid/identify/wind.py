@@ -33,6 +33,8 @@ import numpy as np
 from usvid.errors import UsvidError
 from usvid.models.environment import WindLoadModel, wind_load_model, wind_loads
 from usvid.models.environment.wind import apparent_to_true, true_to_apparent
+from usvid.models.registry import get as get_kind
+from usvid.models.registry import names as kind_names
 from usvid.trial import Vessel
 
 __all__ = ["WindFit", "air_velocity", "track_wind_loads", "wind_fit",
@@ -43,9 +45,7 @@ def wind_kinds() -> tuple[str, ...]:
     """The kinds whose fit takes the logged wind: a regression that takes known loads
     (``Regression.external``, the series :data:`usvid.models.kind.EXTERNAL`) and a force
     balance the integration core adds them to (every kind with surge and sway)."""
-    from usvid.models.registry import get, names
-
-    return tuple(k for k in names() if (reg := get(k).regression) is not None
+    return tuple(k for k in kind_names() if (reg := get_kind(k).regression) is not None
                  and reg.external is not None)
 
 
