@@ -141,9 +141,10 @@ def identified():
 
 @pytest.mark.xfail(strict=True, reason=(
     "measured: the identified model's replays of its own training data diverge (windowed and "
-    "free-run RMSE infinite: N_rrr = +0.028, the truth's -0.013, a yaw damping that turns "
-    "negative at the large r' = r L / U of the runs' low-speed starts, replayed without the "
-    "estimated current); with default options (checks='error') the fit is refused"))
+    "free-run RMSE infinite; the truth's replays of the same windows stay finite); its N_rrr "
+    "is +0.028 against the truth's -0.013, likely a yaw damping turning negative at the large "
+    "r' = r L / U of the low-speed starts (the replays also leave out the estimated current); "
+    "with default options (checks='error') the fit is refused, the CLI exits 2"))
 def test_passes_its_checks(identified):
     """With default options the identified model must pass its checks (else the CLI exits 2)."""
     from usvid.identify.checks import failed
