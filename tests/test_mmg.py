@@ -759,3 +759,20 @@ def test_mmg_thrust_laws_are_the_thrust_modules():
                        1025.0 * 0.216 ** 2, 0.2931, -0.2753, -0.1385)
     assert got == pytest.approx(T, rel=1e-12)
     assert pod_thrust_nb(1.2, -3.0, 2.0, 5.0) == 2.0 * 1.2 * -3.0 + 5.0 * 3.0 * -3.0
+
+
+def test_one_parameter_set_at_several_approach_speeds():
+    """One MMG parameter set simulated at a (B,) approach speed (the nominal shaft speed
+    holding each speed): each run is that of its speed alone (the kind packed one column per
+    parameter set and refused a speed per run)."""
+    from usvid.models.kinds.mmg import from_physics
+    from usvid.models.model import VesselModel
+    from usvid.sim import Turning, simulate
+
+    model = VesselModel(from_physics(mmg.kvlcc2("hsva")))
+    both = simulate(model, Turning(math.radians(35.0)), t_end=10.0, dt=0.05,
+                    u0=np.array([0.8, 1.18]))
+    for i, u0 in enumerate((0.8, 1.18)):
+        one = simulate(model, Turning(math.radians(35.0)), t_end=10.0, dt=0.05, u0=u0)
+        assert both["r"][i] == pytest.approx(one["r"][0], rel=1e-12, abs=1e-15)
+    assert both["u"][0, -1] < both["u"][1, -1]

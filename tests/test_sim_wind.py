@@ -270,3 +270,23 @@ def test_calm_runs_are_the_kernel_numbers(name, manoeuvre):
     res = simulate(model, logic, t_end=60.0, dt=0.05)
     got = tuple(float(res[c][0, -1]) for c in ("x", "y", "psi"))
     assert got == pytest.approx(KERNEL_CALM[(name, manoeuvre)], rel=1e-9, abs=1e-9)
+
+
+def test_at_rest_in_wind_without_current_stays_finite():
+    """A vessel at rest over ground (no current) in a steady wind: the still-air load of its own
+    motion has no apparent wind at all, and Blendermann's yaw arm atan(-a_x/|a_y|) was 0/0 (a
+    NaN moment: every Fossen kind from rest in wind diverged at the first step). The loads of a
+    still apparent wind are zeros; from rest the vessel is pushed by the wind alone."""
+    from usvid.models.environment.wind_loads import wind_load_body
+    from usvid.models.kinds.catamaran import Catamaran
+
+    v = _vessel()
+    p = wind_load_model(v).packed(1.0)
+    assert wind_load_body(p, 0.0, 0.0) == (0.0, 0.0, 0.0, 0.0)
+    cat = Catamaran(m11=80.0, m22=120.0, m33=30.0, d11=25.0, d22=70.0, d33=40.0, b=0.8,
+                    thrust=0.5)
+    res = simulate(VesselModel(cat, vessel=v), Turning(0.0), t_end=5.0, dt=0.02, u0=0.0,
+                   environment=Environment(wind_speed=6.0, wind_dir=math.radians(90.0)))
+    assert res.success, res.message
+    # a wind from the east pushes the boat west (to port, v < 0) from rest
+    assert res["v"][0, -1] < 0.0 and np.all(np.isfinite(res["r"]))

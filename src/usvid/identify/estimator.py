@@ -69,7 +69,7 @@ from usvid.identify.replay import helm_rate, refine_zigzag_oe, zigzag_runs
 from usvid.identify.series import IdentificationWarning, Series, trial_series
 from usvid.identify.servo import helm_from_zigzags, identify_second_order_servo
 from usvid.identify.span import kind_channels, trim_to_logged
-from usvid.identify.wind import WIND_KINDS, WindFit, interval, track_wind_loads, wind_fit
+from usvid.identify.wind import WindFit, interval, track_wind_loads, wind_fit, wind_kinds
 from usvid.io.modelfile import model_to_dict
 from usvid.manoeuvres import find_manoeuvres, measured_metrics
 from usvid.manoeuvres.detect import approach
@@ -389,7 +389,7 @@ class ModelEstimator(FittedAttributes):
         Shortcuts for ``particulars["x_l"]`` [m] and a thrust law object.
     wind : bool
         Fit through the logged wind (default True; :mod:`usvid.identify.wind`): where the
-        trials log it and the kind takes it (:data:`usvid.identify.wind.WIND_KINDS`), the
+        trials log it and the kind takes it (:func:`usvid.identify.wind.wind_kinds`), the
         regression subtracts its loads along the measured track and the output error
         simulates in it, estimating ``wind_scale``; False: calm water (the wind's forces taken
         for hull forces).
@@ -483,13 +483,18 @@ class ModelEstimator(FittedAttributes):
         return get_kind(self.kind)
 
     # -- data ------------------------------------------------------------------------------------
+    def _options(self) -> dict[str, Any]:
+        """The particulars given as options (``particulars``, ``thrust``), by name."""
+        opts = {k: v for k, v in self.particulars.items() if not hasattr(v, "thrust")}
+        if self.thrust is not None:
+            opts["thrust"] = self.thrust
+        return opts
+
     def _fixed(self, trials: Sequence[Trial]) -> dict[str, Any]:
         kind = self.kind_
         if kind.particulars is None:
             return {}
-        opts = {k: v for k, v in self.particulars.items() if not hasattr(v, "thrust")}
-        if self.thrust is not None:
-            opts["thrust"] = self.thrust
+        opts = self._options()
         data = [{c: tr[c] for c in tr.channels} for tr in trials]
         fixed = kind.particulars(_vessel(trials), data, opts)
         if self.thrust is not None:
@@ -507,17 +512,21 @@ class ModelEstimator(FittedAttributes):
         subtract; windows keep the wind series only when the wind is in the fit."""
         names = [s.name for s in series]
         logged = [s.name for s in series if "wind_x" in s]
+        reg = self.kind_.regression
         if logged and not self.wind:
             wf = WindFit(None, "the wind is left out of the fit (wind=False): calm water, the "
                                "wind's forces taken for hull forces", trials=logged)
-        elif logged and self.kind not in WIND_KINDS:
+        elif logged and (reg is None or reg.external is None):
             wf = WindFit(None, f"a {self.kind} fit does not take the wind (the kinds that do: "
-                               f"{', '.join(WIND_KINDS)}): calm water, the wind's forces taken "
-                               "for hull forces", trials=logged)
+                               f"{', '.join(wind_kinds())}): calm water, the wind's forces "
+                               "taken for hull forces", trials=logged)
             warnings.warn(f"{self.kind}: the wind is logged in {len(logged)} trial(s) but "
                           f"{wf.reason}", IdentificationWarning, stacklevel=4)
         else:
-            wf = wind_fit(series, names, _vessel(trials))
+            units = None
+            if logged and reg is not None and reg.external is not None:
+                units = reg.external(_vessel(trials), self._options())
+            wf = wind_fit(series, names, _vessel(trials), units)
             if wf.model is None and wf.trials:
                 warnings.warn(f"{self.kind}: {wf.reason}", IdentificationWarning, stacklevel=4)
         for s in series:

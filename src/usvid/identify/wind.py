@@ -33,13 +33,27 @@ import numpy as np
 from usvid.errors import UsvidError
 from usvid.models.environment import WindLoadModel, wind_load_model, wind_loads
 from usvid.models.environment.wind import apparent_to_true, true_to_apparent
+from usvid.models.registry import get as get_kind
+from usvid.models.registry import names as kind_names
 from usvid.trial import Vessel
 
-__all__ = ["WIND_KINDS", "WindFit", "air_velocity", "track_wind_loads", "wind_fit"]
+__all__ = ["WindFit", "air_velocity", "track_wind_loads", "wind_fit",
+           "wind_kinds"]
 
-#: Kinds whose fit takes the logged wind (a regression that subtracts known loads,
-#: ``usvid.models.kinds.mmg.fit.EXTERNAL``, and a force balance the core adds them to).
-WIND_KINDS = ("mmg",)
+
+def wind_kinds() -> tuple[str, ...]:
+    """The kinds whose fit takes the logged wind: a regression that takes known loads
+    (``Regression.external``, the series :data:`usvid.models.kind.EXTERNAL`) and a force
+    balance the integration core adds them to (every kind with surge and sway)."""
+    return tuple(k for k in kind_names() if (reg := get_kind(k).regression) is not None
+                 and reg.external is not None)
+
+
+def __getattr__(name: str) -> Any:
+    """``WIND_KINDS``: :func:`wind_kinds` (the registry's kinds are imported on first use)."""
+    if name == "WIND_KINDS":
+        return wind_kinds()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def air_velocity(trial: Any, t: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -115,16 +129,20 @@ class WindFit:
 
 
 def wind_fit(series: Sequence[Mapping[str, np.ndarray]], names: Sequence[str],
-             vessel: Vessel | None) -> WindFit:
+             vessel: Vessel | None, units: str | None = None) -> WindFit:
     """The wind of the fit: the vessel's wind-load model when some trial logs the wind (series
     with ``wind_x``) and the vessel has the windage particulars it needs; else no wind, with
-    the reason (a logged wind without windage particulars is said, never ignored silently)."""
+    the reason (a logged wind without windage particulars is said, never ignored silently).
+    ``units``: why the kind's forces are not in newtons (``Regression.external``): no wind
+    either, saying so."""
     logged = [n for s, n in zip(series, names, strict=True) if "wind_x" in s]
     if not logged:
         return WindFit(None, "no trial logs the wind: fitted as calm water")
     try:
         if vessel is None:
             raise UsvidError("no vessel particulars")
+        if units:
+            raise UsvidError(units)
         wm = wind_load_model(vessel, wind_scale=1.0)
     except UsvidError as exc:
         return WindFit(None, f"the wind is logged in {len(logged)} trial(s) but its loads "

@@ -244,10 +244,28 @@ class Regression:
     #: regression's estimate is not a valid model. None: the kind has none.
     priors: Callable[[Sequence[Mapping[str, np.ndarray]], Mapping[str, Any]],
                      dict[str, float]] | None = None
+    #: ``external(vessel, options) -> str | None`` when ``blocks`` takes known external loads
+    #: (series :data:`EXTERNAL`: X, Y [N], N [N m], body axes: the logged wind's, which
+    #: the regression subtracts and the output error simulates): why the kind's forces are not
+    #: in newtons for these particulars (a thrust in command units: no load in newtons can be
+    #: added to them), None when they are. None: the regression takes no external loads.
+    external: Callable[[Any, Mapping[str, Any]], str | None] | None = None
 
     @property
     def constrained(self) -> bool:
         return self.coefficients is not None
+
+
+#: Series of known external loads along a measured track that a regression takes
+#: (``Regression.external``): X, Y [N], N [N m], body axes (the logged wind's,
+#: :func:`usvid.identify.wind.track_wind_loads`).
+EXTERNAL = ("ext_X", "ext_Y", "ext_N")
+
+
+def in_newtons(vessel: Any, options: Mapping[str, Any]) -> None:
+    """``Regression.external`` of a kind whose forces are in newtons whatever its particulars
+    (a physical thrust law): known external loads can always be added to them."""
+    return None
 
 
 @dataclass(frozen=True)

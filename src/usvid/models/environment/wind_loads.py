@@ -262,7 +262,9 @@ def wind_coefficients_body(p, ax, ay):
     g = (p[6] * va * v4) / (1.0 if still else dh)
     g = 0.0 if still else g
     qy = p[6] * ay * g
-    qn = (p[12] + 0.18 * atan_ratio(-ax, abs(ay))) * qy
+    # a still apparent wind has no direction: atan_ratio(0, 0) would be 0/0 (a NaN moment
+    # times qy = 0 is still NaN: a vessel at rest over ground in the still-air term)
+    qn = (p[12] + 0.18 * atan_ratio(-ax, 1.0 if still else abs(ay))) * qy
     return cdl_af * ax * g, qy, qn, p[10] * p[13] * qy
 
 

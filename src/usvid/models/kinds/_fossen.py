@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import IdentificationError, UsvidError
-from usvid.models.kind import Block, FitSpace
+from usvid.models.kind import EXTERNAL, Block, FitSpace
 from usvid.models.thrust import PodThrust, Propeller
 
 
@@ -53,18 +53,39 @@ def regression_coefficients(p: Mapping[str, Any]) -> dict[str, Any]:
 
 def blocks(series: Sequence[Mapping[str, np.ndarray]], fixed: Mapping[str, Any], form: str,
            h: float) -> list[Block]:
-    """The three eq. 37 regressions on smoothed u, v, r, their derivatives and tau_u, tau_r."""
+    """The three eq. 37 regressions on smoothed u, v, r, their derivatives and tau_u, tau_r.
+
+    Known external loads (:data:`EXTERNAL`, where some trial carries them; 0 in the others)
+    enter as the thrust does: ``u' = a_vr v r + a_u u + a_tau (tau_u + X_e)``,
+    ``v' = b_ur u r + b_v v + b_Y Y_e``, ``r' = c_uv u v + c_r r + c_tau (tau_r + N_e)`` with
+    ``b_Y = 1/m22`` (eq. 17 with the external force on its right-hand side; Fossen 2021,
+    eq. 10.1), the one more coefficient tied to the six parameters like b_ur and c_uv."""
+    ext = any(all(k in s for k in EXTERNAL) for s in series)
+
+    def load(s: Mapping[str, np.ndarray], k: str) -> np.ndarray:
+        return (np.asarray(s[k], float) if all(e in s for e in EXTERNAL)
+                else np.zeros(np.shape(s["u_s"])))
+
     def stack(name: str, cols: Any, y: str, names: tuple[str, ...]) -> Block:
         parts = [(np.column_stack(cols(s)), s[y]) for s in series]
         return Block(name, np.concatenate([p[0] for p in parts]),
                      np.concatenate([p[1] for p in parts]), names, [len(p[1]) for p in parts])
 
+    if not ext:
+        return [
+            stack("u", lambda s: [s["v_s"] * s["r_s"], s["u_s"], s["tau_u"]], "udot_s",
+                  ("a_vr", "a_u", "a_tau")),
+            stack("v", lambda s: [s["u_s"] * s["r_s"], s["v_s"]], "vdot_s", ("b_ur", "b_v")),
+            stack("r", lambda s: [s["u_s"] * s["v_s"], s["r_s"], s["tau_r"]], "rdot_s",
+                  ("c_uv", "c_r", "c_tau")),
+        ]
     return [
-        stack("u", lambda s: [s["v_s"] * s["r_s"], s["u_s"], s["tau_u"]], "udot_s",
-              ("a_vr", "a_u", "a_tau")),
-        stack("v", lambda s: [s["u_s"] * s["r_s"], s["v_s"]], "vdot_s", ("b_ur", "b_v")),
-        stack("r", lambda s: [s["u_s"] * s["v_s"], s["r_s"], s["tau_r"]], "rdot_s",
-              ("c_uv", "c_r", "c_tau")),
+        stack("u", lambda s: [s["v_s"] * s["r_s"], s["u_s"], s["tau_u"] + load(s, "ext_X")],
+              "udot_s", ("a_vr", "a_u", "a_tau")),
+        stack("v", lambda s: [s["u_s"] * s["r_s"], s["v_s"], load(s, "ext_Y")], "vdot_s",
+              ("b_ur", "b_v", "b_Y")),
+        stack("r", lambda s: [s["u_s"] * s["v_s"], s["r_s"], s["tau_r"] + load(s, "ext_N")],
+              "rdot_s", ("c_uv", "c_r", "c_tau")),
     ]
 
 
@@ -76,7 +97,9 @@ def to_params(th: Mapping[str, float], fixed: Mapping[str, Any], form: str,
 
 def coefficients(p: Mapping[str, float], fixed: Mapping[str, Any], form: str,
                  h: float) -> dict[str, float]:
-    return regression_coefficients(p)
+    """The eq. 37 coefficients of ``p`` and ``b_Y = 1/m22`` [1/kg], the sway equation's
+    coefficient of a known external force (:func:`blocks`)."""
+    return {**regression_coefficients(p), "b_Y": 1.0 / float(p["m22"])}
 
 
 def _to_fit(p: Mapping[str, float]) -> dict[str, float]:

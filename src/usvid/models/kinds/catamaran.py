@@ -196,6 +196,22 @@ def particulars(vessel: Any, data: Sequence[Mapping[str, np.ndarray]],
     return {**out, "thrust": thrust, "cmd": cmd, "steer_gain": g}
 
 
+def force_units(vessel: Any, options: Mapping[str, Any]) -> str | None:
+    """Why the forces of a catamaran with these particulars are not in newtons (the kind's
+    ``Regression.external``), None when they are: a thrust law in newtons is a
+    ``thrust_per_command`` k [N per command unit], a PWM map's ``thrust_full`` [N] or a thrust
+    law object given as an option; without one the thrust is in command units (k = 1, or the
+    full thrust 1), and so are the masses and dampings the commands determine (module
+    docstring), to which no load in newtons can be added."""
+    num = _fossen.extra_number
+    if (options.get("thrust") is not None or num(vessel, options, "thrust_per_command")
+            is not None or num(vessel, options, "thrust_full") is not None):
+        return None
+    return ("its thrust is in command units (no thrust_per_command [N per command unit] or "
+            "thrust_full [N] among the particulars), and so are its masses and dampings: no "
+            "load in newtons can be added to them")
+
+
 def pwm_thrust_map(vessel: Any, options: Mapping[str, Any]) -> TwinThrust:
     """The declared thrust map of PWM-commanded thrusters (format spec ``vessel.extra``):
     ``T = thrust_full s^thrust_exponent`` with the level ``s = (pwm - pwm_neutral)/pwm_span``
@@ -252,7 +268,7 @@ KIND = ModelKind(
     speed=straight_speed,
     outputs=("u", "v", "r", "psi"),
     regression=Regression(_fossen.blocks, _fossen.to_params, _fossen.coefficients,
-                          needs=("u", "v")),
+                          needs=("u", "v"), external=force_units),
     fit_space=_fossen.FIT_SPACE,
     particulars=particulars,
     series=series,

@@ -40,7 +40,15 @@ import numpy as np
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import IdentificationError
-from usvid.models.kind import Dynamics, ModelKind, Regression, param, rows, submodel
+from usvid.models.kind import (
+    Dynamics,
+    ModelKind,
+    Regression,
+    in_newtons,
+    param,
+    rows,
+    submodel,
+)
 from usvid.models.kinds import _fossen
 from usvid.models.thrust import THRUST_ROW, thrust_nb, thrust_row
 
@@ -225,7 +233,7 @@ KIND = ModelKind(
     speed=straight_speed,
     outputs=("u", "v", "r", "psi"),
     regression=Regression(_fossen.blocks, _fossen.to_params, _fossen.coefficients,
-                          needs=("delta", "u", "v")),
+                          needs=("delta", "u", "v"), external=in_newtons),
     fit_space=_fossen.FIT_SPACE,
     particulars=particulars,
     series=series,

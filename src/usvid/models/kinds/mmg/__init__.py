@@ -41,6 +41,7 @@ from usvid.models.kind import (
     Dynamics,
     ModelKind,
     Regression,
+    in_newtons,
     param,
 )
 from usvid.models.kinds.mmg import fit as _mmg_fit
@@ -278,10 +279,15 @@ def pack(d: Any, speed: Any) -> np.ndarray:
     """Rows: :func:`.physics.pack` of each lane, then the nominal n [rps] (when not
     given: the shaft speed holding ``speed`` [m/s]) and the steering gain [rps/rad]."""
     lanes = d.lanes()
+    # one column per lane, or per speed when one parameter set runs at several speeds
+    B = max(len(lanes), int(np.size(speed)) if np.ndim(speed) else 1)
     sp = np.broadcast_to(np.asarray(1.0 if speed is None else speed, float),
-                         (len(lanes),)) if np.ndim(speed) else None
-    out = np.empty((N_ROWS, len(lanes)))
-    for b, lane in enumerate(lanes):
+                         (B,)) if np.ndim(speed) else None
+    if len(lanes) not in (1, B):
+        raise UsvidError(f"mmg: {len(lanes)} parameter sets for {B} speeds")
+    out = np.empty((N_ROWS, B))
+    for b in range(B):
+        lane = lanes[b if len(lanes) > 1 else 0]
         ph = lane.physics()
         out[:_m.N_PACKED, b] = _m.pack(ph)
         U = float(sp[b]) if sp is not None else float(1.0 if speed is None else speed)
@@ -579,7 +585,7 @@ KIND = ModelKind(
     speed=straight_speed,
     outputs=("u", "v", "r", "psi"),
     regression=Regression(_mmg_fit.blocks, _mmg_fit.to_params, needs=("u",),
-                          priors=_mmg_fit.priors_of),
+                          priors=_mmg_fit.priors_of, external=in_newtons),
     particulars=particulars,
     uses_trig=True,
     # the variant (rudder, pod, twin): one vector step per variant, only its forces compiled

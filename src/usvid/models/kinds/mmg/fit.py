@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from usvid.errors import UsvidError
-from usvid.models.kind import Block, LeftOutWarning
+from usvid.models.kind import EXTERNAL, Block, LeftOutWarning
 from usvid.models.kinds.mmg import physics as _m
 
 #: Prior weight as a fraction of each regressor's sum of squares (module docstring).
@@ -109,10 +109,6 @@ def asymmetry_held(data: Sequence[Mapping[str, np.ndarray]]) -> str | None:
     return None
 
 
-#: Series of known external loads along the measured track (X, Y [N], N [N m], body axes:
-#: the logged wind's, :func:`usvid.identify.wind.track_wind_loads`) that the regression
-#: subtracts from the measured forces.
-EXTERNAL = ("ext_X", "ext_Y", "ext_N")
 #: Low-speed floor of the regression as a fraction of the trials' median speed: below it v' =
 #: v/U and r' = r L/U (Y&Y 2015's non-dimensional hull model, made for manoeuvres at speed)
 #: are dominated by the noise of U -> 0 in a start from rest, and the sample carries no hull
