@@ -5,6 +5,7 @@ scipy's least_squares, and the interval coverage of the output-error fit."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -157,6 +158,24 @@ def test_schur_solver_matches_scipy_least_squares():
     np.testing.assert_array_less(np.abs(a.x - b.x[:3]), 3 * SETTLED_SE * np.sqrt(np.diag(cov)))
     np.testing.assert_allclose(np.sqrt(np.diag(a.cov)), np.sqrt(np.diag(cov)), rtol=1e-3)
     assert list(a.params.values()) == pytest.approx([0.3, 4.0, 0.01], rel=0.02, abs=1e-3)
+
+
+def test_warm_start_reaches_the_same_optimum_in_fewer_simulations():
+    # a fit started from an earlier fit's pass optima (the estimator's fit again with a held
+    # parameter) converges to the same optimum, to the solver's resolution, in fewer iterations
+    win = _windows_from_truth([0.3, 4.0, 0.01], n_windows=12, seed=3)
+    start = {"K": 0.2, "T": 2.5, "delta0": 0.0}
+    cold = refine_output_error(NOMOTO1, start, {}, win)
+    assert len(cold.pass_points) == 2  # reweighted: two passes
+    warm = refine_output_error(NOMOTO1, start, {}, win, warm=cold)
+    se = np.sqrt(np.diag(cold.x_cov))
+    # both stop within about 2.5 SETTLED_SE of the optimum (linear convergence)
+    np.testing.assert_array_less(np.abs(warm.x - cold.x), 6 * SETTLED_SE * se)
+    assert warm.nfev < cold.nfev / 2
+    # a warm fit of another fit space (other names) is ignored: a cold start, the same fit
+    other = replace(cold, x_names=("a", "b", "c"))
+    again = refine_output_error(NOMOTO1, start, {}, win, warm=other)
+    assert again.nfev == cold.nfev and np.array_equal(again.x, cold.x)
 
 
 def test_oe_interval_coverage_on_20_repetitions():
