@@ -461,8 +461,10 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         """Covariance of the free fit-space parameters (and the inflation factor) from
         S^-1, the window scores and the residuals (B, M) (:func:`_param_covariance`)."""
         s2 = float(np.sum(f * f)) / max(m - ncol, 1)
-        r = f.reshape(B, len(channels), W - 1).transpose(1, 0, 2)
-        fac = max(autocorrelation_factor(b) for b in r)
+        fac = 1.0  # (the sandwich covariance reports its own factor)
+        if B < MIN_CLUSTERS:
+            r = f.reshape(B, len(channels), W - 1).transpose(1, 0, 2)
+            fac = max(autocorrelation_factor(b) for b in r)
         return _param_covariance(Sinv, s2, fac, B, m, ncol,
                                  lambda: Sinv @ (psi_w.T @ psi_w) @ Sinv)
 
