@@ -332,11 +332,13 @@ class IdentifiedModel:
 
 class _HoldAndRefit(Exception):  # noqa: N818 - a control-flow signal, not an error
     """Raised by a fit that found parameters indistinguishable from their neutral value
-    (``drop``: name -> (value, why)); :meth:`ModelEstimator._fit` fits again holding them."""
+    (``drop``: name -> (value, why)); :meth:`ModelEstimator._fit` fits again holding them,
+    the output error warm-started from this fit's (``warm``, None for other methods)."""
 
-    def __init__(self, drop: dict[str, tuple[float, str]]) -> None:
+    def __init__(self, drop: dict[str, tuple[float, str]], warm: OEResult | None = None) -> None:
         super().__init__("hold and fit again")
         self.drop = drop
+        self.warm = warm
 
 
 class ModelEstimator(FittedAttributes):
@@ -700,18 +702,23 @@ class ModelEstimator(FittedAttributes):
         kind names parameters to hold when the data cannot tell them from their neutral value
         (``held_when_insignificant``, e.g. the MMG propeller asymmetry), a fit that finds such
         a parameter's 95 % interval containing it is repeated with it held there; only the
-        last fit's warnings are shown, after the one saying what was held and why."""
+        last fit's warnings are shown, after the one saying what was held and why. The output
+        error of the fit again starts from the previous fit's optimum with the held parameters
+        at their value (``refine_output_error(warm=...)``: the same optimum in a few
+        iterations)."""
         if getattr(self.kind_.dynamics, "held_when_insignificant", None) is None:
             return self._fit_once(trials, turning, psi_switch, {})
         held: dict[str, tuple[float, str]] = {}
+        warm: OEResult | None = None
         while True:
             caught: list[warnings.WarningMessage] = []
             try:
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always")
-                    return self._fit_once(trials, turning, psi_switch, held)
+                    return self._fit_once(trials, turning, psi_switch, held, warm)
             except _HoldAndRefit as again:  # the first fit's warnings are not shown
                 held.update(again.drop)
+                warm = again.warm
                 caught = []
                 for _, why in again.drop.values():
                     warnings.warn(f"{self.kind}: {why}", IdentificationWarning, stacklevel=3)
@@ -722,8 +729,10 @@ class ModelEstimator(FittedAttributes):
 
     def _fit_once(self, trials: list[PreparedTrial], turning: list[PreparedTrial],
                   psi_switch: float | None,
-                  held: Mapping[str, tuple[float, str]]) -> ModelEstimator:
-        """:meth:`_fit` with ``held``: parameters held at a value (name -> (value, why))."""
+                  held: Mapping[str, tuple[float, str]],
+                  warm: OEResult | None = None) -> ModelEstimator:
+        """:meth:`_fit` with ``held``: parameters held at a value (name -> (value, why)); the
+        output error warm-started from ``warm`` (an earlier fit of the same windows)."""
         kind = self.kind_
         fixed = self._fixed(trials)
         fixed.update({k: v for k, (v, _) in held.items()})
@@ -788,7 +797,8 @@ class ModelEstimator(FittedAttributes):
                                          [s.name or f"trial {i + 1}"
                                           for i, s in enumerate(fit_series)])
             oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels,
-                                     wind=wf.model, disturbance=dist)
+                                     wind=wf.model, disturbance=dist,
+                                     warm=warm if self.method == "oe" else None)
             diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
                           "message": oe.message, "ac_factor": oe.ac_factor, "sigma": oe.sigma,
                           "n_residuals": oe.n_residuals, "window_s": self.window_s,
@@ -823,7 +833,7 @@ class ModelEstimator(FittedAttributes):
         drop = (insignificant(self.params_, self.ci95_, fixed) if insignificant is not None
                 else {})
         if drop:  # e.g. the MMG propeller asymmetry: the data show none; fit without it
-            raise _HoldAndRefit(drop)
+            raise _HoldAndRefit(drop, oe if self.method == "oe" else None)
         if held:
             diag["held_insignificant"] = {k: why for k, (_, why) in held.items()}
         weak = self._warn_weak(names, se, q)

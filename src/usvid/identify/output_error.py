@@ -64,6 +64,18 @@ DIVERGED = 1e3
 #: Most recorded values (sets x windows x samples x channels) of one core call of a Jacobian's
 #: perturbed sets (2^24 float64: 128 MiB); more sets are simulated in several calls.
 BATCH_VALUES = 2**24
+#: The fit has converged when the undamped Gauss-Newton step from the current point moves every
+#: parameter by less than this fraction of its standard error (the covariance the fit reports):
+#: the optimizer's resolution. Near the optimum Gauss-Newton converges linearly (large
+#: residuals), at a rate of about 0.6 per iteration on manoeuvring data, so the point is within
+#: about 2.5 steps, 0.03 standard error, of the optimum; further iterations only move the
+#: parameters inside their statistical noise. The Jacobian of the last point is the
+#: covariance's.
+SETTLED_SE = 0.01
+#: The same for the first pass of a reweighted fit, whose optimum only sets the channel
+#: weights (the residual RMS per channel, which a point 0.1 standard error from the optimum
+#: changes by far less than its own sampling scatter).
+SETTLED_SE_PASS = 0.1
 
 
 @dataclass
@@ -90,6 +102,8 @@ class OEResult:
     wind_scale_se: float = 0.0       # its standard error (0: held)
     disturbance: Disturbance | None = None  # the per-trial current / bias in x (x_names)
     free_names: tuple[str, ...] = ()  # the fit-space names estimated (the rest held)
+    #: each pass's optimum: (fit-space values x, the windows' initial states) (warm starts)
+    pass_points: tuple[tuple[np.ndarray, dict[str, np.ndarray]], ...] = ()
 
 
 class OEProblem:
@@ -317,7 +331,8 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
                         max_iter: int = 100, estimate_initial: bool = True,
                         reweight: bool = True, wind: WindLoadModel | None = None,
                         fit_wind_scale: bool = True,
-                        disturbance: Disturbance | None = None) -> OEResult:
+                        disturbance: Disturbance | None = None,
+                        warm: OEResult | None = None) -> OEResult:
     """Minimise weighted simulated-minus-measured outputs over all windows (multiple shooting).
 
     Parameters
@@ -347,6 +362,14 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         A constant current and/or sway-force and yaw-moment bias per trial
         (:mod:`usvid.identify.disturbance`), estimated with the parameters (start
         ``start[name]`` or 0); their values and covariance are in ``x``/``x_cov``.
+    warm : OEResult, optional
+        An earlier fit of the same windows (the same fit space) to start from: each pass
+        starts from that fit's optimum of the pass (its ``pass_points``: the free parameters
+        and the windows' initial states; the parameters this fit holds keep their ``start``
+        values), or from the previous pass's optimum when that costs less. E.g. the fit again
+        with a parameter held at its neutral value (the estimator's insignificance rule): the
+        same optimum to the solver's resolution (:data:`SETTLED_SE`) in a few iterations
+        instead of the whole descent from the equation-error start.
 
     Returns
     -------
@@ -431,17 +454,29 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         return {c: max(rmse(meas[c][:, 1:], np.nan_to_num(sim[c][:, 1:])), 1e-12)
                 for c in channels}
 
-    x0 = np.concatenate([x_all[free]] + [init0[k] for k in inames])
-    xs, cost, nfev, success, message, sig, Sinv, psi_w, f = _refine_schur(
-        resid, resid_many, x0, nf, len(inames), B, len(channels), W - 1, sigma, lo, hi,
-        2 if reweight else 1, max_iter, rms_sigma, kind.name, tuple(np.array(prob.names)[free]))
     m = B * len(channels) * (W - 1)
     ncol = nf + len(inames) * B
-    s2 = float(np.sum(f * f)) / max(m - ncol, 1)
-    r = f.reshape(B, len(channels), W - 1).transpose(1, 0, 2)
-    fac = max(autocorrelation_factor(b) for b in r)
-    cov_x, fac = _param_covariance(Sinv, s2, fac, B, m, ncol,
-                                   lambda: Sinv @ (psi_w.T @ psi_w) @ Sinv)
+
+    def cov_of(Sinv: np.ndarray, psi_w: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, float]:
+        """Covariance of the free fit-space parameters (and the inflation factor) from
+        S^-1, the window scores and the residuals (B, M) (:func:`_param_covariance`)."""
+        s2 = float(np.sum(f * f)) / max(m - ncol, 1)
+        fac = 1.0  # (the sandwich covariance reports its own factor)
+        if B < MIN_CLUSTERS:
+            r = f.reshape(B, len(channels), W - 1).transpose(1, 0, 2)
+            fac = max(autocorrelation_factor(b) for b in r)
+        return _param_covariance(Sinv, s2, fac, B, m, ncol,
+                                 lambda: Sinv @ (psi_w.T @ psi_w) @ Sinv)
+
+    x0 = np.concatenate([x_all[free]] + [init0[k] for k in inames])
+    starts = _warm_starts(warm, prob, x_all, free, inames, B)
+    if starts:
+        x0 = starts[0]
+    xs, cost, nfev, success, message, sig, Sinv, psi_w, f, ends = _refine_schur(
+        resid, resid_many, x0, nf, len(inames), B, len(channels), W - 1, sigma, lo, hi,
+        2 if reweight else 1, max_iter, rms_sigma, kind.name, tuple(np.array(prob.names)[free]),
+        lambda Si, ps, ff: cov_of(Si, ps, ff)[0], starts)
+    cov_x, fac = cov_of(Sinv, psi_w, f)
     xa, init = unpack(xs)
     covx_full = np.zeros((len(x_all), len(x_all)))
     covx_full[np.ix_(free, free)] = cov_x
@@ -468,7 +503,29 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
                     dof=float(B - 1) if B >= MIN_CLUSTERS else math.inf,
                     init={k: np.asarray(v).copy() for k, v in init.items()},
                     wind_scale=ws, wind_scale_se=ws_se, disturbance=disturbance,
-                    free_names=tuple(free_names))
+                    free_names=tuple(free_names),
+                    pass_points=tuple(unpack(e) for e in ends))
+
+
+def _warm_starts(warm: OEResult | None, prob: OEProblem, x_all: np.ndarray, free: np.ndarray,
+                 inames: Sequence[str], B: int) -> list[np.ndarray]:
+    """The unknowns (free fit values, then each initial state of all ``B`` windows) each pass
+    starts from, from the pass optima of ``warm`` (:func:`refine_output_error`); the held fit
+    values are those of ``x_all``. [] without a usable warm fit (another fit space, windows or
+    initial states, or a point that is no valid model: a cold start)."""
+    if warm is None or tuple(warm.x_names) != tuple(prob.names) or not warm.pass_points:
+        return []
+    out = []
+    for xw, init in warm.pass_points:
+        xa = np.where(free, xw, x_all)
+        if any(k not in init or np.shape(init[k]) != (B,) for k in inames):
+            return []
+        try:
+            prob.dynamics(prob.params(xa))
+        except (UsvidError, ValueError, ZeroDivisionError):
+            return []
+        out.append(np.concatenate([xa[free]] + [np.asarray(init[k], float) for k in inames]))
+    return out
 
 
 def _param_covariance(Sinv: np.ndarray, s2: float, fac: float, B: int, m: int, ncol: int,
@@ -489,7 +546,7 @@ def _param_covariance(Sinv: np.ndarray, s2: float, fac: float, B: int, m: int, n
 
 
 def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes, max_iter,
-                  rms_sigma, kind_name, free_names):
+                  rms_sigma, kind_name, free_names, cov_of, starts=()):
     """Levenberg-Marquardt with the window initial states eliminated (Schur complement).
 
     Unknowns: model parameters theta (nf) and, per window b, its initial state s_b (ni). With
@@ -499,7 +556,13 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
     are solved by eliminating each s_b: S = A - sum_b B_b C_b^-1 B_b^T, A = sum G_b^T G_b,
     B_b = G_b^T L_b, C_b = L_b^T L_b. The theta block of the inverse normal matrix is S^-1 (the
     covariance); the cluster-robust score of window b is psi_b = G_b^T r_b - B_b C_b^-1 L_b^T r_b.
-    Returns (x, cost, nfev, success, message, sigma, S^-1, psi, residuals (B, M)).
+    A pass stops when the undamped Gauss-Newton step from the current point is below
+    :data:`SETTLED_SE` (:data:`SETTLED_SE_PASS` before the last pass) of every parameter's
+    standard error (``cov_of(S^-1, psi, residuals)``); that point's Jacobian gives the
+    covariance. ``starts``: each pass's warm start (:func:`_warm_starts`), taken when it costs
+    less than the previous pass's optimum.
+    Returns (x, cost, nfev, success, message, sigma, S^-1, psi, residuals (B, M), each pass's
+    optimum).
     """
     M = C * W1
 
@@ -540,19 +603,62 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
             return np.concatenate([dth, ds.T.ravel()])
         return dth
 
+    def gauss_newton(G, L, f, A, g, Bm, Cm, h):
+        """The undamped Gauss-Newton step of the parameters, S^-1 and the window scores."""
+        if ni:
+            Ci = np.linalg.inv(Cm)
+            BC = np.einsum("bik,bkl->bil", Bm, Ci)
+            S = A - np.einsum("bil,bjl->ij", BC, Bm)
+            psi = np.matmul(G.transpose(0, 2, 1), f[:, :, None])[:, :, 0] \
+                - np.einsum("bil,bl->bi", BC, h)
+            rhs = -g + np.einsum("bil,bl->i", BC, h)
+        else:
+            S = A
+            psi = np.matmul(G.transpose(0, 2, 1), f[:, :, None])[:, :, 0]
+            rhs = -g
+        Sinv = np.linalg.inv(S)
+        return Sinv @ rhs, Sinv, psi
+
+    def settled(G, L, f, normal_eq, tol):
+        """(S^-1, psi) at x when the Gauss-Newton step from x moves every parameter by less
+        than ``tol`` of its standard error (``cov_of``), else None."""
+        try:
+            dth, Sinv, psi = gauss_newton(G, L, f, *normal_eq)
+            se = np.sqrt(np.maximum(np.diag(cov_of(Sinv, psi, f)), 0.0))
+        except np.linalg.LinAlgError:
+            return None
+        if np.all(np.isfinite(dth)) and np.all(np.abs(dth) < tol * se):
+            return Sinv, psi
+        return None
+
     x = x0.copy()
     nfev = 0
     message = "maximum number of iterations reached"
     success = False
-    f = rb(x, sigma)
+    at_x = None  # the Jacobian at x with the last pass's weights (G, L, normal equations)
+    done = None  # (S^-1, psi) at x when the last pass settled
+    ends = []  # each pass's optimum
     for k in range(passes):
+        last = k == passes - 1
+        tol = SETTLED_SE if last else SETTLED_SE_PASS
         f = rb(x, sigma)
         cost = 0.5 * float(np.sum(f * f))
+        if 0 < k < len(starts):  # a warm start of this pass, where it costs less
+            fw = rb(starts[k], sigma)
+            cw = 0.5 * float(np.sum(fw * fw))
+            if np.isfinite(cw) and cw < cost:
+                x, f, cost = starts[k].copy(), fw, cw
         mu = 1e-3
         for _ in range(max_iter):
             G, L = jac(x, f, sigma)
             nfev += 1 + nf + ni
             A, g, Bm, Cm, h = normal(G, L, f)
+            at_x = (G, L, (A, g, Bm, Cm, h))
+            done = settled(G, L, f, at_x[2], tol)
+            if done is not None:
+                message, success = ("converged (the Gauss-Newton step below "
+                                    f"{tol:g} standard error of every parameter)"), True
+                break
             improved = False
             cn = cost
             for _ in range(20):
@@ -572,34 +678,29 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
                     improved = True
                     break
                 mu *= 4
-            if not improved:
+            if not improved:  # x unchanged: its Jacobian stays valid
                 message, success = "no further decrease of the cost", True
                 break
             rel = (cost - cn) / max(cost, 1e-300)
             step = float(np.max(np.abs(dx[:nf]) / np.maximum(np.abs(x[:nf]), 1e-12)))
             x, f, cost = xn, fn, cn
+            at_x = done = None
             mu = max(mu / 3, 1e-12)
             if rel < 1e-10 or step < 1e-10:
                 message, success = "converged (cost or step tolerance)", True
                 break
-        if k < passes - 1:
+        ends.append(x.copy())
+        if not last:
             sigma = rms_sigma(x)
-            f = rb(x, sigma)
-    G, L = jac(x, f, sigma)
-    A, g, Bm, Cm, h = normal(G, L, f)
-    try:
-        if ni:
-            Ci = np.linalg.inv(Cm)
-            BC = np.einsum("bik,bkl->bil", Bm, Ci)
-            S = A - np.einsum("bil,bjl->ij", BC, Bm)
-            psi = np.matmul(G.transpose(0, 2, 1), f[:, :, None])[:, :, 0] \
-                - np.einsum("bil,bl->bi", BC, h)
-        else:
-            S = A
-            psi = np.matmul(G.transpose(0, 2, 1), f[:, :, None])[:, :, 0]
-        Sinv = np.linalg.inv(S)
-    except np.linalg.LinAlgError as exc:
-        raise _singular(kind_name, free_names) from exc
-    return x, 0.5 * float(np.sum(f * f)), nfev, success, message, sigma, Sinv, psi, f
-
-
+            at_x = done = None
+    if done is None:
+        if at_x is None:
+            G, L = jac(x, f, sigma)
+            at_x = (G, L, normal(G, L, f))
+        G, L, normal_eq = at_x
+        try:
+            _, Sinv, psi = gauss_newton(G, L, f, *normal_eq)
+        except np.linalg.LinAlgError as exc:
+            raise _singular(kind_name, free_names) from exc
+        done = Sinv, psi
+    return x, 0.5 * float(np.sum(f * f)), nfev, success, message, sigma, *done, f, ends
