@@ -476,12 +476,15 @@ def _rudder_nb(p: Any, U: float, beta: float, rp: float, uP: float, n: float,
     kap = p[IDX_KAPPA]
     w = (1.0 - kap) * uP + kap * s
     eta = p[IDX_ETA]
-    uR = p[IDX_EPSILON] * vmath.sqrt(eta * w * w + (1.0 - eta) * uP * uP)
+    eps = p[IDX_EPSILON]
+    b = eta * w * w + (1.0 - eta) * uP * uP  # (u_R / eps)^2
+    uR = eps * vmath.sqrt(b)
     bR = beta - p[IDX_L_R] * rp
     pos = 1.0 if bR > 0.0 else 0.0
     gam = p[IDX_GAMMA_MINUS] + (p[IDX_GAMMA_PLUS] - p[IDX_GAMMA_MINUS]) * pos
     vR = U * gam * bR
-    UR = vmath.sqrt(uR * uR + vR * vR)
+    # U_R from u_R^2 = eps^2 b, not from u_R: the two square roots side by side, not in series
+    UR = vmath.sqrt(eps * eps * b + vR * vR)
     FN = p[IDX_Q_R] * UR * (uR * sd - vR * cd)
     XR = -(1.0 - p[IDX_T_R]) * FN * sd
     YR = -(1.0 + p[IDX_A_H]) * FN * cd
