@@ -66,19 +66,58 @@ def _sha(p: Path) -> str:
 _HASHES: dict[tuple, str] = {}
 
 
-def _tree(root: Path) -> dict[str, str]:
-    """sha256 of every file under ``root`` (relative path -> hash); a file whose path, inode,
+@dataclass
+class Scan:
+    """One pass over everything under a folder (as ``root.rglob("*")`` lists it: hidden names
+    included, symlinked folders not entered)."""
+    tree: dict[str, str]    # regular files (symlinks followed): relative path -> sha256
+    types: dict[str, int]   # every entry: relative path -> stat.S_IFMT, symlinks not followed
+    leftovers: list[str]    # temporary files (``*.tmp``) and write probes (``.usvid-probe*``)
+
+
+def _is_file(e: os.DirEntry) -> bool:
+    try:
+        return e.is_file()  # a symlink is followed (a loop or dangling link: not a file)
+    except OSError:
+        return False
+
+
+def _scan(root: Path) -> Scan:
+    """The files' hashes, every entry's type and the leftovers under ``root`` in one pass of
+    ``os.scandir`` (each case scans its folders before and after it: pathlib's rglob and
+    relative_to made those scans most of the fault matrix's CPU). A file whose path, inode,
     size and modification time [ns] are unchanged since it was last hashed is not read again
-    (any write changes them), which keeps the ~300 cases x 4 tree hashes fast."""
-    out = {}
-    for p in sorted(root.rglob("*")):
-        if p.is_file():
-            st = p.stat()
-            key = (str(p), st.st_ino, st.st_size, st.st_mtime_ns)
-            if key not in _HASHES:
-                _HASHES[key] = _sha(p)
-            out[str(p.relative_to(root))] = _HASHES[key]
-    return out
+    (any write changes them)."""
+    top = str(root)
+    tree: dict[str, str] = {}
+    types: dict[str, int] = {}
+    left: list[str] = []
+    stack = [top]
+    while stack:
+        try:
+            with os.scandir(stack.pop()) as it:
+                entries = list(it)
+        except (PermissionError, FileNotFoundError, NotADirectoryError):
+            continue
+        for e in entries:
+            rel = e.path[len(top) + 1:]
+            types[rel] = stat.S_IFMT(e.stat(follow_symlinks=False).st_mode)
+            if e.name.endswith(".tmp") or e.name.startswith(".usvid-probe"):
+                left.append(e.path)
+            if e.is_dir(follow_symlinks=False):
+                stack.append(e.path)
+            elif _is_file(e):
+                st = e.stat()
+                key = (e.path, st.st_ino, st.st_size, st.st_mtime_ns)
+                if key not in _HASHES:
+                    _HASHES[key] = _sha(Path(e.path))
+                tree[rel] = _HASHES[key]
+    return Scan(tree, types, sorted(left))
+
+
+def _tree(root: Path) -> dict[str, str]:
+    """sha256 of every file under ``root`` (relative path -> hash): :func:`_scan`."""
+    return _scan(root).tree
 
 
 def run_cli(argv: list[str]) -> tuple[int, str, str]:
@@ -961,14 +1000,13 @@ def _third_round() -> None:
 _third_round()
 
 def _leftovers(root: Path) -> list[str]:
-    return [str(p) for p in root.rglob("*") if p.name.endswith(".tmp")
-            or p.name.startswith(".usvid-probe")]
+    return _scan(root).leftovers
 
 
 def _types(root: Path) -> dict[str, int]:
     """The file type (``stat.S_IFMT``, symlinks not followed) of everything under ``root``: a
     device node or FIFO replaced by a regular file changes it."""
-    return {str(p.relative_to(root)): stat.S_IFMT(p.lstat().st_mode) for p in root.rglob("*")}
+    return _scan(root).types
 
 
 class CaseTimeout(BaseException):
@@ -1006,8 +1044,8 @@ def _peak() -> int:
 def test_fault_matrix(ws: WS, cid: str, build) -> None:
     argv, culprit, *expect = build(ws)  # an Expect third: another exit code, its finding
     culprits = (culprit,) if isinstance(culprit, str) else culprit
-    before = _tree(ws.root)
-    types = _types(ws.root)
+    scan = _scan(ws.root)
+    before, types = scan.tree, scan.types
     outs_before = _tree(ws.out)
     rss0, peak0, kids0 = _rss(), _peak(), _children_cpu()
     previous = signal.signal(signal.SIGALRM, _timeout)
@@ -1023,7 +1061,8 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
     # the process's peak rose during the case: it is the case's own, measured from where it began
     assert peak == peak0 or peak - rss0 < MAX_CASE_BYTES, \
         f"{cid}: {(peak - rss0) / 2**20:.0f} MiB of memory"
-    assert {k: v for k, v in _types(ws.root).items() if k in types} == types, \
+    scan, outs = _scan(ws.root), _scan(ws.out)  # nothing below writes: one pass of each
+    assert {k: v for k, v in scan.types.items() if k in types} == types, \
         f"{cid}: a file changed type (a device node or FIFO replaced?)"
     lines = [ln for ln in err.splitlines() if ln.strip()]
     if expect:  # e.g. an audit with error findings: exit 3, its complete JSON on stdout
@@ -1031,7 +1070,7 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
         assert "Traceback" not in err, err[-3000:]
         codes = {f["code"] for f in json.loads(out)["findings"] if f["severity"] == "error"}
         assert expect[0].finding in codes, f"{cid}: {expect[0].finding} not in {codes}"
-        assert _tree(ws.out) == outs_before, f"{cid}: an audit wrote a file"
+        assert outs.tree == outs_before, f"{cid}: an audit wrote a file"
     else:
         assert code in (0, 2), f"{cid}: exit {code}\n{err[-3000:]}"
     if code == 2:
@@ -1042,14 +1081,14 @@ def test_fault_matrix(ws: WS, cid: str, build) -> None:
         for c in culprits:
             assert c.lower() in lines[0].lower(), f"{cid}: {c!r} not in {lines[0]!r}"
         # a refused command writes nothing
-        assert _tree(ws.out) == outs_before, f"{cid}: output written despite exit 2"
-    after = _tree(ws.root)
+        assert outs.tree == outs_before, f"{cid}: output written despite exit 2"
+    after = scan.tree
     assert {k: after.get(k) for k in before} == before, f"{cid}: an input was modified"
     new = set(after) - set(before)  # only `usvid report` writes beside its input
     assert all(Path(k).name == "report.html" for k in new) and (code == 0 or not new), new
     for k in new:
         assert (ws.root / k).read_text().rstrip().endswith("</html>")
-    assert _leftovers(ws.root) == [] and _leftovers(ws.out) == []
+    assert scan.leftovers == [] and outs.leftovers == []
     for p in ws.out.rglob("*.json"):  # whatever was written is complete
         json.loads(p.read_text())
 
@@ -1299,44 +1338,49 @@ def _identify(paths, fmt, kind="nomoto1", method="ls") -> tuple[dict, list[str]]
     return s["params"], [str(w.message) for w in rec]
 
 
-def test_clock_reset_in_hsva_log_is_repaired(hsva_dir: Path, tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def hsva_clean(hsva_dir: Path) -> tuple[Path, dict]:
+    """The clean KVLCC2 zig-zag of the time-integrity tests and its nomoto1 parameters,
+    identified once for the three tests that compare a damaged copy with it."""
+    src = hsva_dir / "HSVA_CPMC_KVLCC2_Z_10_05.dat"
+    return src, _identify([src], "hsva_kvlcc2")[0]
+
+
+def test_clock_reset_in_hsva_log_is_repaired(hsva_clean, tmp_path: Path) -> None:
     """A -30 s clock reset in the middle of a KVLCC2 zig-zag: the channels are continuous
     across it, so the clock is repaired and K, T equal the clean log's (2 % allowed by the
     issue; the repair is exact here, so 1e-6 relative)."""
-    src = hsva_dir / "HSVA_CPMC_KVLCC2_Z_10_05.dat"
+    src, clean = hsva_clean
     bad = _hsva_with_reset(src, tmp_path / "reset.dat", -30.0)
     tr = read_trial(bad, "hsva_kvlcc2")
     f = [x for x in tr.findings if x.code == "clock_reset_repaired"]
     # the step is -30 s + one 0.05 s sample step
     assert len(f) == 1 and "-29.950 s" in f[0].message and np.all(np.diff(tr.t) > 0)
-    clean, _ = _identify([src], "hsva_kvlcc2")
     got, _ = _identify([bad], "hsva_kvlcc2")
     for k in ("K", "T"):
         assert got[k] == pytest.approx(clean[k], rel=1e-6)
 
 
-def test_clock_reset_with_data_lost_splits_and_warns(hsva_dir: Path, tmp_path: Path) -> None:
+def test_clock_reset_with_data_lost_splits_and_warns(hsva_clean, tmp_path: Path) -> None:
     """A reset where 20 s of records are missing too: not repairable, so the log is split
     there, identification fits the two segments separately and says so loudly; K, T stay
     within 10 % of the clean log (less data; a fit across the jump gave -17 % / -21 %)."""
-    src = hsva_dir / "HSVA_CPMC_KVLCC2_Z_10_05.dat"
+    src, clean = hsva_clean
     bad = _hsva_with_reset(src, tmp_path / "lost.dat", -30.0, drop=400)
     tr = read_trial(bad, "hsva_kvlcc2")
     assert [b["kind"] for b in tr.meta["time_breaks"]] == ["clock_reset"]
-    clean, _ = _identify([src], "hsva_kvlcc2")
     got, msgs = _identify([bad], "hsva_kvlcc2")
     assert any("TIME DISCONTINUITY" in m and "2 segment" in m for m in msgs)
     for k in ("K", "T"):
         assert got[k] == pytest.approx(clean[k], rel=0.10)
 
 
-def test_forward_jump_splits(hsva_dir: Path, tmp_path: Path) -> None:
-    src = hsva_dir / "HSVA_CPMC_KVLCC2_Z_10_05.dat"
+def test_forward_jump_splits(hsva_clean, tmp_path: Path) -> None:
+    src, clean = hsva_clean
     bad = _hsva_with_reset(src, tmp_path / "jump.dat", +30.0)
     tr = read_trial(bad, "hsva_kvlcc2")
     assert [b["kind"] for b in tr.meta["time_breaks"]] == ["forward_jump"]
     assert any(f.code == "time_discontinuity" for f in tr.findings)
-    clean, _ = _identify([src], "hsva_kvlcc2")
     got, msgs = _identify([bad], "hsva_kvlcc2")
     assert any("TIME DISCONTINUITY" in m for m in msgs)
     for k in ("K", "T"):  # no data lost, two segments: 2 %
