@@ -259,3 +259,39 @@ def test_threedof_zigzags_and_turn_in_a_current():
         assert abs((row["current_towards_deg"] - 120.0 + 180) % 360 - 180) < 10.0
     for k in ("m11", "m22", "m33", "d11", "d22", "d33"):
         assert est.params_[k] == pytest.approx(getattr(dyn, k), rel=0.03), k
+
+
+def test_own_checks_replay_each_log_in_its_current():
+    """The fit metrics (and so the checks) replay each training log in the current estimated
+    for it, from its velocities through the water, as it was fitted: the vector-thruster 3-DOF
+    USV above in 0.3 m/s, two zig-zags. Replayed in calm water, from the velocities over
+    ground, the model that fits well looks bad (measured: heading R^2 0.51 windowed, free-run
+    heading RMSE 3.9 rad, u 0.29 m/s). Tolerances: the Doppler's 0.02 m/s noise plus a margin
+    for u, v (measured 0.024, 0.022 m/s windowed); the heading R^2 above 0.99 (measured
+    0.9998); the free run's heading within 0.2 rad (measured 0.053 rad)."""
+    from usvid.models import ThreeDOF
+    from usvid.models.servo import SecondOrderServo
+    from usvid.sim import ZigZag
+
+    dyn = ThreeDOF(m11=120.0, m22=180.0, m33=60.0, d11=30.0, d22=90.0, d33=50.0, x_l=1.0,
+                   thrust=60.0)
+    model = VesselModel(dyn, servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5),
+                        vessel=Vessel(length=2.0))
+    env = Environment(current_speed=0.3, current_dir=math.radians(120.0))
+    zz = simulate(model, ZigZag(delta_amp=np.radians([30, 20]), psi_switch=np.radians([10, 20])),
+                  t_end=200.0, dt=0.02, u0=np.array([0.5, 1.0]), environment=env)
+    trials = [virtual_trial_uniform(zz, SENSORS, seed=1, i=i, rate_hz=10.0) for i in range(2)]
+    for tr in trials:
+        tr.data["thrust"] = 60.0  # the logged thrust [N]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        est = ModelEstimator("threedof", "ls", x_l=1.0, thrust=60.0,
+                             disturbance="current").fit(trials)
+    fit = est.fit_
+    print({k: fit[k]["rmse"] for k in ("psi", "u", "v")}, fit["psi"]["r2"],
+          fit["free_run"]["psi"]["rmse"])
+    assert fit["psi"]["r2"] > 0.99
+    for k in ("u", "v"):
+        assert fit[k]["rmse"] < 0.05, k
+    assert fit["free_run"]["psi"]["rmse"] < 0.2
+    assert not [c for c in est.checks_ if not c.passed]

@@ -27,7 +27,9 @@ After fitting (:func:`check_model`), the model identification returns must
 
 * explain its own training data: the windowed replays reproduce at least :data:`MIN_R2` of the
   heading's variance (R^2; a fit to noise explains nothing);
-* replay the training trials as a free run without diverging;
+* replay the training trials as a free run without diverging (both replays run each trial
+  in the conditions it was fitted in: its logged wind and the current and force biases
+  estimated for it, the estimator's ``fit_``);
 * simulate the standard manoeuvres inside the training envelope (:func:`envelope`): turning
   circles to both sides at the largest steering angle of the training data, and the standard
   zig-zags (10/10, 20/20) whose amplitude the training data reached (else one at the largest

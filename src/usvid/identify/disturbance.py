@@ -97,9 +97,35 @@ class Disturbance:
                width: int) -> dict[str, np.ndarray]:
         """The core's input series (B, width) of the windows (trial of window b:
         ``trial_index[b]``): each quantity constant in time at its trial's value."""
-        vals = self.values(x, names)[np.asarray(trial_index, int)]
-        return {SERIES_OF[q]: np.repeat(vals[:, j:j + 1], width, axis=1)
-                for j, q in enumerate(self.quantities)}
+        return window_series(self.quantities, self.values(x, names), trial_index, width)
+
+
+def window_series(quantities: Sequence[str], values: np.ndarray, trial_index: np.ndarray,
+                  width: int) -> dict[str, np.ndarray]:
+    """The core's input series (B, width) of windows whose trials have the per-trial
+    ``values`` (n_trials, len(quantities)) of ``quantities`` (keys of :data:`SERIES_OF`; the
+    trial of window b: ``trial_index[b]``): each quantity constant in time at its trial's
+    value (a current [m/s, north, east, towards], a force bias [N, N m])."""
+    vals = np.asarray(values, float).reshape(-1, len(quantities))[np.asarray(trial_index, int)]
+    return {SERIES_OF[q]: np.repeat(vals[:, j:j + 1], width, axis=1)
+            for j, q in enumerate(quantities)}
+
+
+def in_their_water(series: Sequence[Series], quantities: Sequence[str], values: np.ndarray
+                   ) -> list[Series]:
+    """The trials' ``series`` with their smoothed velocities through the water of each trial's
+    estimated current (:func:`through_water`; ``values`` (n_trials, len(quantities)) of
+    ``quantities``, keys of :data:`SERIES_OF`): the replay of a trial in its current starts
+    each window from them (the kind's states are through the water; the core adds the current
+    back to the recorded velocities over ground). Unchanged without a current among
+    ``quantities``; the measured outputs are left as they are."""
+    qs = list(quantities)
+    if "current_north" not in qs:
+        return list(series)
+    vals = np.asarray(values, float).reshape(len(series), len(qs))
+    i, j = qs.index("current_north"), qs.index("current_east")
+    return [Series(s.name, s.h, through_water(s.data, float(v[i]), float(v[j])))
+            for s, v in zip(series, vals, strict=True)]
 
 
 def disturbance_for(kind: Any, terms: Sequence[str], trials: Sequence[str]) -> Disturbance | None:
@@ -195,10 +221,10 @@ REGRESSION_TERMS = ("current",)
 
 
 def through_water(data: Mapping[str, np.ndarray], cn: float, ce: float) -> dict[str, np.ndarray]:
-    """The series ``data`` (smoothed ``u_s``, ``v_s``, ``r_s``, ``psi_s``, ``udot_s``,
-    ``vdot_s``, over ground) with the velocities through the water of a constant current
-    ``(cn, ce)`` [m/s, north, east, towards] (Fossen 2021, ch. 10.3): with the current in body
-    axes ``u_c = c_N cos psi + c_E sin psi``, ``v_c = -c_N sin psi + c_E cos psi``,
+    """The series ``data`` (smoothed ``u_s``, ``v_s``, ``psi_s`` and, where present, ``r_s``,
+    ``udot_s``, ``vdot_s``, over ground) with the velocities through the water of a constant
+    current ``(cn, ce)`` [m/s, north, east, towards] (Fossen 2021, ch. 10.3): with the current
+    in body axes ``u_c = c_N cos psi + c_E sin psi``, ``v_c = -c_N sin psi + c_E cos psi``,
 
     .. math:: u_r = u - u_c, \\quad v_r = v - v_c, \\quad \\dot u_r = \\dot u - r v_c, \\quad
               \\dot v_r = \\dot v + r u_c
@@ -208,14 +234,16 @@ def through_water(data: Mapping[str, np.ndarray], cn: float, ce: float) -> dict[
     C_RB(nu_r) nu_r`` (Fossen 2021, Property 10.1), so a kind's calm-water regression holds in
     the relative velocities. The other entries are shared, not copied."""
     d = dict(data)
-    psi, r = d["psi_s"], d["r_s"]
+    psi = d["psi_s"]
     c, s = np.cos(psi), np.sin(psi)
     uc = cn * c + ce * s
     vc = -cn * s + ce * c
     d["u_s"] = d["u_s"] - uc
     d["v_s"] = d["v_s"] - vc
-    d["udot_s"] = d["udot_s"] - r * vc
-    d["vdot_s"] = d["vdot_s"] + r * uc
+    if "udot_s" in d:  # (a replay's series: only the velocities)
+        d["udot_s"] = d["udot_s"] - d["r_s"] * vc
+    if "vdot_s" in d:
+        d["vdot_s"] = d["vdot_s"] + d["r_s"] * uc
     return d
 
 
@@ -358,5 +386,5 @@ def regression_report(trials: Sequence[str], x: np.ndarray, cov: np.ndarray, R: 
 
 
 __all__ = ["CORR_MAX", "Disturbance", "REGRESSION_TERMS", "SERIES_OF", "TERMS", "UNITS",
-           "disturbance_for", "parse_disturbance", "regression_current", "regression_report",
-           "report", "through_water"]
+           "disturbance_for", "in_their_water", "parse_disturbance", "regression_current",
+           "regression_report", "report", "through_water", "window_series"]

@@ -877,7 +877,17 @@ class ModelEstimator(FittedAttributes):
         self.oe_ = oe
         self.fixed_ = fixed
         model = VesselModel(dyn, servo=servo, vessel=vessel)
-        self.fit_ = self._metrics(model, series)
+        # the training trials replayed in the conditions they were fitted in: the logged wind
+        # (the model's) and the current / biases estimated per trial
+        trial_env = None
+        if oe is not None and oe.disturbance is not None:
+            trial_env = (oe.disturbance.quantities,
+                         oe.disturbance.values(oe.x, oe.x_names))
+        elif current is not None:
+            trial_env = (_dist.TERMS["current"], current[0])
+        if trial_env is not None and len(fit_series) != len(series):
+            trial_env = None  # (no kind that carries a disturbance fits a part of the trials)
+        self.fit_ = self._metrics(model, series, trial_env)
         # every log the model was identified from: the turning trials of the two-step Norrbin
         # fit too (its alpha comes from them)
         self.data_ = [{"file": str(src), "sha256": _sha256(str(src))}
@@ -1101,12 +1111,24 @@ class ModelEstimator(FittedAttributes):
         return None
 
     # -- use -------------------------------------------------------------------------------------
-    def _metrics(self, model: VesselModel, series: Sequence[Series]) -> dict[str, Any]:
+    def _metrics(self, model: VesselModel, series: Sequence[Series],
+                 trial_env: tuple[Sequence[str], np.ndarray] | None = None) -> dict[str, Any]:
         """Windowed (``window_s``) and free-run fit metrics of ``model`` on ``series``: replays
-        through the integration core (:func:`usvid.sim.replay.replay_windows`)."""
+        through the integration core (:func:`usvid.sim.replay.replay_windows`), each trial in
+        its logged wind and, with ``trial_env`` (quantities, values (n_trials, n_quantities):
+        the current and biases estimated per trial, :mod:`usvid.identify.disturbance`), in its
+        estimated current and biases, as the fit simulated it (the windows started from the
+        velocities through the water)."""
+        env = None
+        if trial_env is not None:
+            quantities, values = trial_env
+            series = _dist.in_their_water(series, quantities, values)
+
+            def env(w: Windows) -> dict[str, np.ndarray]:
+                return _dist.window_series(quantities, values, w.trial_index, w.width)
         out: dict[str, Any] = {"window_s": self.window_s}
-        out.update(_replay_metrics(model, self._windows(series, self.window_s)))
-        out["free_run"] = _replay_metrics(model, self._windows(series, None))
+        out.update(_replay_metrics(model, self._windows(series, self.window_s), env))
+        out["free_run"] = _replay_metrics(model, self._windows(series, None), env)
         return out
 
     def score(self, trials: Any, *, window_s: float | None = -1.0) -> dict[str, Any]:
@@ -1176,11 +1198,14 @@ def _servo_fit(u: np.ndarray, y: np.ndarray, dt: float) -> Any:
     return copy.deepcopy(fit)
 
 
-def _replay_metrics(model: VesselModel, win: Windows) -> dict[str, Any]:
+def _replay_metrics(model: VesselModel, win: Windows,
+                    environment: Any = None) -> dict[str, Any]:
     """RMSE, NRMSE, R^2, max error per output of ``model`` replaying ``win``
     (:func:`usvid.identify.metrics.replay_metrics`: a replay that diverged gives infinite
-    errors)."""
-    return replay_metrics(replay_windows(model, win), win.outputs)
+    errors); ``environment`` (None: none) maps the windows to their further core series
+    (:func:`usvid.sim.replay.replay_windows`)."""
+    extra = None if environment is None else environment(win)
+    return replay_metrics(replay_windows(model, win, environment=extra), win.outputs)
 
 
 def identify(trials: Any, kind: str, method: str | None = None, *, turning: Any = None,

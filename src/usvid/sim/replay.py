@@ -13,7 +13,7 @@ Units: time [s], angles [rad], rates [rad/s], speeds [m/s].
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -172,11 +172,17 @@ def window_lanes(kind: ModelKind, P: np.ndarray, dynamics: Any, win: Windows,
 
 def replay_windows(model: VesselModel, win: Windows,
                    channels: Sequence[str] | None = None,
-                   wind: bool = True) -> dict[str, np.ndarray]:
+                   wind: bool = True,
+                   environment: Mapping[str, np.ndarray] | None = None
+                   ) -> dict[str, np.ndarray]:
     """Simulate every window of ``win`` with ``model`` (measured inputs, measured smoothed
     initial state); returns name -> (B, W) simulated outputs (NaN after a divergence).
     Windows with a logged wind (``wind_x``, ``wind_y``) are replayed in it (``wind``; False:
-    calm water), its loads from the model's vessel (:func:`wind_block`)."""
+    calm water), its loads from the model's vessel (:func:`wind_block`). ``environment``:
+    further core series (B, W) of the windows (:data:`usvid.sim.layout.SERIES` names: an
+    estimated current ``current_x``, ``current_y`` [m/s, north, east], a force bias
+    ``force_Y`` [N], ``force_N`` [N m]); with a current the windows' initial velocities must be
+    those through the water (the kind's states; the recorded ``u``, ``v`` are over ground)."""
     kind = kind_of(model.dynamics)
     chans = tuple(channels) if channels is not None else tuple(
         c for c in OUTPUTS if c in win.outputs and (c not in ("phi", "p") or c in kind.states))
@@ -189,7 +195,10 @@ def replay_windows(model: VesselModel, win: Windows,
         speed = approach_speed(model, None)
     P = kind.pack(model.dynamics, speed)
     env = wind_block(model) if wind and "wind_x" in win.inputs else None
-    out = window_lanes(kind, P, model.dynamics, win, channels=chans, env_block=env).run()
+    lanes = window_lanes(kind, P, model.dynamics, win, channels=chans, env_block=env)
+    if environment:
+        lanes = replace(lanes, series={**lanes.series, **environment})
+    out = lanes.run()
     return {c: out.channels[c] for c in chans}
 
 
