@@ -182,20 +182,13 @@ def report(dist: Disturbance, x: np.ndarray, names: Sequence[str], cov: np.ndarr
                 bad.append({"quantity": f"{qn}[{tname}]", "with": _plain(worst[1], dist),
                             "correlation": round(worst[0], 4)})
         if "current" in dist.terms:
-            cn, ce = row["current_north"]["value"], row["current_east"]["value"]
-            row["current_speed_m_s"] = float(math.hypot(cn, ce))
-            row["current_towards_deg"] = float(math.degrees(math.atan2(ce, cn)) % 360.0)
+            _current_polar(row)
         trials.append(row)
-    text = None
-    if bad:
-        parts = [f"{b['quantity']} with {b['with']} (correlation {b['correlation']:.3f})"
-                 if "with" in b else f"{b['quantity']} ({b['reason']})" for b in bad[:6]]
-        more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
-        text = (f"{kind}: the disturbance is not separable from the hull in these data "
-                f"(collinear: {'; '.join(parts)}{more}): its values and the correlated "
-                "parameters are not determined separately; runs with turns through a wide range "
-                "of headings (a current) and turns to both sides (a bias) separate them")
-        warnings.warn(text, IdentificationWarning, stacklevel=3)
+    text = _not_separable(
+        bad, f"{kind}: the disturbance is not separable from the hull in these data",
+        "its values and the correlated parameters are not determined separately; runs with "
+        "turns through a wide range of headings (a current) and turns to both sides (a bias) "
+        "separate them")
     return {"terms": list(dist.terms), "trials": trials, "not_separable": bad,
             "warning": text}
 
@@ -367,20 +360,12 @@ def regression_report(trials: Sequence[str], x: np.ndarray, cov: np.ndarray, R: 
                 bad.append({"quantity": f"{qn}[{tname}]",
                             "with": "the hull coefficients and the other currents",
                             "correlation": round(float(R[i]), 4)})
-        cn, ce = row["current_north"]["value"], row["current_east"]["value"]
-        row["current_speed_m_s"] = float(math.hypot(cn, ce))
-        row["current_towards_deg"] = float(math.degrees(math.atan2(ce, cn)) % 360.0)
+        _current_polar(row)
         rows.append(row)
-    text = None
-    if bad:
-        parts = [f"{b['quantity']} with {b['with']} (correlation {b['correlation']:.3f})"
-                 if "with" in b else f"{b['quantity']} ({b['reason']})" for b in bad[:6]]
-        more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
-        text = (f"{kind}: the current is not separable from the hull in these data "
-                f"(collinear: {'; '.join(parts)}{more}): its values and the hull's coefficients "
-                "are not determined separately; runs with turns through a wide range of "
-                "headings separate them")
-        warnings.warn(text, IdentificationWarning, stacklevel=3)
+    text = _not_separable(
+        bad, f"{kind}: the current is not separable from the hull in these data",
+        "its values and the hull's coefficients are not determined separately; runs with turns "
+        "through a wide range of headings separate them")
     return {"terms": ["current"], "trials": rows, "not_separable": bad, "warning": text,
             "estimated_by": "regression"}
 
@@ -388,3 +373,24 @@ def regression_report(trials: Sequence[str], x: np.ndarray, cov: np.ndarray, R: 
 __all__ = ["CORR_MAX", "Disturbance", "REGRESSION_TERMS", "SERIES_OF", "TERMS", "UNITS",
            "disturbance_for", "in_their_water", "parse_disturbance", "regression_current",
            "regression_report", "report", "through_water", "window_series"]
+
+
+def _current_polar(row: dict) -> None:
+    """Add the current's speed [m/s] and the direction it flows towards [deg, from north,
+    clockwise] to a trial's row from its north and east components."""
+    cn, ce = row["current_north"]["value"], row["current_east"]["value"]
+    row["current_speed_m_s"] = float(math.hypot(cn, ce))
+    row["current_towards_deg"] = float(math.degrees(math.atan2(ce, cn)) % 360.0)
+
+
+def _not_separable(bad: list[dict], what: str, advice: str) -> str | None:
+    """The collinearity warning of the not separable quantities ``bad`` (issued, at the
+    caller's caller, and returned), or None when there are none."""
+    if not bad:
+        return None
+    parts = [f"{b['quantity']} with {b['with']} (correlation {b['correlation']:.3f})"
+             if "with" in b else f"{b['quantity']} ({b['reason']})" for b in bad[:6]]
+    more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
+    text = f"{what} (collinear: {'; '.join(parts)}{more}): {advice}"
+    warnings.warn(text, IdentificationWarning, stacklevel=4)
+    return text

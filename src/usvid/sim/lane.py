@@ -73,7 +73,10 @@ def _inputs(V, j):
     return srv, fs, tr
 
 
-@numba.njit(cache=True, error_model="numpy", forceinline=True)
+# Not cached on its own: numba keys a function's cache to its own file only, so a cached copy
+# would keep an edited load formula of usvid.models.environment; compiled into the templates,
+# whose cache key holds those modules' sources (usvid.sim.specialise.core_digest).
+@numba.njit(error_model="numpy", forceinline=True)
 def _envload(pe, wx, wy, vn, ve, cps, sps):
     """The state-dependent environment loads (X, Y [N], K, N [N m], body axes) of the
     environment block ``pe`` (:data:`usvid.sim.layout.ENVBLOCK`) for the true wind moving the
