@@ -15,8 +15,6 @@ USVID_HEAVY_TESTS=1, the real ``demo --quick`` at N_KILLS + N_REAL_KILLS random 
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import multiprocessing
 import os
@@ -53,20 +51,9 @@ GAP_S = 0.5
 
 @pytest.fixture(scope="module")
 def log(tmp_path_factory) -> tuple[Path, Path]:
-    """A zig-zag log and its spec; identified here once with each method the forked children
-    run (output error, the default), so that the children inherit every kernel loaded and
-    the signals land on the command's own work (a child of a cold parent spent about two
-    thirds of its CPU loading numba's cached kernels)."""
     d = tmp_path_factory.mktemp("log")
     res, _ = run_zigzag(load_model(EXAMPLES / "lanxin.json"), 10.0, 10.0, t_end=60.0, dt=0.02)
     write_csv(res.to_trial(), d / "log.csv", spec_path=d / "spec.yaml")
-    warm = d / "warm"
-    warm.mkdir()
-    with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
-        warnings.simplefilter("ignore")
-        for method in (["--method", "oe"], []):
-            assert main(["identify", str(d / "log.csv"), "--format", str(d / "spec.yaml"),
-                         "--model", "nomoto1", *method, "--out", str(warm / "m.json")]) == 0
     return d / "log.csv", d / "spec.yaml"
 
 
