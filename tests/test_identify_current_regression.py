@@ -245,12 +245,7 @@ def test_threedof_zigzags_and_turn_in_a_current():
                   environment=env)
     trials = [virtual_trial_uniform(zz, SENSORS, seed=1, i=i, rate_hz=10.0) for i in range(2)]
     trials.append(virtual_trial_uniform(tc, SENSORS, seed=3, rate_hz=10.0))
-    for tr in trials:
-        tr.data["thrust"] = 60.0  # the logged thrust [N]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        est = ModelEstimator("threedof", "ls", x_l=1.0, thrust=60.0,
-                             disturbance="current").fit(trials)
+    est = _fit_threedof(trials)
     d = est.result_.summary()["disturbance"]
     assert len(d["trials"]) == 3 and not d["not_separable"]
     for row in d["trials"]:
@@ -281,17 +276,21 @@ def test_own_checks_replay_each_log_in_its_current():
     zz = simulate(model, ZigZag(delta_amp=np.radians([30, 20]), psi_switch=np.radians([10, 20])),
                   t_end=200.0, dt=0.02, u0=np.array([0.5, 1.0]), environment=env)
     trials = [virtual_trial_uniform(zz, SENSORS, seed=1, i=i, rate_hz=10.0) for i in range(2)]
-    for tr in trials:
-        tr.data["thrust"] = 60.0  # the logged thrust [N]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        est = ModelEstimator("threedof", "ls", x_l=1.0, thrust=60.0,
-                             disturbance="current").fit(trials)
+    est = _fit_threedof(trials)
     fit = est.fit_
-    print({k: fit[k]["rmse"] for k in ("psi", "u", "v")}, fit["psi"]["r2"],
-          fit["free_run"]["psi"]["rmse"])
     assert fit["psi"]["r2"] > 0.99
     for k in ("u", "v"):
         assert fit[k]["rmse"] < 0.05, k
     assert fit["free_run"]["psi"]["rmse"] < 0.2
     assert not [c for c in est.checks_ if not c.passed]
+
+
+def _fit_threedof(trials):
+    """``identify --model threedof --method ls --disturbance current`` of the 3-DOF USV's
+    logs, their thrust logged as the constant 60 N."""
+    for tr in trials:
+        tr.data["thrust"] = 60.0  # the logged thrust [N]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return ModelEstimator("threedof", "ls", x_l=1.0, thrust=60.0,
+                              disturbance="current").fit(trials)
