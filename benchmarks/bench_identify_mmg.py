@@ -11,10 +11,12 @@ output error with one core call per perturbed set (the former Jacobian, for the 
 show the same fitted parameters). Printed: wall and CPU time of each fit (after a warm-up fit
 of one run, so numba compilation or cache loading is excluded), peak memory of Python/numpy
 allocations (tracemalloc), the 35 deg turning circles (advance/L, tactical diameter/L) the
-identified models predict, the ratio oe / ls of CPU, and the largest relative difference of the
-fitted parameters between the two Jacobians. Then the commands ``usvid identify ... --model mmg
---method ls|oe`` in fresh processes (CPU of the process, start-up included). The acceptance:
-oe at most 1.5x the CPU of ls, the same fitted parameters to the optimizer's tolerance.
+identified models predict, the ratio oe / ls of CPU (each fit from the same prepared trials
+with nothing an earlier fit derived from them kept: every fit estimates the states again),
+and the largest relative difference of the fitted parameters between the two Jacobians.
+Then the commands ``usvid identify ... --model mmg --method ls|oe`` in fresh processes (CPU
+of the process, start-up included). The acceptance: oe at most 1.5x the CPU of ls, the same
+fitted parameters to the optimizer's tolerance.
 ``USVID_BENCH_SKIP_CLI=1`` skips the commands.
 """
 
@@ -59,6 +61,8 @@ def _one_set_per_call(self, xs, inits):
 
 
 def _fit(trials, method: str):
+    for tr in trials:  # the same preparation for every fit: what an earlier fit derived from the
+        tr.memo.clear()  # trials (state estimates, segments) is derived again, not reused
     tracemalloc.start()
     t0, c0 = time.perf_counter(), time.process_time()
     est = ModelEstimator("mmg", method, checks="record").fit(trials)

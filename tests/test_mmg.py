@@ -776,3 +776,28 @@ def test_one_parameter_set_at_several_approach_speeds():
         one = simulate(model, Turning(math.radians(35.0)), t_end=10.0, dt=0.05, u0=u0)
         assert both["r"][i] == pytest.approx(one["r"][0], rel=1e-12, abs=1e-15)
     assert both["u"][0, -1] < both["u"][1, -1]
+
+
+@pytest.mark.parametrize("n", [None, 10.23])
+def test_packed_row_is_the_repacked_set(n):
+    """Where the kind says a fitted parameter sits in one packed row alone (``packed_row``),
+    setting that row is the packing of the set with the parameter changed, bit for bit, for
+    every fitted parameter; R_0 without a nominal shaft speed is refused (it moves the
+    equilibrium shaft speed, the one derived row), and so are batches."""
+    from usvid.models.kinds.mmg import KIND, from_physics, packed_row
+
+    d = from_physics(mmg.kvlcc2("hsva"), n=n).replace(Y_P0=0.01, N_P0=-0.002)
+    P = KIND.pack(d, 1.1)
+    for name in type(d).fit_names():
+        where = packed_row(d, name)
+        if name == "R_0" and n is None or name == "thrust_asymmetry":
+            assert where is None  # (the asymmetry of the twin PWM map: not this variant)
+            continue
+        assert where is not None, name
+        v = float(getattr(d, name)) * (1.0 + 1.4901161193847656e-08) + 1e-9
+        want = KIND.pack(d.replace(**{name: v}), 1.1)
+        got = P.copy()
+        got[where[0]] = where[1] * v
+        np.testing.assert_array_equal(got, want, err_msg=name)
+    batch = from_physics(mmg.kvlcc2("hsva"), n=np.array([9.0, 10.0]))
+    assert packed_row(batch, "Y_r") is None

@@ -122,3 +122,52 @@ def test_one_thread_pool_per_process(monkeypatch):
     monkeypatch.setattr(core, "_POOL", dict(core._POOL))  # (this process's, restored after)
     monkeypatch.setattr(core.os, "getpid", lambda: -1)
     assert core._pool() is not pool
+
+
+def test_mmg_sets_from_one_packed_row_equal_sets_built_anew():
+    """MMG: a Jacobian's sets that perturb one hull coefficient (or the asymmetry) take the
+    kept model's packed rows with that row set (``ModelKind.packed_row``); their outputs equal
+    those of the sets built, validated and packed anew (a fresh problem, one set per call),
+    and a set out of its parameter's bounds is still marked not ok."""
+    from usvid.models.kinds.mmg import KIND, from_physics
+    from usvid.models.kinds.mmg import physics as mmg
+
+    rng = np.random.default_rng(3)
+    B, W, h = 6, 81, 0.25
+    t = np.arange(W) * h
+    delta = math.radians(20) * np.sign(np.sin(0.1 * t[None, :] + rng.uniform(0, 6, (B, 1))))
+    u0 = np.full(B, 1.1)
+    z = np.zeros((B, W))
+    win = Windows(h=h, inputs={"delta": delta, "n": np.full((B, W), 10.23)},
+                  outputs={"u": z + 1.1, "v": z, "r": z, "psi": z},
+                  init={"u": u0, "v": np.zeros(B), "r": np.zeros(B), "psi": np.zeros(B)})
+    d = from_physics(mmg.kvlcc2("hsva"))
+    fixed = {k: v for k, v in d.values().items() if k not in type(d).fit_names()}
+    start = {k: getattr(d, k) for k in type(d).fit_names()}
+    ch = ("u", "v", "r", "psi")
+    prob = OEProblem(KIND, fixed, win, ch)
+    x = prob.fit_values(start)
+    prob.simulate(x, None)  # the kept model the perturbed sets start from
+    xs, inits = [], []
+    for j, n in enumerate(prob.names):
+        if n in prob.held:  # (the twin PWM map's asymmetry: held for this variant)
+            continue
+        x1 = x.copy()
+        x1[j] += 1e-6 * max(1.0, abs(x1[j]))
+        xs.append(x1)
+        inits.append(None)
+    bad = x.copy()
+    bad[prob.names.index("Y_P0")] = 0.9  # outside [-0.5, 0.5]
+    xs.append(bad)
+    inits.append(None)
+    built = []
+    prob.dynamics = lambda params: built.append(params) or OEProblem.dynamics(prob, params)
+    sims, ok = prob.simulate_sets(xs, inits)
+    assert ok.tolist() == [True] * (len(xs) - 1) + [False]
+    # built anew: only R_0's set (without a nominal shaft speed R_0 moves the equilibrium one)
+    assert len(built) == 1 and built[0]["R_0"] == xs[prob.names.index("R_0")][0]
+    for k in range(len(xs) - 1):
+        one = OEProblem(KIND, fixed, win, ch).simulate(xs[k], None)
+        for c in ch:
+            # the same rows bit for bit; 1e-13 relative as above for the lane's place
+            np.testing.assert_allclose(sims[c][k], one[c], rtol=1e-13, atol=1e-15)

@@ -152,6 +152,11 @@ class OEProblem:
         self._lanes: Lanes | None = None  # the windows' lanes (simulate)
         self._tiles: dict[int, tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]] = {}
         self._models: dict[bytes, tuple[Dynamics, np.ndarray]] = {}  # (_model)
+        # the model's fit values (x without the wind scale and disturbances) and, per
+        # fit-space name, where it enters the packed rows alone (:meth:`_perturbed`)
+        self._mpos = np.array([n not in self._extra for n in self.names])
+        self._rows: dict[bytes, dict[int, tuple[int, float] | None]] = {}
+        self._z0: dict[bytes, np.ndarray] = {}  # initial states by (model, init) (_initial)
 
     def fit_values(self, params: Mapping[str, float]) -> np.ndarray:
         f = dict(self._to_fit({k: v for k, v in params.items() if k not in self._extra}))
@@ -176,20 +181,77 @@ class OEProblem:
     def dynamics(self, params: Mapping[str, float]) -> Dynamics:
         return self.kind.dynamics(**{**self.fixed, **params})
 
+    def _key(self, x: np.ndarray) -> bytes:
+        """The model's key of fit-space values ``x``: its model values only (the wind scale
+        and the disturbances do not change the parameter set)."""
+        return np.asarray(x, dtype=float)[self._mpos].tobytes()
+
     def _model(self, x: np.ndarray) -> tuple[Dynamics, np.ndarray]:
         """The kind's parameter set of fit-space values ``x`` and its packed parameter rows,
         kept for the last few ``x`` (a Jacobian's initial-state sets and the step it was
         taken at share the model: built and validated once)."""
-        key = np.asarray(x, dtype=float).tobytes()
+        key = self._key(x)
         hit = self._models.get(key)
         if hit is None:
             dyn = self.dynamics(self.params(x))
             speed = self.win.init.get("u", 1.0) if self.kind.constant_speed else 1.0
             hit = (dyn, self.kind.pack(dyn, speed))
-            if len(self._models) >= 4:
-                del self._models[next(iter(self._models))]
-            self._models[key] = hit
+            self._keep(key, hit)
         return hit
+
+    def _keep(self, key: bytes, hit: tuple[Dynamics, np.ndarray]) -> None:
+        if len(self._models) >= 4:
+            old = next(iter(self._models))
+            del self._models[old]
+            self._rows.pop(old, None)
+            for k in [k for k in self._z0 if k.startswith(old)]:
+                del self._z0[k]
+        self._models[key] = hit
+
+    def _perturbed(self, x: np.ndarray) -> tuple[bytes, np.ndarray] | None:
+        """The packed rows of ``x`` from those of a kept model that differs from it in one
+        fit value which the kind places in one packed row alone (``ModelKind.packed_row``:
+        a Jacobian's perturbed parameter, e.g. an MMG hull coefficient): that model's rows
+        with the one row set, after the parameter's bounds check -- the same rows as building,
+        validating and packing the set anew, without doing so. Returns (the kept model's key,
+        the rows), or None (the set is built anew: no such kept model, a fit space other than
+        the kind's own parameters, or the kind has no ``packed_row``)."""
+        if self.kind.packed_row is None or self.kind.fit_space is not None:
+            return None
+        xm = np.asarray(x, dtype=float)[self._mpos]
+        names = [n for n, m in zip(self.names, self._mpos, strict=True) if m]
+        for key, (dyn, P) in self._models.items():
+            d = np.flatnonzero(np.frombuffer(key) != xm)
+            if len(d) != 1:
+                continue
+            j = int(d[0])
+            rows = self._rows.setdefault(key, {})
+            if j not in rows:
+                rows[j] = self.kind.packed_row(dyn, names[j])
+            where = rows[j]
+            if where is None:
+                return None
+            spec = next(s for s in self.kind.dynamics.param_specs() if s.name == names[j])
+            spec.check("parameters", float(xm[j]))
+            out = P.copy()
+            out[where[0]] = where[1] * float(xm[j])
+            return key, out
+        return None
+
+    def _initial(self, key: bytes, dyn: Dynamics, init: Mapping[str, np.ndarray] | None
+                 ) -> np.ndarray:
+        """The windows' initial states (:func:`window_initial_state`) of the model ``key``
+        and ``init``, kept while the model is (a Jacobian's perturbed parameter sets start
+        from the same states; the kind's initial-state map does not read a parameter it
+        places in a packed row alone)."""
+        ik = key + b"|" + b"".join(k.encode() + np.asarray(v, float).tobytes()
+                                   for k, v in sorted((init or {}).items()))
+        z = self._z0.get(ik)
+        if z is None:
+            if len(self._z0) >= 64:
+                self._z0.clear()
+            z = self._z0[ik] = window_initial_state(self.kind, dyn, self.win, init)
+        return z
 
     def simulate(self, x: np.ndarray, init: Mapping[str, np.ndarray] | None = None
                  ) -> dict[str, np.ndarray]:
@@ -232,9 +294,15 @@ class OEProblem:
         Ps, Zs, envs = [], [], []
         for k, (x, init) in enumerate(zip(xs, inits, strict=True)):
             try:
-                dyn, P = self._model(x)
+                near = None if self._key(x) in self._models else self._perturbed(x)
+                if near is not None:  # one packed row of a kept model changed
+                    key, P = near
+                    dyn = self._models[key][0]
+                else:
+                    key = self._key(x)
+                    dyn, P = self._model(x)
                 P = np.broadcast_to(P, (base.P.shape[0], B))
-                Z0 = window_initial_state(self.kind, dyn, self.win, init)
+                Z0 = self._initial(key, dyn, init)
             except (UsvidError, ValueError, ZeroDivisionError):
                 ok[k] = False
                 P, Z0 = base.P, base.Z0

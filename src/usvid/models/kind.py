@@ -351,6 +351,14 @@ class ModelKind:
     transfer : callable ``(dynamics) -> (num, den)``, optional
         The yaw-rate transfer function r/delta (highest power first; linearised about r = 0)
         of a linear or linearisable response kind (:mod:`usvid.models.export`).
+    packed_row : callable ``(dynamics, name) -> (row, factor) or None``, optional
+        Where a fitted parameter ``name`` enters the packed rows of ``dynamics`` alone: the
+        row ``row`` of ``pack`` holds ``factor * value`` and no other row, nor the kind's
+        ``initial`` map, nor a validity check beyond the parameter's own bounds depends on
+        it (given the other parameters of ``dynamics``); None where that does not hold. Output
+        error then sets that row of a perturbed parameter set instead of building and packing
+        the set anew (:meth:`usvid.identify.output_error.OEProblem.simulate_sets`). Default:
+        every set built anew.
     switch_row, switch_values : int, tuple of float
         A row of the packed parameters that selects a branch of ``rhs`` (e.g. the thrust law's
         mode) and its most used values (at most 3): the core's vectorised step is compiled
@@ -378,6 +386,7 @@ class ModelKind:
     series: Callable[[dict[str, np.ndarray], Mapping[str, Any]], None] | None = None
     channels: Callable[[Dynamics, dict[str, np.ndarray]], None] | None = None
     transfer: Callable[[Dynamics], tuple[list[float], list[float]]] | None = None
+    packed_row: Callable[[Dynamics, str], tuple[int, float] | None] | None = None
     uses_trig: bool = False
     switch_row: int = -1
     switch_values: tuple[float, ...] = ()

@@ -306,6 +306,38 @@ def pack(d: Any, speed: Any) -> np.ndarray:
     return out
 
 
+def packed_row(d: Any, name: str) -> tuple[int, float] | None:
+    """The row of :func:`pack` holding the fitted parameter ``name`` alone, and its factor
+    (row = factor * value), for a scalar parameter set ``d``; None where another row depends
+    on it too (:attr:`usvid.models.kind.ModelKind.packed_row`).
+
+    The hull coefficients are rows of their own; Y_P0 enters as itself, N_P0 as N_P0 L,
+    f_alpha as 0.5 rho A_R f_alpha, the twin PWM map's thrust asymmetry as itself. The one
+    derived row is the nominal shaft speed when ``n`` is not given: the shaft speed whose
+    straight-running surge force is zero (:func:`equilibrium_rps`). Straight running (v = r =
+    delta = 0, v' = r' = 0) leaves of the hull only -R_0 (every other X term carries v' or
+    r'; Y and N do not enter the surge equation, Y&Y 2015 eq. 4), of the rudder nothing (its
+    normal force is proportional to sin(alpha_R) = 0, so f_alpha drops out) and of the
+    asymmetry nothing (a side force and a yaw moment): only R_0 moves it. Validity: the
+    other checks of the set (the mass matrix, the variant's choices) do not involve these
+    parameters, so the parameter's own bounds are the only check."""
+    if any(np.ndim(getattr(d, k, None)) != 0 for k in (name, "n", "L", "rho", "A_R")):
+        return None  # (a batch of parameter sets)
+    if name in HULL_COEFFICIENTS:
+        if name == "R_0" and d.n is None:  # the nominal shaft speed is R_0's equilibrium
+            return None
+        return _m.IDX_R_0 + HULL_COEFFICIENTS.index(name), 1.0
+    if name == "Y_P0":
+        return _m.IDX_Y_P0, 1.0
+    if name == "N_P0":
+        return _m.IDX_N_P0_M, float(d.L)
+    if name == "f_alpha":
+        return _m.IDX_Q_R, 0.5 * float(d.rho) * float(d.A_R)
+    if name == "thrust_asymmetry" and d.variant == "twin" and d.pwm_neutral is not None:
+        return IDX_ASYM, 1.0
+    return None
+
+
 def initial(d: Any, values: Mapping[str, Any]) -> np.ndarray:
     B = max(len(d.lanes()), max((np.size(v) for v in values.values()), default=1))
     return np.vstack([np.broadcast_to(np.asarray(values.get(k, 0.0), float), (B,))
@@ -581,6 +613,7 @@ KIND = ModelKind(
     inputs=("delta", "n", "n_port", "n_stbd"),
     rhs=rhs,
     pack=pack,
+    packed_row=packed_row,
     initial=initial,
     speed=straight_speed,
     outputs=("u", "v", "r", "psi"),
