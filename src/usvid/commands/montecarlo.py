@@ -1,8 +1,8 @@
 """CLI: ``usvid montecarlo MODEL.json --manoeuvre zigzag|turning|course-keeping [options]
 --runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] [--disturbance-deg SD]
-[--wind-speed V|DIST] [--wind-dir-deg D|DIST] [--current-speed V|DIST] [--current-dir-deg D|DIST]
-[--hs H|DIST --tp T|DIST [--wave-dir-deg D|DIST]] --out RESULTS.parquet [--scheduler ADDRESS] [--workers N]
-[--json]``.
+[--wind-speed V|DIST] [--wind-dir-deg D|DIST] [--current-speed V|DIST]
+[--current-dir-deg D|DIST] [--hs H|DIST --tp T|DIST [--wave-dir-deg D|DIST]]
+--out RESULTS.parquet [--scheduler ADDRESS] [--workers N] [--json]``.
 
 Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks in
 this process on a small machine, else on a Dask cluster (a local one, or the scheduler at

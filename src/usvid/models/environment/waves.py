@@ -151,7 +151,7 @@ class SeaState:
                 bad = ~np.isfinite(a) | ((a <= 0) if positive else False)
                 if np.any(bad):
                     i = int(np.argmax(bad))
-                    raise UsvidError(f"sea state: {name} {what} (got {a[i]!r} for run {i})")
+                    raise UsvidError(f"sea state: {name} {what} (got {float(a[i])!r} for run {i})")
                 a.flags.writeable = False
                 object.__setattr__(self, name, a)
             elif not (isinstance(v, (int, float)) and not isinstance(v, bool)
