@@ -291,7 +291,8 @@ class Environment:
             if sea.batch is None:
                 blk[NWIND:, 0] = (fx0, fy0, math.cos(sea.chi), math.sin(sea.chi))
             else:  # one sea state per run: its own drift coefficients and direction
-                blk[NWIND:, :] = (fx0, fy0, np.cos(sea.chi), np.sin(sea.chi))
+                blk[NWIND:, :] = [np.broadcast_to(v, (sea.batch,)) for v in (
+                    fx0, fy0, np.cos(sea.chi), np.sin(sea.chi))]
             info["waves"] = {**sea.to_dict(), "drift_fx0_N": _number(fx0),
                              "drift_fy0_N": _number(fy0),
                              "first_order_motion": bool(self.wave_motion),
