@@ -32,6 +32,14 @@ at the point (x, y) [m, NED]:
 
 With the vessel's own position in :math:`\theta_k` the encounter frequency follows by itself.
 
+A batch of sea states (:class:`SeaState` with :math:`H_s`, :math:`T_p`, direction one per run)
+uses that both spectra have one shape in :math:`\omega/\omega_p`: :math:`S(\omega; H_s, T_p) =
+H_s^2 T_p S_1(\omega T_p)` with :math:`S_1` the spectrum of :math:`H_s` = 1 m, :math:`T_p` =
+1 s. The elevation's band scales with :math:`1/T_p`; the heading response's band and the drift
+integral depend on :math:`T_p` through the hull's length and draught and are integrated on
+:math:`S_1`'s grid once per distinct :math:`T_p` (numba); the amplitudes are each run's own.
+Run b then draws what its sea state alone draws, to rounding.
+
 First-order wave-induced motion (:func:`wave_motion_scalar`): the component sum through the
 vessel's motion response. usvid has no hydrodynamic RAO of a vessel, so it uses the long-wave
 limit of a freely floating body: a body whose mass equals its displaced mass takes the
