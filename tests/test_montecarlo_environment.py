@@ -111,7 +111,10 @@ def test_calm_and_zero_environment_are_todays_runs(model_file, tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--wind-speed", "normal:5"], "--wind-speed 'normal:5': expected normal:MEAN,SD"),
     (["--wind-speed", "uniform:6,2"], "LO <= HI"),
-    (["--hs", "uniform:0.1,0.3", "--tp", "3"], "Invalid value for '--hs'"),  # one sea state
+    (["--hs", "uniform:0,0.3", "--tp", "3"], "--hs must be in (0, 30] m (got 0.0)"),
+    (["--hs", "normal:-0.1,0.3", "--tp", "3"], "--hs must be in (0, 30] m (got -0.1)"),
+    (["--hs", "0.3", "--tp", "normal:3"], "--tp 'normal:3': expected normal:MEAN,SD"),
+    (["--wave-dir-deg", "uniform:0,90"], "--wave-dir-deg needs --hs and --tp"),
     (["--wind-speed", "-1"], "--wind-speed must be in [0, 100] m/s"),
     (["--wind-speed", "uniform:-1,3"], "--wind-speed must be in [0, 100] m/s"),
     (["--wind-dir-deg", "90"], "--wind-dir-deg needs --wind-speed"),

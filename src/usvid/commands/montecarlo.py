@@ -1,8 +1,8 @@
 """CLI: ``usvid montecarlo MODEL.json --manoeuvre zigzag|turning|course-keeping [options]
 --runs N [--from-uncertainty] [--vary NAME=normal:MEAN,SD ...] [--seed S] [--disturbance-deg SD]
-[--wind-speed V|DIST] [--wind-dir-deg D|DIST] [--current-speed V|DIST] [--current-dir-deg D|DIST]
-[--hs H --tp T [--wave-dir-deg D]] --out RESULTS.parquet [--scheduler ADDRESS] [--workers N]
-[--json]``.
+[--wind-speed V|DIST] [--wind-dir-deg D|DIST] [--current-speed V|DIST]
+[--current-dir-deg D|DIST] [--hs H|DIST --tp T|DIST [--wave-dir-deg D|DIST]]
+--out RESULTS.parquet [--scheduler ADDRESS] [--workers N] [--json]``.
 
 Samples the model's parameters (:mod:`usvid.scale.montecarlo`), simulates the runs in chunks in
 this process on a small machine, else on a Dask cluster (a local one, or the scheduler at
@@ -12,15 +12,19 @@ each metric; with ``--json`` one object: ``out``, ``runs``, ``failed``, ``parame
 ``uncertainty`` (where the joint draws come from), ``seed``, ``disturbance_deg``, ``quantiles``
 (per metric ``q05``, ``q50``, ``q95``, ``mean``, ``n``), ``chunks``, ``chunk`` (runs per task),
 ``redrawn`` (runs whose first draw was outside the parameter bounds, drawn again),
-``failed_draws`` (runs with no valid draw; their rows have ``success`` false), ``diverged``,
+``failed_draws`` (runs with no valid draw; their rows have ``success`` false), ``sea_redrawn``
+(runs whose sea state drawn per run was drawn again: a height or period at or below 0),
+``diverged``,
 ``workers`` (processes, or the kernel's threads in process), ``backend`` (``in-process`` |
 ``dask``), ``wall_s``, ``environment`` (null in calm water; else per option its value or its
 distribution ``{"dist", "a", "b"}`` in the option's units, and the environment of run 0 as
 ``usvid simulate`` describes it: ``run0``). The environment options are those of ``usvid
-simulate`` (:func:`usvid.commands._common.environment_of` checks them); the wind and current
-ones also take ``normal:MEAN,SD`` or ``uniform:LO,HI`` (the form of ``--vary``, in the option's
-units), drawn per run. Every option is checked before any work; the output may not be the model
-file (nor a device node).
+simulate`` (:func:`usvid.commands._common.environment_of` checks them); each also takes
+``normal:MEAN,SD`` or ``uniform:LO,HI`` (the form of ``--vary``, in the option's units), drawn
+per run. Something must differ between the runs: drawn parameters (``--from-uncertainty``,
+``--vary``), an environment drawn per run, a sea state (each run its own realisation of the
+waves) or ``--disturbance-deg`` (each run its own noise). Every option is checked before any
+work; the output may not be the model file (nor a device node).
 """
 
 from __future__ import annotations
@@ -34,10 +38,7 @@ from typing import Annotated, Any
 import typer
 
 from usvid.commands._common import (
-    HsOpt,
     SchedulerOpt,
-    TpOpt,
-    WaveDirOpt,
     WorkersOpt,
     check_seed,
     emit_json,
@@ -111,7 +112,8 @@ def _environment_json(mc: Any) -> dict[str, Any] | None:
 
     e0 = mc.environment_of(0, 1)
     env0 = dataclasses.replace(e0, **{k: float(np.asarray(getattr(e0, k))[0]) for k in (
-        "current_speed", "current_dir", "wind_speed", "wind_dir")})
+        "current_speed", "current_dir", "wind_speed", "wind_dir")},
+        sea=None if e0.sea is None else e0.sea.lane(0))
     # (checks the particulars the loads need before any run)
     return {**given, "run0": env0.describe_for(model_from_dict(mc.model))}
 
@@ -136,6 +138,7 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     from usvid.models.uncertainty import Uncertainty
     from usvid.scale.cluster import check_scheduler_address, check_workers, connect, cores
     from usvid.scale.montecarlo import (
+        Distribution,
         MonteCarlo,
         check_size,
         parse_vary,
@@ -164,8 +167,13 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
                              "model)")
         names, mean, cov, source = list(unc.names), unc.mean, unc.cov, unc.source
     varies = tuple(parse_vary(v) for v in vary or [])
-    if not names and not varies:
-        raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary")
+    # each run its own: drawn environment, wave realisation (a sea state), disturbance noise
+    random_runs = (any(isinstance(v, Distribution) for v in env.values()) or "hs" in env
+                   or float(options.get("disturbance_deg", 0.0)) > 0)
+    if not names and not varies and not random_runs:
+        raise UsvidError("montecarlo: nothing to vary: give --from-uncertainty and/or --vary, "
+                         "an environment option as a distribution, a sea state (--hs, --tp) "
+                         "or --disturbance-deg")
     mc = MonteCarlo(model, manoeuvre, options, tuple(names), mean, cov, varies, int(seed), env)
     u0, dt, run = run_timing(mc, vm)
     check_steps(run, dt, "--t-end" if "t_end" in options else f"the run ({run:g} s, from the "
@@ -203,6 +211,8 @@ def montecarlo(model_path: Path, manoeuvre: str, runs: int, out: Path, *,
     return {"out": str(out), "runs": int(runs), "failed": int((~df["success"]).sum()),
             "redrawn": int(((df["redraws"].to_numpy() > 0) & valid).sum()),
             "failed_draws": int((~valid).sum()),
+            "sea_redrawn": int((df["sea_redraws"].to_numpy() > 0).sum())
+            if "sea_redraws" in df else 0,
             "diverged": int((valid & ~df["success"].to_numpy(bool)).sum()),
             "manoeuvre": manoeuvre, "parameters": list(mc.parameters), "uncertainty": source,
             "seed": int(seed), "disturbance_deg": float(mc.options.get("disturbance_deg", 0.0)),
@@ -276,9 +286,15 @@ def register(app: typer.Typer) -> None:
         current_dir_deg: Annotated[str | None, typer.Option(
             "--current-dir-deg", help="Direction the current flows TOWARDS [deg, clockwise "
             "from north], or a distribution.")] = None,
-        hs: HsOpt = None,
-        tp: TpOpt = None,
-        wave_dir_deg: WaveDirOpt = None,
+        hs: Annotated[str | None, typer.Option(
+            "--hs", help="Significant wave height [m] of a JONSWAP sea (with --tp), or a "
+            "distribution (a draw <= 0 is drawn again); default: none.")] = None,
+        tp: Annotated[str | None, typer.Option(
+            "--tp", help="Peak wave period [s] (with --hs), or a distribution (a draw <= 0 "
+            "is drawn again).")] = None,
+        wave_dir_deg: Annotated[str | None, typer.Option(
+            "--wave-dir-deg", help="Direction the waves come FROM [deg, clockwise from "
+            "north], or a distribution.")] = None,
         scheduler: SchedulerOpt = None,
         workers: WorkersOpt = None,
         as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,

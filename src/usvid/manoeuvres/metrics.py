@@ -225,8 +225,9 @@ def zigzag_metrics(
         raise UsvidError("metrics: `t` must be strictly increasing")
 
     side = first
-    if d is not None and np.isfinite(d).sum() >= 2:
-        te_d, side_d = find_execute(t, d)
+    if d is not None and np.isfinite(d).sum() >= 2 and (t_execute is None or side is None
+                                                         or delta_amp is None):
+        te_d, side_d = find_execute(t, d)  # (not needed when all three are given)
         if t_execute is None:
             t_execute = te_d
         if side is None:

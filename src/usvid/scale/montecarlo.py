@@ -25,14 +25,18 @@ autopilot`` and ``usvid sim`` use it) to every manoeuvre; run i draws its noise 
 
 The environment (``environment``: ``wind_speed`` [m/s], ``wind_dir_deg`` [deg, from],
 ``current_speed`` [m/s], ``current_dir_deg`` [deg, towards], ``hs`` [m], ``tp`` [s],
-``wave_dir_deg`` [deg, from]; :class:`usvid.sim.Environment`) is a constant or, for the wind and
-the current, a :class:`Distribution` drawn per run (block k of :data:`BLOCK` runs from the
-generator seeded with ``(seed, k, 1)``, so run i's environment does not depend on the chunking
-either; a speed drawn below 0 is 0, calm). In a sea state run i's first-order wave motion is the
-realisation of stream ``(seed, i)``, and a zig-zag is then measured on the recorded heading
-(manoeuvring plus first-order wave motion, as ``usvid simulate zigzag`` measures it, every
-:func:`sea_record_every` steps) instead of the kernel's online trackers (which see the
-manoeuvring heading only).
+``wave_dir_deg`` [deg, from]; :class:`usvid.sim.Environment`) is, each of them, a constant or a
+:class:`Distribution` drawn per run (block k of :data:`BLOCK` runs from the generator seeded
+with ``(seed, k, 1)``, so run i's environment does not depend on the chunking either; a speed
+drawn below 0 is 0, calm; a significant height or peak period drawn at or below 0 is no sea
+state and is drawn again, as a parameter outside its bounds is: both of that run, at most
+:data:`usvid.models.uncertainty.MAX_REDRAWS` times, column ``sea_redraws``; a run with no valid
+draw is a failed row). With a sea state drawn per run each run has its own drift force and
+realisation (:class:`usvid.sim.Environment` with a batch of sea states). In a sea state run i's
+first-order wave motion is the realisation of stream ``(seed, i)``, and a zig-zag is then
+measured on the recorded heading (manoeuvring plus first-order wave motion, as ``usvid simulate
+zigzag`` measures it, every :func:`sea_record_every` steps) instead of the kernel's online
+trackers (which see the manoeuvring heading only).
 
 A run that diverges, or whose draw failed, keeps its row with ``success`` false and NaN
 metrics.
@@ -65,7 +69,14 @@ from usvid.io.modelfile import model_from_dict
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
 from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.models.environment import SeaState
-from usvid.models.uncertainty import BLOCK, Distribution, Sample, Uncertainty, lane_errors
+from usvid.models.uncertainty import (
+    BLOCK,
+    MAX_REDRAWS,
+    Distribution,
+    Sample,
+    Uncertainty,
+    lane_errors,
+)
 from usvid.scale.cluster import available_memory, map_ordered
 from usvid.sim.runs import default_t_end
 from usvid.sim.simulate import Environment, approach_speed, simulate
@@ -93,11 +104,13 @@ CHUNK_BYTES = 256 * 2**20
 SMALL_MACHINE_CORES = 8
 _VARY = re.compile(r"^\s*([A-Za-z_]\w*)\s*=\s*(normal|uniform)\s*:\s*([^,]+),([^,]+)$")
 #: The environment of the runs (names as :func:`usvid.commands._common.environment_of`'s
-#: arguments: speeds [m/s], ``hs`` [m], ``tp`` [s], directions [deg]); the first four may be
-#: distributions.
+#: arguments: speeds [m/s], ``hs`` [m], ``tp`` [s], directions [deg]); each may be a
+#: distribution.
 ENVIRONMENT = ("wind_speed", "wind_dir_deg", "current_speed", "current_dir_deg", "hs", "tp",
                "wave_dir_deg")
-ENV_VARIABLE = ("wind_speed", "wind_dir_deg", "current_speed", "current_dir_deg")
+ENV_VARIABLE = ENVIRONMENT
+#: The sea state's quantities that must be > 0 (a draw at or below 0 is drawn again).
+SEA_POSITIVE = ("hs", "tp")
 
 
 #: A parameter drawn from ``normal`` (a = mean, b = standard deviation) or ``uniform``
@@ -120,8 +133,7 @@ def parse_environment(text: str, name: str) -> float | Vary:
     except ValueError:
         pass
     if name not in ENV_VARIABLE:
-        raise UsvidError(f"{option} {text!r}: expected a number (the sea state is one per "
-                         "study: give several studies for several sea states)")
+        raise UsvidError(f"{option} {text!r}: expected a number")
     return _parse_distribution(f"{name}={text}", option, "")
 
 
@@ -191,8 +203,10 @@ class MonteCarlo:
                 raise UsvidError(f"environment {name!r}: expected one of "
                                  f"{', '.join(ENVIRONMENT)}")
             if isinstance(v, Distribution) and name not in ENV_VARIABLE:
-                raise UsvidError(f"--{name.replace('_', '-')}: one value per study (a "
-                                 "distribution is for the wind and the current)")
+                raise UsvidError(f"--{name.replace('_', '-')}: one value per study")
+            if name in SEA_POSITIVE and not _centre(v) > 0:
+                raise UsvidError(f"--{name.replace('_', '-')}: must be > 0 (a distribution: "
+                                 f"its mean, or the middle of its range; got {_centre(v):g})")
 
     @property
     def varied_environment(self) -> tuple[str, ...]:
@@ -202,30 +216,74 @@ class MonteCarlo:
 
     def environment_sample(self, lo: int, hi: int) -> dict[str, np.ndarray]:
         """The environment of runs lo..hi-1: name -> (hi - lo,) values (options' units; module
-        docstring: block k from (seed, k, 1), speeds drawn below 0 are 0), independent of the
-        chunking."""
+        docstring: block k from (seed, k, 1), speeds drawn below 0 are 0, a sea state's height
+        or period at or below 0 drawn again), independent of the chunking."""
+        return self.environment_draws(lo, hi)[0]
+
+    def environment_draws(self, lo: int, hi: int
+                          ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
+        """(:meth:`environment_sample`, (n,) how often each run's sea state was drawn again,
+        (n,) runs with no valid sea state in :data:`MAX_REDRAWS` redraws: their values are the
+        distribution's centre, the run a failed row)."""
         out: dict[str, list[np.ndarray]] = {n: [] for n in self.environment}
+        red: list[np.ndarray] = []
+        fail: list[np.ndarray] = []
         varied = self.varied_environment
+        sea = [n for n in SEA_POSITIVE if n in varied]
         for blk in range(lo // BLOCK, (hi - 1) // BLOCK + 1):
             rng = np.random.default_rng([int(self.seed), blk, 1])
             draws = {n: self.environment[n].draw(rng, BLOCK) for n in varied}
+            redraws = np.zeros(BLOCK, dtype=int)
+            bad = np.flatnonzero(self._no_sea(draws, sea, np.arange(BLOCK)))
+            for _ in range(MAX_REDRAWS):  # the bounds policy of the parameters
+                if bad.size == 0:
+                    break
+                for n in sea:
+                    draws[n][bad] = self.environment[n].draw(rng, bad.size)
+                redraws[bad] += 1
+                bad = bad[self._no_sea(draws, sea, bad)]
+            failed = np.zeros(BLOCK, dtype=bool)
+            failed[bad] = True
+            for n in sea:
+                draws[n][bad] = _centre(self.environment[n])
             a = max(lo, blk * BLOCK) - blk * BLOCK
             b = min(hi, (blk + 1) * BLOCK) - blk * BLOCK
             for n, v in self.environment.items():
                 x = draws[n][a:b] if n in varied else np.full(b - a, float(v))
                 out[n].append(np.maximum(x, 0.0) if n.endswith("speed") else x)
-        return {n: np.concatenate(v) for n, v in out.items()}
+            red.append(redraws[a:b])
+            fail.append(failed[a:b])
+        return ({n: np.concatenate(v) for n, v in out.items()}, np.concatenate(red),
+                np.concatenate(fail))
+
+    @staticmethod
+    def _no_sea(draws: dict[str, np.ndarray], names: list[str], rows: np.ndarray) -> np.ndarray:
+        """Of ``rows``, those whose drawn height or period is no sea state (<= 0 or not
+        finite)."""
+        bad = np.zeros(rows.size, dtype=bool)
+        for n in names:
+            x = draws[n][rows]
+            bad |= ~(np.isfinite(x) & (x > 0))
+        return bad
 
     def environment_of(self, lo: int, hi: int) -> Any:
         """The :class:`usvid.sim.Environment` of runs lo..hi-1 (None in calm water): per-run
-        wind and current, the sea state with run i's wave stream (seed, i)."""
+        wind and current, the sea state (one, or one per run when any of its quantities is
+        drawn) with run i's wave stream (seed, i)."""
         if not self.environment:
             return None
         e = self.environment_sample(lo, hi)
         sea = None
         if "hs" in e:
-            sea = SeaState(hs=float(e["hs"][0]), tp=float(e["tp"][0]),
-                           direction=math.radians(float(e.get("wave_dir_deg", [0.0])[0])))
+            varied = self.varied_environment
+
+            def value(n: str, scale: float = 1.0) -> Any:
+                x = e.get(n, np.zeros(hi - lo)) * scale
+                return x if n in varied else float(x[0])
+            sea = SeaState(hs=value("hs"), tp=value("tp"),
+                           direction=value("wave_dir_deg", math.pi / 180.0)
+                           if "wave_dir_deg" in varied else
+                           math.radians(float(e.get("wave_dir_deg", [0.0])[0])))
         z = np.zeros(hi - lo)
         return Environment(current_speed=e.get("current_speed", z),
                            current_dir=np.radians(e.get("current_dir_deg", z)),
@@ -272,9 +330,22 @@ def run_timing(mc: MonteCarlo, vm: Any) -> tuple[float, float, float]:
 def sea_record_every(mc: MonteCarlo, dt: float) -> int:
     """Steps between recorded samples of a zig-zag in a sea state: 20 samples per peak period
     (the largest heading of a wave-period oscillation then sampled within 1 - cos(pi / 20) =
-    1.2 % of its amplitude), at least every step."""
-    tp = float(mc.environment.get("tp", math.inf))
-    return max(1, int(tp / 20.0 / dt))
+    1.2 % of its amplitude), at least every step. One for the study (its rows must not depend
+    on the chunking): a peak period drawn per run counts with the shortest it may draw, the low
+    end of a uniform and the mean less 4 standard deviations of a normal (a normal draws
+    shorter periods in 3 of 100,000 runs: those are sampled a little more coarsely)."""
+    tp = mc.environment.get("tp", math.inf)
+    if isinstance(tp, Distribution):
+        tp = tp.a if tp.dist == "uniform" else tp.a - 4.0 * tp.b
+    return max(1, int(float(tp) / 20.0 / dt))
+
+
+def _centre(v: Any) -> float:
+    """A number, or the centre of a distribution (its mean, the middle of its range): the value
+    of a run with no valid draw."""
+    if isinstance(v, Distribution):
+        return float(v.a if v.dist == "normal" else 0.5 * (v.a + v.b))
+    return float(v)
 
 
 def _zigzag_in_sea(mc: MonteCarlo) -> bool:
@@ -353,9 +424,12 @@ def run_chunk(mc: MonteCarlo, lo: int, hi: int, threads: int | None = None) -> p
     rows.update(drawn.values)
     env = mc.environment_of(lo, hi)
     if mc.varied_environment:
-        e = mc.environment_sample(lo, hi)
+        e, sea_redraws, sea_failed = mc.environment_draws(lo, hi)
         rows.update({n: e[n] for n in mc.varied_environment})
+        valid &= ~sea_failed
     rows["redraws"] = drawn.redraws
+    if any(n in mc.varied_environment for n in SEA_POSITIVE):
+        rows["sea_redraws"] = sea_redraws
     rows["valid_draw"] = valid
     sd = math.radians(float(o.get("disturbance_deg", 0.0)))
     dist = (Disturbance(intensity=sd, seed=int(mc.seed), stream=np.arange(lo, hi, dtype=float))

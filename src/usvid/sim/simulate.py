@@ -131,7 +131,10 @@ class Environment:
     :class:`~usvid.models.environment.WindLoadModel`; None: ``wind_load_model(model.vessel)``,
     Fujiwara et al. 1998 or Blendermann 1994 from the vessel's windage particulars).
 
-    ``sea``: a :class:`~usvid.models.environment.SeaState` (constant): its mean wave drift force
+    ``sea``: a :class:`~usvid.models.environment.SeaState` (constant in time; one for all runs,
+    or one per run: H_s, T_p, direction (B,) arrays, each run its own drift coefficients,
+    direction and realisation; a batch whose runs are all equal is that one sea state, the same
+    numbers): its mean wave drift force
     (:func:`~usvid.models.environment.drift_coefficients` from the vessel's length, beam and
     draft; :func:`~usvid.models.environment.mean_drift_scalar` at the step start's heading, held
     over the step), and, with ``wave_motion``, the first-order wave-induced motion
@@ -231,7 +234,8 @@ class Environment:
         what was chosen and assumed (:meth:`describe`'s ``wind`` and ``waves`` entries).
         SimulationError naming the missing particular when the vessel lacks one."""
         assert NWIND == WIND_PACK
-        blk = np.zeros((NENV, 1))
+        sea = None if self.sea is None else self.sea.collapsed()
+        blk = np.zeros((NENV, 1 if sea is None or sea.batch is None else sea.batch))
         info: dict[str, Any] = {}
         dyn = model.dynamics
         vessel = model.vessel
@@ -243,7 +247,7 @@ class Environment:
                         raise UsvidError("wind loads need the vessel's windage particulars: the "
                                          "model has no vessel block")
                     wm = wind_load_model(vessel)
-                blk[:NWIND, 0] = wm.packed()
+                blk[:NWIND, :] = np.asarray(wm.packed(), dtype=float)[:, None]
             except UsvidError as exc:
                 raise SimulationError(f"simulate: {exc}") from None
             w: dict[str, Any] = {"model": wm.name, "reason": wm.reason,
@@ -273,19 +277,24 @@ class Environment:
                                     "wind's X, Y and K are not represented, only N (as a "
                                     "rudder angle)")
             info["wind"] = w
-        if self.sea is not None:
+        if sea is not None:
             missing = [f"vessel.{k}" for k in ("length", "beam", "draft")
                        if vessel is None or getattr(vessel, k, None) is None]
             if missing:
                 raise SimulationError(f"simulate: the mean wave drift needs {', '.join(missing)} "
                                       "[m]")
             try:
-                fx0, fy0 = drift_coefficients(self.sea, float(vessel.length),
+                fx0, fy0 = drift_coefficients(sea, float(vessel.length),
                                               float(vessel.beam), float(vessel.draft))
             except UsvidError as exc:
                 raise SimulationError(f"simulate: {exc}") from None
-            blk[NWIND:, 0] = (fx0, fy0, math.cos(self.sea.chi), math.sin(self.sea.chi))
-            info["waves"] = {**self.sea.to_dict(), "drift_fx0_N": fx0, "drift_fy0_N": fy0,
+            if sea.batch is None:
+                blk[NWIND:, 0] = (fx0, fy0, math.cos(sea.chi), math.sin(sea.chi))
+            else:  # one sea state per run: its own drift coefficients and direction
+                blk[NWIND:, :] = [np.broadcast_to(v, (sea.batch,)) for v in (
+                    fx0, fy0, np.cos(sea.chi), np.sin(sea.chi))]
+            info["waves"] = {**sea.to_dict(), "drift_fx0_N": _number(fx0),
+                             "drift_fy0_N": _number(fy0),
                              "first_order_motion": bool(self.wave_motion),
                              "wave_seed": int(self.wave_seed),
                              "wave_components": int(self.wave_components)}
@@ -323,6 +332,13 @@ class Environment:
             "waves": None if self.sea is None else self.sea.to_dict(),
             "external_force": self.force is not None, "series": self.t is not None}
         return out
+
+
+def _number(v: Any) -> Any:
+    """A number, or a per-run array described by its mean, min and max (JSON-ready)."""
+    a = np.asarray(v, dtype=float)
+    return v if a.ndim == 0 else {"mean": float(np.mean(a)), "min": float(np.min(a)),
+                                  "max": float(np.max(a))}
 
 
 def _rudder_equivalents(kind: str, params: dict[str, Any], vessel: Any) -> tuple[Any, Any]:
@@ -528,8 +544,8 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     disturbance : Disturbance, optional
         Rudder-equivalent disturbance for any logic (a CourseChange's own takes precedence).
     environment : Environment, optional
-        A current and an external force on the hull (:class:`Environment`); recorded u, v, U
-        are then over ground.
+        A current, a wind, a sea state (one, or one per run) and an external force on the hull
+        (:class:`Environment`); recorded u, v, U are then over ground.
     channels : sequence of str, optional
         Channels to record (default: all relevant to the model kind).
     initial : dict, optional
@@ -624,6 +640,9 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
     for k, v in series.items():
         values[f"series_{k}"] = np.zeros(np.asarray(v).shape[0]) if np.asarray(v).shape[0] > 1 \
             else 0.0
+    if environment is not None and environment.sea is not None:
+        for k in ("hs", "tp", "direction"):  # a batch of sea states: one per run
+            values[f"sea_{k}"] = getattr(environment.sea, k)
     if dist is not None:
         values.update(dist_q=dist.intensity, dist_seed=dist.seed)
         if dist.stream is not None:
@@ -704,11 +723,14 @@ def _add_wave_motion(env: Environment, model: VesselModel, t: np.ndarray,
         raise SimulationError("simulate: the first-order wave motion needs the channels x, y "
                               "and psi recorded (or Environment(wave_motion=False))")
     L = float(model.vessel.length)
-    comps = wave_components(env.sea, n_components=int(env.wave_components),
+    sea = env.sea.collapsed()
+    if sea.batch is not None and sea.batch != B:
+        raise SimulationError(f"simulate: {sea.batch} sea states for a batch of {B} runs")
+    comps = wave_components(sea, n_components=int(env.wave_components),
                             seed=int(env.wave_seed), n_batch=B, length=L,
                             streams=None if env.wave_stream is None else
                             np.broadcast_to(np.asarray(env.wave_stream, float), (B,)))
-    wm = wave_motion(comps, env.sea, L, t, chans["x"], chans["y"], chans["psi"])
+    wm = wave_motion(comps, sea, L, t, chans["x"], chans["y"], chans["psi"])
     chans["x"] = chans["x"] + wm.north
     chans["y"] = chans["y"] + wm.east
     chans["psi"] = chans["psi"] + wm.psi

@@ -43,25 +43,35 @@ def lane_rngs(seed: int, n_batch: int, streams: Any = None) -> list[np.random.Ge
     return [np.random.default_rng([int(seed), int(b)]) for b in st]
 
 
-def components(spectrum: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, n: int,
+def components(spectrum: Callable[[np.ndarray], np.ndarray], lo: Any, hi: Any, n: int,
                seed: int, n_batch: int, *, log: bool = False, streams: Any = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(freq, amp, phase), each (n_batch, n): ``n`` components of ``spectrum`` between ``lo``
-    and ``hi`` (frequency units of the spectrum, > 0), bins equal in width (``log=False``) or
-    in log-width (``log=True``, for spectra spanning decades), one frequency uniform inside
-    each bin, ``amp = sqrt(2 S(freq) width)``, phase uniform in [0, 2 pi); lane b from
-    :func:`lane_rngs` (``streams``: its stream indices)."""
+    and ``hi`` (frequency units of the spectrum, > 0; numbers, or (n_batch,) arrays: a band
+    per lane), bins equal in width (``log=False``) or in log-width (``log=True``, for spectra
+    spanning decades), one frequency uniform inside each bin, ``amp = sqrt(2 S(freq) width)``
+    (``spectrum`` of the (n_batch, n) frequencies, lane first), phase uniform in [0, 2 pi);
+    lane b from :func:`lane_rngs` (``streams``: its stream indices)."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise UsvidError(f"n_components must be an integer >= 1 (got {n!r})")
-    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+    lo_a, hi_a = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    if not (np.all(np.isfinite(lo_a)) and np.all(np.isfinite(hi_a)) and np.all(0 < lo_a)
+            and np.all(lo_a < hi_a)):
         raise UsvidError(f"frequency band must satisfy 0 < lo < hi (got {lo!r}, {hi!r})")
-    edges = np.geomspace(lo, hi, n + 1) if log else np.linspace(lo, hi, n + 1)
-    width = np.diff(edges)
+    if lo_a.ndim == 0 and hi_a.ndim == 0:
+        edges = np.geomspace(lo, hi, n + 1) if log else np.linspace(lo, hi, n + 1)
+    else:  # a band per lane: (n_batch, n + 1) edges
+        lo_a, hi_a = (np.broadcast_to(a, (n_batch,)) for a in (lo_a, hi_a))
+        edges = (np.geomspace(lo_a, hi_a, n + 1, axis=-1) if log
+                 else np.linspace(lo_a, hi_a, n + 1, axis=-1))
+    width = np.diff(edges, axis=-1)
+    w2 = np.broadcast_to(width, (n_batch, n))
+    e2 = np.broadcast_to(edges[..., :-1], (n_batch, n))
     freq = np.empty((n_batch, n))
     phase = np.empty((n_batch, n))
     for b, rng in enumerate(lane_rngs(seed, n_batch, streams)):
         u = rng.random((2, n))
-        freq[b] = edges[:-1] + u[0] * width
+        freq[b] = e2[b] + u[0] * w2[b]
         phase[b] = 2.0 * np.pi * u[1]
     amp = np.sqrt(2.0 * np.maximum(spectrum(freq), 0.0) * width)
     return freq, amp, phase

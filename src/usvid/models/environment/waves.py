@@ -32,6 +32,14 @@ at the point (x, y) [m, NED]:
 
 With the vessel's own position in :math:`\theta_k` the encounter frequency follows by itself.
 
+A batch of sea states (:class:`SeaState` with :math:`H_s`, :math:`T_p`, direction one per run)
+uses that both spectra have one shape in :math:`\omega/\omega_p`: :math:`S(\omega; H_s, T_p) =
+H_s^2 T_p S_1(\omega T_p)` with :math:`S_1` the spectrum of :math:`H_s` = 1 m, :math:`T_p` =
+1 s. The elevation's band scales with :math:`1/T_p`; the heading response's band and the drift
+integral depend on :math:`T_p` through the hull's length and draught and are integrated on
+:math:`S_1`'s grid once per distinct :math:`T_p` (numba); the amplitudes are each run's own.
+Run b then draws what its sea state alone draws, to rounding.
+
 First-order wave-induced motion (:func:`wave_motion_scalar`): the component sum through the
 vessel's motion response. usvid has no hydrodynamic RAO of a vessel, so it uses the long-wave
 limit of a freely floating body: a body whose mass equals its displaced mass takes the
@@ -117,22 +125,46 @@ def jonswap(omega: Any, hs: float, tp: float, gamma: float = 3.3) -> np.ndarray:
 class SeaState:
     """A long-crested sea state: ``hs`` [m] significant wave height, ``tp`` [s] peak period,
     ``direction`` [rad, from north, clockwise, where the waves come FROM], ``spectrum``
-    ``"jonswap"`` or ``"pm"``, ``gamma`` [-] the JONSWAP peak enhancement."""
+    ``"jonswap"`` or ``"pm"``, ``gamma`` [-] the JONSWAP peak enhancement.
 
-    hs: float
-    tp: float
-    direction: float = 0.0
+    ``hs``, ``tp`` and ``direction`` may each be one value per run, a (B,) array (batch axis
+    first; the others scalars or (B,) too): a batch of sea states, one per lane of a simulation
+    (:attr:`batch` is then B; :meth:`lane` is run b's own sea state). ``spectrum`` and ``gamma``
+    are shared by the batch."""
+
+    hs: Any
+    tp: Any
+    direction: Any = 0.0
     spectrum: str = "jonswap"
     gamma: float = 3.3
 
     def __post_init__(self) -> None:
-        for name in ("hs", "tp"):
+        size = None
+        for name in ("hs", "tp", "direction"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise UsvidError(f"sea state: {name} must be > 0 (got {v!r})")
-        if not (isinstance(self.direction, (int, float)) and math.isfinite(self.direction)):
-            raise UsvidError(f"sea state: direction must be finite [rad] "
-                             f"(got {self.direction!r})")
+            positive = name != "direction"
+            what = "must be > 0" if positive else "must be finite [rad]"
+            if isinstance(v, (list, tuple, np.ndarray)):
+                try:
+                    a = np.array(v, dtype=float)
+                except (TypeError, ValueError):
+                    raise UsvidError(f"sea state: {name} must be numbers (got {v!r})") from None
+                if a.ndim != 1 or a.size < 1:
+                    raise UsvidError(f"sea state: {name} must be a number or one value per run "
+                                     f"(a 1-D array; got shape {a.shape})")
+                if size is not None and a.size != size:
+                    raise UsvidError(f"sea state: {name} has {a.size} values, the others "
+                                     f"{size} (one per run)")
+                size = a.size
+                bad = ~np.isfinite(a) | ((a <= 0) if positive else False)
+                if np.any(bad):
+                    i = int(np.argmax(bad))
+                    raise UsvidError(f"sea state: {name} {what} (got {float(a[i])!r} for run {i})")
+                a.flags.writeable = False
+                object.__setattr__(self, name, a)
+            elif not (isinstance(v, (int, float)) and not isinstance(v, bool)
+                      and math.isfinite(v) and (v > 0 or not positive)):
+                raise UsvidError(f"sea state: {name} {what} (got {v!r})")
         if self.spectrum not in SPECTRA:
             raise UsvidError(f"sea state: spectrum must be 'jonswap' or 'pm' "
                              f"(got {self.spectrum!r})")
@@ -140,28 +172,85 @@ class SeaState:
             raise UsvidError(f"sea state: gamma must be in [1, 7] (got {self.gamma!r})")
 
     @property
-    def omega_p(self) -> float:
-        """Peak frequency [rad/s]."""
+    def batch(self) -> int | None:
+        """The number of sea states of a batch (one per run), None for one sea state."""
+        for v in (self.hs, self.tp, self.direction):
+            if isinstance(v, np.ndarray):
+                return int(v.size)
+        return None
+
+    def lane(self, b: int) -> SeaState:
+        """Run b's sea state (one sea state: itself)."""
+        if self.batch is None:
+            return self
+
+        def one(v: Any) -> float:
+            return float(v[b]) if isinstance(v, np.ndarray) else float(v)
+        return SeaState(one(self.hs), one(self.tp), one(self.direction), self.spectrum,
+                        self.gamma)
+
+    def collapsed(self) -> SeaState:
+        """One sea state when every run of a batch has the same (run 0's: the same numbers as
+        that sea state given alone), else the batch itself."""
+        if self.batch is None:
+            return self
+        if all(not isinstance(v, np.ndarray) or np.all(v == v[0])
+               for v in (self.hs, self.tp, self.direction)):
+            return self.lane(0)
+        return self
+
+    def _lanewise(self, v: Any, ndim: int) -> Any:
+        """A batch parameter shaped (B, 1, ...) against an ``ndim``-dimensional frequency array
+        whose first axis is the run."""
+        if isinstance(v, np.ndarray) and ndim > 1:
+            return v.reshape((-1,) + (1,) * (ndim - 1))
+        return v
+
+    @property
+    def omega_p(self) -> Any:
+        """Peak frequency [rad/s] (a (B,) array for a batch)."""
         return 2.0 * math.pi / self.tp
 
     @property
-    def chi(self) -> float:
-        """Direction the waves travel towards [rad, from north, clockwise]."""
+    def chi(self) -> Any:
+        """Direction the waves travel towards [rad, from north, clockwise] (a (B,) array for a
+        batch)."""
         return (self.direction + math.pi) % (2.0 * math.pi)
 
     def density(self, omega: Any) -> np.ndarray:
-        """S(omega) [m^2 s/rad] at ``omega`` [rad/s]."""
+        """S(omega) [m^2 s/rad] at ``omega`` [rad/s]; for a batch, the first axis of ``omega``
+        is the run (shape (B, ...), or (B,) one frequency per run)."""
+        w = np.asarray(omega, dtype=float)
+        hs, tp = self._lanewise(self.hs, w.ndim), self._lanewise(self.tp, w.ndim)
         if self.spectrum == "pm":
-            return pierson_moskowitz(omega, self.hs, self.tp)
-        return jonswap(omega, self.hs, self.tp, self.gamma)
+            return pierson_moskowitz(w, hs, tp)
+        return jonswap(w, hs, tp, self.gamma)
 
-    def band(self) -> tuple[float, float]:
-        """[omega_lo, omega_hi] [rad/s] holding all but 0.1 % (low) and 0.5 % (high) of m0."""
-        return energy_band(self.density, self.omega_p)
+    def unit(self) -> SeaState:
+        """The sea state of this spectrum with H_s = 1 m, T_p = 1 s: S(omega; H_s, T_p) =
+        H_s^2 T_p S_1(omega T_p) for both spectra (their shape depends on omega / omega_p
+        only), so one spectrum shape serves a batch."""
+        return SeaState(1.0, 1.0, 0.0, self.spectrum, self.gamma)
+
+    def band(self) -> tuple[Any, Any]:
+        """[omega_lo, omega_hi] [rad/s] holding all but 0.1 % (low) and 0.5 % (high) of m0;
+        for a batch two (B,) arrays, the unit spectrum's band over T_p (:meth:`unit`)."""
+        if self.batch is None:
+            return energy_band(self.density, self.omega_p)
+        lo, hi = self.unit().band()
+        tp = np.broadcast_to(np.asarray(self.tp, dtype=float), (self.batch,))
+        return lo / tp, hi / tp
 
     def to_dict(self) -> dict[str, Any]:
-        return {"hs_m": self.hs, "tp_s": self.tp, "direction_from_deg":
-                math.degrees(self.direction), "spectrum": self.spectrum, "gamma": self.gamma}
+        def num(v: Any) -> Any:
+            if not isinstance(v, np.ndarray):
+                return v
+            return {"mean": float(np.mean(v)), "min": float(np.min(v)), "max": float(np.max(v))}
+        return {"hs_m": num(self.hs), "tp_s": num(self.tp),
+                "direction_from_deg": num(np.degrees(self.direction)
+                                          if isinstance(self.direction, np.ndarray)
+                                          else math.degrees(self.direction)),
+                "spectrum": self.spectrum, "gamma": self.gamma}
 
 
 #: Columns of a component array: angular frequency [rad/s], amplitude [m], wavenumber [rad/m],
@@ -180,20 +269,115 @@ def wave_components(sea: SeaState, *, n_components: int = 128, seed: int = 0,
     response too (:func:`first_order_response` at 45 deg off the bow: the heading follows the
     wave slope, whose spectrum decays only like 1/omega until the hull length filters it).
     Lane b draws from ``default_rng([seed, b])``, independent of ``n_batch`` (or from
-    ``default_rng([seed, streams[b]])`` when ``streams`` gives each lane its stream)."""
+    ``default_rng([seed, streams[b]])`` when ``streams`` gives each lane its stream).
+
+    A batch of sea states (:attr:`SeaState.batch` B; ``n_batch`` 1 or B) gives lane b the
+    realisation of its own sea state, with the same draws: the band of each distinct T_p from
+    the unit spectrum (:meth:`SeaState.unit`, the same numbers as :meth:`SeaState.band` and the
+    heading band to rounding), the amplitudes from lane b's H_s and T_p."""
+    B = sea.batch
+    if B is not None:
+        if n_batch not in (1, B):
+            raise UsvidError(f"wave components: a batch of {B} sea states for n_batch "
+                             f"{n_batch}")
+        n_batch = B
     lo, hi = sea.band()
     if length is not None:
         if not (isinstance(length, (int, float)) and math.isfinite(length) and length > 0):
             raise UsvidError(f"wave components: length must be > 0 m (got {length!r})")
-        psi = sea.chi - math.pi / 4.0
+        if B is None:
+            psi = sea.chi - math.pi / 4.0
 
-        def yaw_spectrum(w: np.ndarray) -> np.ndarray:
-            return first_order_response(w, sea, float(length), psi)[2] * sea.density(w)
+            def yaw_spectrum(w: np.ndarray) -> np.ndarray:
+                return first_order_response(w, sea, float(length), psi)[2] * sea.density(w)
 
-        hi = max(hi, energy_band(yaw_spectrum, sea.omega_p)[1])
+            hi = max(hi, energy_band(yaw_spectrum, sea.omega_p)[1])
+        else:
+            hi = np.maximum(hi, _per_period(sea, lambda w1, s1, tps: _yaw_high(
+                w1, s1, tps, float(length), _HIGH_TAIL)))
     w, a, ph = components(sea.density, lo, hi, n_components, seed, n_batch, log=True,
                           streams=streams)
     return np.ascontiguousarray(np.stack([w, a, w * w / G, ph], axis=-1))
+
+
+#: The high tail left out of a realisation's band (:func:`usvid.models.environment._spectral.
+#: energy_band`'s default).
+_HIGH_TAIL = 5e-3
+#: Points of the spectral integrals (band, drift) from omega_p / 20 to 20 omega_p.
+_GRID = 20_001
+
+
+def _per_period(sea: SeaState, f: Any) -> np.ndarray:
+    """``f(w1, s1, tps, out)`` of the unit spectrum S_1 = ``s1`` on ``w1`` (:data:`_GRID` points
+    from omega_p / 20 to 20 omega_p of T_p = 1 s, :meth:`SeaState.unit`) for each distinct T_p
+    of the batch ``tps`` [s] -> (B,) values, one per run (the quantities that depend on the
+    spectrum's shape through T_p only: the heading band, the drift integral)."""
+    unit = sea.unit()
+    w1 = np.geomspace(unit.omega_p / 20.0, unit.omega_p * 20.0, _GRID)
+    s1 = unit.density(w1)
+    tp = np.broadcast_to(np.asarray(sea.tp, dtype=float), (int(sea.batch or 1),))
+    distinct, which = np.unique(tp, return_inverse=True)
+    return np.asarray(f(w1, s1, distinct), dtype=float)[which.reshape(-1)]
+
+
+@numba.njit(cache=True)
+def _yaw_band_kernel(w1, s1, tps, length, high_tail, out):
+    """The high end [rad/s] of the heading response's energy band (all but ``high_tail``) for
+    each peak period tps[j] [s]: the spectrum S(w) = H_s^2 T_p S_1(w T_p) on the grid w1 / T_p
+    times |H_psi|^2 at 45 deg off the bow (:func:`first_order_response`), integrated by the
+    trapezoid rule and interpolated as :func:`usvid.models.environment._spectral.energy_band`
+    (the constant factors cancel in the normalised cumulative)."""
+    n = w1.shape[0]
+    cb = math.cos(math.pi / 4.0)
+    sb = math.sin(math.pi / 4.0)
+    cum = np.empty(n)
+    for j in range(tps.shape[0]):
+        tp = tps[j]
+        prev = 0.0
+        for i in range(n):
+            w = w1[i] / tp
+            k = w * w / G
+            f0, f1 = _length_factors(k, length, cb)
+            h = k * sb * cb * f1
+            y = h * h * s1[i]
+            cum[i] = 0.0 if i == 0 else cum[i - 1] + 0.5 * (y + prev) * (w1[i] - w1[i - 1])
+            prev = y
+        target = (1.0 - high_tail) * cum[n - 1]
+        lo, hi = 0, n - 1  # the last point with cum <= target
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if cum[mid] <= target:
+                lo = mid
+            else:
+                hi = mid
+        d = cum[lo + 1] - cum[lo]
+        frac = (target - cum[lo]) / d if d > 0 else 0.0
+        out[j] = (w1[lo] + frac * (w1[lo + 1] - w1[lo])) / tp
+
+
+def _yaw_high(w1: np.ndarray, s1: np.ndarray, tps: np.ndarray, length: float,
+              high_tail: float) -> np.ndarray:
+    out = np.empty(tps.size)
+    _yaw_band_kernel(w1, s1, np.ascontiguousarray(tps), length, high_tail, out)
+    return out
+
+
+@numba.njit(cache=True)
+def _drift_kernel(w1, s1, tps, draft, out):
+    """int S_1(w1) (1 - exp(-2 k d)) dw1 with k = (w1 / T_p)^2 / g for each T_p = tps[j] [s]
+    (trapezoid rule): the drift integral of :func:`drift_coefficients` per m^2 of H_s^2."""
+    n = w1.shape[0]
+    for j in range(tps.shape[0]):
+        tp = tps[j]
+        acc = 0.0
+        prev = 0.0
+        for i in range(n):
+            w = w1[i] / tp
+            f = s1[i] * (1.0 - math.exp(-2.0 * (w * w / G) * draft))
+            if i > 0:
+                acc += 0.5 * (f + prev) * (w1[i] - w1[i - 1])
+            prev = f
+        out[j] = acc
 
 
 # ---------------------------------------------------------------------------------------------
@@ -285,13 +469,13 @@ _FM = {"nsz", "arcp", "contract", "reassoc"}
 
 
 @numba.njit(cache=True, fastmath=_FM)
-def _motion_batch(comps, chi, length, t, x, y, psi, out, elevation_only):
-    """The sums of :func:`wave_motion_scalar` over lanes and times. A lane that stays at one
+def _motion_batch(chis, comps, length, t, x, y, psi, out, elevation_only):
+    """The sums of :func:`wave_motion_scalar` over lanes and times, lane b's waves travelling
+    towards chis[b] [rad]. A lane that stays at one
     point and heading on a uniform time grid (the usual case of an analysis) rotates each
     component's phasor by its exact step exp(-i omega dt) per sample and keeps its length
     factors: the same sum, with a few multiplications instead of the library's sin and cos."""
     nb, nt, nc = out.shape[1], out.shape[2], comps.shape[1]
-    cx, sx = math.cos(chi), math.sin(chi)
     uniform = nt > 1
     dt = t[1] - t[0] if nt > 1 else 0.0
     for j in range(1, nt):
@@ -305,6 +489,8 @@ def _motion_batch(comps, chi, length, t, x, y, psi, out, elevation_only):
     gxi = np.empty(nc)
     gyaw = np.empty(nc)
     for b in range(nb):
+        chi = chis[b]
+        cx, sx = math.cos(chi), math.sin(chi)
         fixed = uniform
         for j in range(1, nt):
             if x[b, j] != x[b, 0] or y[b, j] != y[b, 0] or psi[b, j] != psi[b, 0]:
@@ -372,6 +558,14 @@ def _lanes(comps: np.ndarray, t: Any, *tracks: Any) -> tuple[np.ndarray, ...]:
     return (comps, t, *out)
 
 
+def _chis(sea: SeaState, nb: int) -> np.ndarray:
+    """The direction of travel chi [rad] of each of ``nb`` lanes: a batch of sea states has one
+    per lane (UsvidError when its size is not ``nb``)."""
+    if sea.batch is not None and sea.batch != nb:
+        raise UsvidError(f"wave components of {nb} lanes for a batch of {sea.batch} sea states")
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(sea.chi, dtype=float), (nb,)))
+
+
 def wave_elevation(comps: np.ndarray, sea: SeaState, t: Any, x: Any = 0.0, y: Any = 0.0
                    ) -> np.ndarray:
     """Elevation zeta [m], shape (n_batch, n_t), of the components ``comps``
@@ -379,7 +573,7 @@ def wave_elevation(comps: np.ndarray, sea: SeaState, t: Any, x: Any = 0.0, y: An
     (scalars, (n_t,) or (n_batch, n_t))."""
     comps, t, x, y = _lanes(comps, t, x, y)
     out = np.empty((1, comps.shape[0], t.size))
-    _motion_batch(comps, sea.chi, 1.0, t, x, y, x, out, True)
+    _motion_batch(_chis(sea, comps.shape[0]), comps, 1.0, t, x, y, x, out, True)
     return out[0]
 
 
@@ -403,7 +597,7 @@ def wave_motion(comps: np.ndarray, sea: SeaState, length: float, t: Any, x: Any 
         raise UsvidError(f"wave motion: length must be > 0 m (got {length!r})")
     comps, t, x, y, psi = _lanes(comps, t, x, y, psi)
     out = np.empty((4, comps.shape[0], t.size))
-    _motion_batch(comps, sea.chi, float(length), t, x, y, psi, out, False)
+    _motion_batch(_chis(sea, comps.shape[0]), comps, float(length), t, x, y, psi, out, False)
     return WaveMotion(out[0], out[1], out[2], out[3])
 
 
@@ -412,7 +606,9 @@ def first_order_response(omega: Any, sea: SeaState, length: float, psi: float
     """|H|^2 of the first-order response at fixed heading ``psi`` [rad] and position, per unit
     wave amplitude: (north [m^2/m^2], east [m^2/m^2], heading [rad^2/m^2]) at ``omega`` [rad/s];
     times S(omega) they are the motion spectra (module docstring; the factors of
-    :func:`wave_motion_scalar`)."""
+    :func:`wave_motion_scalar`). One sea state (:meth:`SeaState.lane` of a batch)."""
+    if sea.batch is not None:
+        raise UsvidError("first-order response: one sea state (sea.lane(b) of a batch)")
     w = np.ascontiguousarray(np.asarray(omega, dtype=float).ravel())
     out = np.empty((3, w.size))
     _response_batch(w, sea.chi, float(length), float(psi), out)
@@ -434,14 +630,23 @@ def _response_batch(w, chi, length, psi, out):
 
 
 def drift_coefficients(sea: SeaState, length: float, beam: float, draft: float, *,
-                       rho: float = RHO_WATER) -> tuple[float, float]:
+                       rho: float = RHO_WATER) -> tuple[Any, Any]:
     """(fx0, fy0) [N]: ``rho g B I`` and ``rho g L I`` with ``I = int S(w) (1 - exp(-2 k d))
     dw`` [m^2] (module docstring); :func:`mean_drift_scalar` turns them into the force at a
-    heading. ``length``, ``beam``, ``draft`` [m], ``rho`` [kg/m^3]."""
+    heading. ``length``, ``beam``, ``draft`` [m], ``rho`` [kg/m^3]. A batch of sea states gives
+    (B,) arrays: ``I = H_s^2 int S_1(w1) (1 - exp(-2 k d)) dw1`` over the unit spectrum
+    (:meth:`SeaState.unit`) once per distinct T_p, the same integral to rounding."""
     for name, v in (("length", length), ("beam", beam), ("draft", draft), ("rho", rho)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise UsvidError(f"wave drift: {name} must be > 0 (got {v!r})")
-    w = np.geomspace(sea.omega_p / 20.0, sea.omega_p * 20.0, 20_001)
+    if sea.batch is not None:
+        def kernel(w1: np.ndarray, s1: np.ndarray, tps: np.ndarray) -> np.ndarray:
+            out = np.empty(tps.size)
+            _drift_kernel(w1, s1, np.ascontiguousarray(tps), float(draft), out)
+            return out
+        integral = np.asarray(sea.hs, dtype=float) ** 2 * _per_period(sea, kernel)
+        return rho * G * beam * integral, rho * G * length * integral
+    w = np.geomspace(sea.omega_p / 20.0, sea.omega_p * 20.0, _GRID)
     f = sea.density(w) * (1.0 - np.exp(-2.0 * (w * w / G) * draft))
     integral = float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(w)))
     return rho * G * beam * integral, rho * G * length * integral
