@@ -36,9 +36,10 @@ After fitting (:func:`check_model`), the model identification returns must
   angle), from the training approach speed: no divergence, the turn to the side of the rudder
   (a positive rudder angle makes r positive: K > 0 for an ordinary vessel) and, for kinds with
   a surge equation, a positive speed; and, when the training trials start from (or come to)
-  rest and the kind has a surge equation, a start from rest with the rudder amidships
-  (:func:`_rest_check`): the envelope's lowest speed is 0 there, and a model that diverges as
-  it gathers way is confident and wrong about a part of its own training data.
+  rest and the kind has a surge equation, starts from rest with the rudder amidships and at
+  the largest angle to each side (:func:`_rest_check`): the envelope's lowest speed is 0
+  there, and a model that diverges as it gathers way is confident and wrong about a part of
+  its own training data.
 
 A failed check is a :class:`Check` with the reason and what to do; the estimator refuses such a
 model (``checks="error"``, the default) or keeps the failures in the model file's
@@ -229,21 +230,27 @@ def _run(model: VesselModel, logic: Any, u0: float) -> Any:
 
 
 def _rest_check(model: VesselModel, env: Envelope) -> Check:
-    """A start from rest (u = v = r = 0) with the rudder amidships at the model's nominal
-    propulsion, for the turning test's duration at the approach speed: the model must stay
-    finite (it may swing off: a course-unstable hull does)."""
+    """Starts from rest (u = v = r = 0) at the model's nominal propulsion with the rudder
+    amidships and at the envelope's largest angle to each side, each for the turning test's
+    duration at the approach speed: the model must stay finite (it may swing off: a
+    course-unstable hull does). At low speed v' = v/U and r' = r L/U are large, where the
+    hull's cubic terms decide: a wrong sign there diverges as the vessel gathers way."""
     name = "start from rest"
     t_end = default_t_end(model, env.speed)
-    try:
-        probe = turn_probe(model, 0.0, 0.0, t_end=t_end, dt=0.02)
-    except UsvidError as exc:
-        return Check(name, False, f"a start from rest cannot be simulated ({exc})")
-    if probe.diverged:
-        t_bad = probe.diverged_at if probe.diverged_at is not None else math.nan
-        return Check(name, False, (
-            f"the model diverges {t_bad:.0f} s after a start from rest with the rudder "
-            "amidships (inside the training envelope: the training runs start from or come to "
-            "rest): its hull forces at low speed are not physical"))
+    a_deg = math.degrees(env.delta_max)
+    for delta in (0.0, env.delta_max, -env.delta_max):
+        how = ("with the rudder amidships" if delta == 0.0 else
+               f"with the rudder at {math.copysign(a_deg, delta):+.1f} deg")
+        try:
+            probe = turn_probe(model, delta, 0.0, t_end=t_end, dt=0.02)
+        except UsvidError as exc:
+            return Check(name, False, f"a start from rest {how} cannot be simulated ({exc})")
+        if probe.diverged:
+            t_bad = probe.diverged_at if probe.diverged_at is not None else math.nan
+            return Check(name, False, (
+                f"the model diverges {t_bad:.0f} s after a start from rest {how} (inside the "
+                "training envelope: the training runs start from or come to rest): its hull "
+                "forces at low speed are not physical"))
     return Check(name, True)
 
 
