@@ -143,13 +143,17 @@ def test_passes_its_checks(identified):
     """With default options the identified model must pass its checks (else the CLI exits 2).
     The checks replay each run in the current estimated for it, from its velocities through
     the water (measured: windowed heading RMSE 0.004 rad, R^2 1.000; the free run finite,
-    heading RMSE 0.38 rad over 200 s). Replayed in calm water from the velocities over
+    heading RMSE 0.38 rad over 200 s), and it stays finite when started from rest in calm
+    water (rudder amidships and at +-35 deg). Replayed in calm water from the velocities over
     ground, the first window of every run (at rest: the current's 0.15 m/s alone, mostly
     sideways) diverges after 7-8 s, and the fit would be refused."""
     from usvid.identify.checks import failed
 
     print([c.message for c in failed(identified.checks_)])
     assert not failed(identified.checks_)
+    # the runs start from rest: the checks start the model from rest too (amidships and
+    # +-35 deg; it stays finite, as the truth does)
+    assert "start from rest" in [c.name for c in identified.checks_]
 
 
 def test_runs_start_from_rest_and_turn(identified):
