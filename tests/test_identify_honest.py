@@ -227,6 +227,34 @@ def test_checks_of_a_sound_and_an_unsound_model():
                for c in check_model(wrong, [trial], fit) if not c.passed)
 
 
+def test_start_from_rest_is_checked_when_the_training_runs_start_from_rest():
+    """The KVLCC2 (7 m, Y&Y 2015's HSVA coefficients) with N_rrr = +0.016 (the sign and size
+    an outdoor fit gave with its low-speed windows left out; Y&Y 2015: -0.013) passes every
+    standard manoeuvre from the approach speed, but diverges 18 s after a start from rest with
+    the rudder at +35 deg: at low speed r' = r L/U is large and the cubic yaw term decides.
+    Where the training runs start from rest (the envelope says so) that start is checked;
+    where they do not it is not."""
+    import dataclasses
+
+    from usvid.identify.checks import Envelope, _manoeuvre_checks
+    from usvid.models.kinds.mmg import equilibrium_rps, from_physics, kvlcc2
+
+    p = kvlcc2("hsva")
+    truth = VesselModel(from_physics(p, n=equilibrium_rps(p, 1.18)),
+                        IdealServo(max_rate=math.radians(15.0)),
+                        Vessel(length=p.L, beam=p.B, draft=p.d, mass=p.m, speed=1.18))
+    bad = VesselModel(dataclasses.replace(truth.dynamics, N_rrr=0.016), truth.servo,
+                      truth.vessel)
+    rest = Envelope(math.radians(35.0), 1.18, from_rest=True)
+    assert all(c.passed for c in _manoeuvre_checks(truth, rest))
+    got = {c.name: c for c in _manoeuvre_checks(bad, rest)}
+    assert not got["start from rest"].passed
+    assert "after a start from rest with the rudder at +35.0 deg" in got["start from rest"].message
+    assert all(c.passed for n, c in got.items() if n != "start from rest")
+    names = [c.name for c in _manoeuvre_checks(bad, Envelope(math.radians(35.0), 1.18))]
+    assert "start from rest" not in names
+
+
 # -- the defaults on the real logs: never a model that diverges inside its envelope -------------
 def _standard_runs_inside_the_envelope(model_path: Path, capsys) -> None:
     """``usvid simulate`` runs the model file's standard manoeuvres at the angles its training

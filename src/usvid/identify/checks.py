@@ -35,7 +35,11 @@ After fitting (:func:`check_model`), the model identification returns must
   zig-zags (10/10, 20/20) whose amplitude the training data reached (else one at the largest
   angle), from the training approach speed: no divergence, the turn to the side of the rudder
   (a positive rudder angle makes r positive: K > 0 for an ordinary vessel) and, for kinds with
-  a surge equation, a positive speed.
+  a surge equation, a positive speed; and, when the training trials start from (or come to)
+  rest and the kind has a surge equation, starts from rest with the rudder amidships and at
+  the largest angle to each side (:func:`_rest_check`): the envelope's lowest speed is 0
+  there, and a model that diverges as it gathers way is confident and wrong about a part of
+  its own training data.
 
 A failed check is a :class:`Check` with the reason and what to do; the estimator refuses such a
 model (``checks="error"``, the default) or keeps the failures in the model file's
@@ -57,7 +61,7 @@ from usvid.errors import IdentificationError, UsvidError
 from usvid.manoeuvres.logic import ZigZag
 from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
-from usvid.prep.under_way import MIN_SPEED, under_way
+from usvid.prep.under_way import MIN_SPEED, speed, under_way
 from usvid.sim.physics import turn_probe
 from usvid.sim.runs import default_t_end
 from usvid.sim.simulate import approach_speed, simulate
@@ -181,13 +185,16 @@ class Envelope:
 
     delta_max: float
     speed: float
+    #: the training trials start from (or come to) rest: a speed below MIN_SPEED [m/s]
+    from_rest: bool = False
 
 
 def envelope(model: VesselModel, trials: Sequence[Trial]) -> Envelope | None:
     """The training envelope (:class:`Envelope`): the 99.5th percentile of |delta| over the
     training trials (thrusters: |n_port - n_stbd| / (2 steer_gain) with the model's steering
-    gain), at most 35 deg and at least 1 deg, and the model's approach speed; None when the
-    trials have no steering the model can be driven with."""
+    gain), at most 35 deg and at least 1 deg, the model's approach speed, and whether a trial
+    is at rest somewhere (its speed, :func:`usvid.prep.under_way.speed`, below
+    :data:`MIN_SPEED`); None when the trials have no steering the model can be driven with."""
     devs = []
     gain = getattr(model.dynamics, "steer_gain", None)
     for tr in trials:
@@ -203,10 +210,16 @@ def envelope(model: VesselModel, trials: Sequence[Trial]) -> Envelope | None:
     dmax = float(np.percentile(np.concatenate(devs), 99.5))
     dmax = min(max(dmax, math.radians(1.0)), MAX_CHECK_ANGLE)
     try:
-        speed = float(approach_speed(model, None))
+        speed_ = float(approach_speed(model, None))
     except UsvidError:
         return None
-    return Envelope(round(math.degrees(dmax), 1) * math.pi / 180.0, speed)
+    rest = False
+    for tr in trials:
+        U, _ = speed(tr)
+        if U is not None and np.any(U[np.isfinite(U)] < MIN_SPEED):
+            rest = True
+            break
+    return Envelope(round(math.degrees(dmax), 1) * math.pi / 180.0, speed_, rest)
 
 
 def _run(model: VesselModel, logic: Any, u0: float) -> Any:
@@ -216,9 +229,36 @@ def _run(model: VesselModel, logic: Any, u0: float) -> Any:
                         channels=("psi", "r", "u", "v", "delta"))
 
 
+def _rest_check(model: VesselModel, env: Envelope) -> Check:
+    """Starts from rest (u = v = r = 0) at the model's nominal propulsion with the rudder
+    amidships and at the envelope's largest angle to each side, each for the turning test's
+    duration at the approach speed: the model must stay finite (it may swing off: a
+    course-unstable hull does). At low speed v' = v/U and r' = r L/U are large, where the
+    hull's cubic terms decide: a wrong sign there diverges as the vessel gathers way."""
+    name = "start from rest"
+    t_end = default_t_end(model, env.speed)
+    a_deg = math.degrees(env.delta_max)
+    for delta in (0.0, env.delta_max, -env.delta_max):
+        how = ("with the rudder amidships" if delta == 0.0 else
+               f"with the rudder at {math.copysign(a_deg, delta):+.1f} deg")
+        try:
+            probe = turn_probe(model, delta, 0.0, t_end=t_end, dt=0.02)
+        except UsvidError as exc:
+            return Check(name, False, f"a start from rest {how} cannot be simulated ({exc})")
+        if probe.diverged:
+            t_bad = probe.diverged_at if probe.diverged_at is not None else math.nan
+            return Check(name, False, (
+                f"the model diverges {t_bad:.0f} s after a start from rest {how} (inside the "
+                "training envelope: the training runs start from or come to rest): its hull "
+                "forces at low speed are not physical"))
+    return Check(name, True)
+
+
 def _manoeuvre_checks(model: VesselModel, env: Envelope) -> list[Check]:
     kind = kind_of(model.dynamics)
     out = []
+    if env.from_rest and not kind.constant_speed:
+        out.append(_rest_check(model, env))
     a_deg = math.degrees(env.delta_max)
     for side in (1, -1):
         name = f"turning circle {side * a_deg:+.1f} deg"

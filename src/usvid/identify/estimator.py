@@ -1026,6 +1026,12 @@ class ModelEstimator(FittedAttributes):
             return self.servo, {}
         both = [tr for tr in trials if tr.has("delta_cmd") and tr.has("delta")]
         fits, errors = [], []
+        # the helm's rate limit (the vessel's, else measured on the rudder's ramps): each trial's
+        # servo is also fitted behind it, and the form that reproduces the rudder better kept
+        # (a rate-limited helm read by a linear servo is too quick in small orders and too slow
+        # in large ones: identify.servo's module docstring)
+        rate_lim, rate_src = (helm_rate(vessel, [(tr.t, tr["delta"]) for tr in both]) if both
+                              else (None, ""))
         for tr in both:
             dt = float(np.median(np.diff(tr.t)))
             u, y = tr["delta_cmd"], tr["delta"]
@@ -1038,15 +1044,20 @@ class ModelEstimator(FittedAttributes):
                 y = np.interp(idx, idx[ok], y[ok])
                 sl = _most_active(u, dt, SERVO_WINDOW_S)
                 fits.append((_servo_fit(u[sl], y[sl], dt), tr.name))
+                if rate_lim is not None:
+                    fits.append((_servo_fit(u[sl], y[sl], dt, rate_lim), tr.name))
             except UsvidError as exc:
                 errors.append(f"{tr.name}: {exc}")
         if fits:
             # the trial the servo model fits best, relative to its rudder motion
             best, name = min(fits, key=lambda f: f[0].fit.nrmse)
-            return best.servo, {"identified_from": name, "candidates": [f[1] for f in fits],
+            limited = ({"max_rate_deg_s": math.degrees(best.max_rate), "rate_from": rate_src}
+                       if math.isfinite(best.max_rate) else {})
+            return best.servo, {"identified_from": name,
+                                "candidates": list(dict.fromkeys(f[1] for f in fits)),
                                 **{k: v for k, v in best.to_dict().items()
                                    if k in ("omega_n", "zeta", "gain", "delay", "std_errors",
-                                            "fit")}}
+                                            "fit")}, **limited}
         if errors:
             warnings.warn(f"servo not identified ({'; '.join(errors)}); an ideal servo is used",
                           IdentificationWarning, stacklevel=3)
@@ -1183,15 +1194,16 @@ _SERVO_FITS: dict[bytes, Any] = {}
 _SERVO_FITS_MAX = 32
 
 
-def _servo_fit(u: np.ndarray, y: np.ndarray, dt: float) -> Any:
-    """:func:`identify_second_order_servo` of ``(u, y, dt)`` (a copy of an earlier fit of the
-    same arrays when there is one: the fit is deterministic)."""
+def _servo_fit(u: np.ndarray, y: np.ndarray, dt: float, max_rate: float = math.inf) -> Any:
+    """:func:`identify_second_order_servo` of ``(u, y, dt)`` behind the rate limit
+    ``max_rate`` [rad/s] (a copy of an earlier fit of the same arrays when there is one: the
+    fit is deterministic)."""
     key = hashlib.sha256(np.ascontiguousarray(u, dtype=float).tobytes() + b"|"
                          + np.ascontiguousarray(y, dtype=float).tobytes() + b"|"
-                         + np.float64(dt).tobytes()).digest()
+                         + np.float64(dt).tobytes() + np.float64(max_rate).tobytes()).digest()
     fit = _SERVO_FITS.get(key)
     if fit is None:
-        fit = identify_second_order_servo(u, y, dt)
+        fit = identify_second_order_servo(u, y, dt, max_rate=max_rate)
         while len(_SERVO_FITS) >= _SERVO_FITS_MAX:
             _SERVO_FITS.pop(next(iter(_SERVO_FITS)))
         _SERVO_FITS[key] = fit

@@ -27,6 +27,15 @@ Method (documented choices; the seeds only say "recursive least squares"):
    held over each sample), at the delay found by a pattern search (steps of 4, 2, 1 samples from
    the ARX delay, each fit started from the best so far): the delay of smallest simulation RMS.
 
+Rate limit (``max_rate``): a steering gear moves at most at its pump's rate (IMO MSC.137(76):
+35 deg to 30 deg the other side in 28 s), which no linear servo reproduces: fitted to a record
+of small autopilot orders and large rate-limited steps it settles on a compromise (a rate-limited
+ideal helm read as omega_n 1.4-1.7 rad/s: its 20/20 zig-zag overshoots 1.0-1.5 deg too small).
+With ``max_rate`` [rad/s] (e.g. measured on the rudder's ramps,
+:func:`usvid.identify.replay.helm_rate`) the same second-order servo is fitted behind that rate
+limit (the servo of every simulation carries it: :class:`usvid.models.servo.SecondOrderServo`);
+the estimator fits both and keeps the one that reproduces the rudder better.
+
 Standard errors. Refined: Gauss-Newton asymptotics ``cov = s^2 (J^T J)^-1`` of the output-error
 fit (J the Jacobian of the simulated output w.r.t. (omega_n, zeta, K), s^2 the residual variance;
 assumes white measurement noise). ARX only: delta method, ``cov_phys = G cov_arx G^T`` with G the
@@ -87,19 +96,20 @@ class ServoIdentification:
     fit: FitMetrics
     method: str
     arx_delay_scan: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    max_rate: float = math.inf  # [rad/s] the rate limit the servo was fitted behind (held)
 
     @property
     def servo(self) -> SecondOrderServo:
         """The :class:`usvid.models.servo.SecondOrderServo` (default limits)."""
         return SecondOrderServo(omega_n=self.omega_n, zeta=self.zeta, gain=self.gain,
-                                delay=self.delay)
+                                delay=self.delay, max_rate=self.max_rate)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (model-file servo block plus uncertainty and fit)."""
         return {
             "kind": "second_order", "omega_n": self.omega_n, "zeta": self.zeta,
             "gain": self.gain, "delay": self.delay, "delay_samples": self.delay_samples,
-            "dt": self.dt, "std_errors": self.std_errors,
+            "dt": self.dt, "max_rate": self.max_rate, "std_errors": self.std_errors,
             "ci95": {k: list(v) for k, v in self.ci95.items()},
             "arx": self.arx, "fit": self.fit.to_dict(), "method": self.method,
         }
@@ -154,18 +164,19 @@ def _servo_rig() -> tuple[Any, np.ndarray, np.ndarray, int]:
     return kind, P, Z0, row
 
 
-def _simulate(params: np.ndarray, u: np.ndarray, d: int, dt: float) -> np.ndarray:
+def _simulate(params: np.ndarray, u: np.ndarray, d: int, dt: float,
+              max_rate: float = math.inf) -> np.ndarray:
     """The servo ``K wn^2 / (s^2 + 2 zeta wn s + wn^2) e^{-d dt s}`` driven by the command u
     (held over each sample), at rest on u[0]: integrated by the core (:mod:`usvid.sim.core`,
     the servo of every simulation) on a zero-gain yaw model. ``params`` (wn [rad/s], zeta,
     K) or a batch of them (B, 3), one lane each; returns delta [rad], (N,) or (B, N). The rows
     are built directly (not through :class:`SecondOrderServo`), so that the optimiser may
-    cross K <= 0."""
+    cross K <= 0. ``max_rate`` [rad/s]: the servo's rate limit (inf: none)."""
     p = np.atleast_2d(np.asarray(params, dtype=float))
     B = p.shape[0]
     kind, P, Z1, row = _servo_rig()
     S = np.zeros((7, B))
-    S[0], S[1], S[5] = math.pi, math.inf, d * dt
+    S[0], S[1], S[5] = math.pi, max_rate, d * dt
     S[2:5] = p.T
     Z0 = np.repeat(Z1, B, axis=1)
     Z0[row] = p[:, 2] * u[0]
@@ -176,9 +187,10 @@ def _simulate(params: np.ndarray, u: np.ndarray, d: int, dt: float) -> np.ndarra
     return out[0] if np.ndim(params) == 1 else out
 
 
-def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray
-            ) -> optimize.OptimizeResult:
-    """Output-error fit of (wn, zeta, K) at the dead time of ``d`` samples.
+def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray,
+            max_rate: float = math.inf) -> optimize.OptimizeResult:
+    """Output-error fit of (wn, zeta, K) at the dead time of ``d`` samples (behind the rate
+    limit ``max_rate`` [rad/s]).
 
     The Jacobian is scipy's forward difference ('2-point': step sqrt(eps) max(1, |x|), taken
     backwards where a bound is near) with the three shifted servos simulated in one batch of
@@ -194,7 +206,7 @@ def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray
     big = 1e3 * max(float(np.ptp(y)), 1e-3)
 
     def resid(p: np.ndarray) -> np.ndarray:
-        e = _simulate(p, u, d, dt) - y
+        e = _simulate(p, u, d, dt, max_rate) - y
         return np.where(np.isfinite(e), e, big)
 
     def jac(p: np.ndarray) -> np.ndarray:
@@ -202,7 +214,7 @@ def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray
         h = np.where((p + h > hi) | (p + h < lo), -h, h)  # one-sided, inside the bounds
         h = (p + h) - p  # the step as represented
         shifted = p + np.diag(h)
-        e = _simulate(np.vstack([p, shifted]), u, d, dt) - y
+        e = _simulate(np.vstack([p, shifted]), u, d, dt, max_rate) - y
         e = np.where(np.isfinite(e), e, big)
         return ((e[1:] - e[0]) / h[:, None]).T
 
@@ -212,7 +224,8 @@ def _oe_fit(u: np.ndarray, y: np.ndarray, d: int, dt: float, x0: np.ndarray
 
 def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
                                 max_delay: float = 2.0, refine: bool = True,
-                                initial_step: int = 4) -> ServoIdentification:
+                                initial_step: int = 4,
+                                max_rate: float = math.inf) -> ServoIdentification:
     """Identify omega_n, zeta, gain and dead time of a steering servo (see module docstring).
 
     Parameters
@@ -228,8 +241,17 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
     initial_step : int
         First step [samples] of the pattern search over the delay (halved down to one sample
         where no neighbour improves the simulation RMS).
+    max_rate : float
+        Rate limit [rad/s] the servo is fitted behind (held; inf: none; module docstring).
+        Needs ``refine`` (the ARX form is linear).
     """
     u, y = _validate(delta_cmd, delta, dt)
+    if not max_rate > 0:
+        raise IdentificationError(f"servo identification: max_rate must be > 0 rad/s (got "
+                                  f"{max_rate!r})")
+    if math.isfinite(max_rate) and not refine:
+        raise IdentificationError("servo identification: a rate limit needs refine=True (the "
+                                  "ARX form is linear)")
     dmax = int(round(max_delay / dt))
     if dmax < 0:
         raise IdentificationError(f"servo identification: max_delay must be >= 0 (got {max_delay})")
@@ -269,12 +291,13 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
             [1.0, 0.7, g0 if g0 > 0 else 1.0])
         # pattern search over the integer delay on the simulation RMS: steps of 4, 2, 1 samples
         # from the ARX delay, each fit started from the best fit so far
-        results: dict[int, optimize.OptimizeResult] = {d_arx: _oe_fit(u, y, d_arx, dt, x0)}
+        results: dict[int, optimize.OptimizeResult] = {
+            d_arx: _oe_fit(u, y, d_arx, dt, x0, max_rate)}
         best, step = d_arx, max(1, int(initial_step))
         while True:
             for d in (best - step, best + step):
                 if 0 <= d <= dmax and d not in results:
-                    results[d] = _oe_fit(u, y, d, dt, results[best].x.copy())
+                    results[d] = _oe_fit(u, y, d, dt, results[best].x.copy(), max_rate)
                 if d in results and results[d].cost < results[best].cost:
                     best = d
                     break
@@ -298,7 +321,7 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
         raise IdentificationError(
             f"servo identification: negative servo gain ({params[2]:.3g}); check the sign "
             "convention of delta and delta_cmd")
-    sim = _simulate(params, u, d_best, dt)
+    sim = _simulate(params, u, d_best, dt, max_rate)
     return ServoIdentification(
         omega_n=float(params[0]), zeta=float(params[1]), gain=float(params[2]),
         delay=d_best * float(dt), delay_samples=int(d_best), dt=float(dt),
@@ -306,7 +329,7 @@ def identify_second_order_servo(delta_cmd: Any, delta: Any, dt: float, *,
         ci95={k: tuple(lh) for k, lh in zip(PARAM_NAMES, interval95(params, se, q).tolist(),
                                             strict=True)},
         arx=arx, delay_scan=scan, fit=fit_metrics(y, sim), method=method,
-        arx_delay_scan=arx_scan)
+        arx_delay_scan=arx_scan, max_rate=float(max_rate))
 
 
 #: Candidate natural frequencies [rad/s] and dead times [s] of :func:`helm_from_zigzags`.
