@@ -182,3 +182,28 @@ def test_simd_path_equals_per_lane_path_in_wind_current_and_waves(kind, wind_mod
     calm = simulate(model, ZigZag(amp, amp, first=np.where(np.arange(B) % 2 == 0, 1, -1)),
                     t_end=30.0, dt=0.05, disturbance=dist, psi0=np.linspace(-0.2, 0.2, B))
     assert np.max(np.abs(a["psi"] - calm["psi"])) > 1e-3  # the environment acts
+
+
+@pytest.mark.parametrize(("channels", "noise"), [(("psi",), False), (("x", "y", "psi", "u"), False),
+                                                  (("x", "y", "psi"), True)])
+def test_simd_path_equals_per_lane_path_in_a_constant_environment(channels, noise):
+    """A constant wind, current, sea state and external force, the same for every lane: the
+    wind variant that reads the lanes' shared environment block once and adds the constant
+    force to the held loads once per step (``shared``, ``steady``: the variant the batch must
+    take) gives the per-lane path's runs, recording the heading only or x and y too, with and
+    without a disturbance (its filter on the vector step)."""
+    model = VesselModel(mu2018_threedof(x_l=3.5),
+                        servo=SecondOrderServo(omega_n=1.4, zeta=0.85, delay=0.5,
+                                               max_rate=math.radians(20.0)),
+                        vessel=Vessel(**WINDAGE))
+    env = Environment(wind_speed=8.0, wind_dir=math.radians(45.0), current_speed=0.5,
+                      current_dir=math.radians(90.0), sea=SeaState(hs=1.0, tp=5.0, direction=2.0),
+                      wave_motion=False, force=(40.0, -25.0, 0.0, 30.0))
+    amp = np.radians(np.linspace(8.0, 25.0, B))
+    dist = Disturbance(intensity=math.radians(1.0) if noise else 0.0, seed=2)
+    a, b = _both(model, ZigZag(amp, amp, first=np.where(np.arange(B) % 2 == 0, 1, -1)),
+                 t_end=30.0, dt=0.05, disturbance=dist, environment=env, channels=channels,
+                 psi0=np.linspace(-0.2, 0.2, B))
+    key = specialise.kernel_key(registry.get("threedof"))
+    assert any(k[0] == key and k[5] and k[8] and k[9] for k in specialise._VSTEPS)
+    _assert_same(a, b)

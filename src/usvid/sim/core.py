@@ -107,11 +107,13 @@ def kernel(kind: ModelKind) -> KindCode:
 
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool,
-                wind: bool = False, wcode: int = -1, narrow: bool = False) -> int:
+                wind: bool = False, wcode: int = -1, narrow: bool = False,
+                shared: bool = False, steady: bool = False) -> int:
     """Address of a vector-step variant of ``kind`` (:func:`usvid.sim.specialise.vector_step`;
     the generic one for every batch when :data:`FORCE_GENERIC`)."""
     return specialise.vector_step(kind, swi, sk, nod, xy, generic=bool(FORCE_GENERIC),
-                                  wind=wind, wcode=wcode, narrow=narrow)
+                                  wind=wind, wcode=wcode, narrow=narrow, shared=shared,
+                                  steady=steady)
 
 
 def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: np.ndarray,
@@ -154,6 +156,10 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         lstep = specialise.lane_step(kind, env)
     qt, qv = np.empty((B, qcap)), np.empty((B, qcap))
     sstride = 1 if SER.shape[1] > 1 else 0
+    # the environment's series constant in time (and no other series): loaded once by the driver
+    used = [i for i in range(NSER) if sidx[i] >= 0]
+    sconst = bool(used) and min(used) >= SFORCE and all(
+        bool(np.all(SER[sidx[i]] == SER[sidx[i], :, :1])) for i in used)
     starts = list(range(0, B, chunk))
     vaddr = dict.fromkeys(starts, 0)
     if simd:
@@ -165,22 +171,23 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
                and not bool(np.any(Z[:, ID + 2:ID + 4] != 0.0)))
         xy = bool(slots[0] >= 0 or slots[1] >= 0)
         wcode = -1  # the wind-load model's code of every lane: a literal in the variant
+        shared = steady = False
         if wind:
             codes = P[:, kind.n_params]
             wcode = int(codes[0]) if bool(np.all(codes == codes[0])) else -1
+            # one environment block for every lane; the series the environment's only and
+            # constant in time, or none (their rows then hold constant zeros)
+            shared = bool(np.all(P[:, kind.n_params:] == P[:1, kind.n_params:]))
+            steady = sconst or not used
         steps: dict[tuple[int, bool], int] = {}
         for lo in starts:
             hi = min(B, lo + chunk)
             swi = code.chunk_switch(P, lo, hi)
             narrow = hi - lo <= VW  # a single run: the vector step of one vector of lanes
             if (swi, narrow) not in steps:
-                steps[swi, narrow] = vector_step(kind, swi, skind, nod, xy, wind, wcode, narrow)
+                steps[swi, narrow] = vector_step(kind, swi, skind, nod, xy, wind, wcode, narrow,
+                                                 shared, steady)
             vaddr[lo] = steps[swi, narrow]
-
-    # the environment's series constant in time (and no other series): loaded once by the driver
-    used = [i for i in range(NSER) if sidx[i] >= 0]
-    sconst = bool(used) and min(used) >= SFORCE and all(
-        bool(np.all(SER[sidx[i]] == SER[sidx[i], :, :1])) for i in used)
 
     def task(lo: int) -> None:
         drive(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,

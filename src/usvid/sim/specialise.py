@@ -253,7 +253,7 @@ def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
                 generic: bool = False, wind: bool = False, wcode: int = -1,
-                narrow: bool = False) -> int:
+                narrow: bool = False, shared: bool = False, steady: bool = False) -> int:
     """Address of the vector step (:func:`usvid.sim.vector._vstep`, a C callback) of ``kind``
     for the switch value ``swi`` (index into the kind's switch values; the last: generic), the
     servo kind ``sk``, without disturbance and input series (``nod``), with x and y (``xy``);
@@ -275,7 +275,16 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     series and x, y (the heading's rotation); without it the variants compile as if the
     environment code did not exist (``WIND`` a compile-time False). ``wcode``: the wind-load
     model's code (:mod:`usvid.models.environment.wind_loads`) common to the batch's lanes, a
-    literal in the variant (only that model's code compiled); -1: read per lane.
+    literal in the variant (only that model's code compiled); -1: read per lane. ``shared``:
+    every lane has the same environment block (read once per step, from lane slot 0, before
+    the lane loop). ``steady``: the batch's series are the environment's only and constant in
+    time, or absent (the driver loads them once): the external force is added to the held
+    loads once per step (:func:`usvid.sim.vector._vstep`), not interpolated at every RK4
+    stage, and the series' end rows are not read (the same sums: the interpolation of a
+    constant is that constant). Both only with ``wind``: fewer rows of the chunk array read
+    per step and fewer values live in the RK4 loop (sampled in the 3-DOF zig-zag of
+    ``benchmarks/bench_sim.py --wind``: its RK4 loop took 1.58x the calm variant's, a tenth
+    of the step's samples stalled at one parameter load; with both, 1.13x).
 
     ``narrow``: the variant for a chunk of at most :data:`usvid.sim.vector.VW` lanes (a single
     run, a few runs): its lane loop computes VW lane slots instead of :data:`CH` (a constant
@@ -287,13 +296,15 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     if not inline or generic:
         sk, nod, xy = -1, False, True
     if not wind:
-        wcode = -1
-    vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode), bool(narrow))
+        wcode, shared, steady = -1, False, False
+    vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode), bool(narrow),
+          bool(shared), bool(steady))
     if vk in _VSTEPS:
         return _VSTEPS[vk].address
     const = {code.swr: code.swv[swi]} if code.swr >= 0 and swi < len(code.swv) else {}
     gv = dict(_wind_globals(code) if wind else code.g, SK=sk, NOD=bool(nod), XY=bool(xy),
-              NLANES=_vector_mod.VW if narrow else _layout.CH)
+              NLANES=_vector_mod.VW if narrow else _layout.CH, SHARED=bool(shared),
+              STEADY=bool(steady))
     if wind and wcode >= 0:
         gv["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(
             lay, gv, read=True, const={0: float(wcode)}))
@@ -302,7 +313,8 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     for name in VARIANT_HELPERS:
         gv[name] = _helper(helpers[name])
     tag = (f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
-           + (f"w{wcode if wcode >= 0 else 'g'}" if wind else "") + ("n" if narrow else ""))
+           + (f"w{wcode if wcode >= 0 else 'g'}{'s' if shared else ''}{'c' if steady else ''}"
+              if wind else "") + ("n" if narrow else ""))
     for name in VECTOR_TEMPLATES:
         _specialise(gv, name, f"{name}{tag}__{code.key}",
                     forceinline=False if (name == "_vderiv" and not inline) else None)

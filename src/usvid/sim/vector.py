@@ -47,6 +47,7 @@ from usvid.sim.layout import (
     RDL,
     RPSI,
     RW2,
+    SFORCE,
     VCMD,
     VF,
     VL,
@@ -68,6 +69,15 @@ SK, NOD, XY = 2, False, True
 #: :func:`usvid.sim.lane._heldload`), with x, y (XY) and the environment's series (force,
 #: current, wind: with WIND, NOD means no disturbance and no delta or n series only).
 WIND = False
+#: Variant constant (with WIND): the batch's series are the environment's only and constant in
+#: time, or absent (the driver loads them once; start and end rows equal): the external force
+#: series is added to the held loads once per step, in the loads' loop of :func:`_vstep`, and
+#: the current read at the step start (the first-order hold of a constant is that constant).
+STEADY = False
+#: Variant constant (with WIND): every lane has the same environment block (``_etup``), read
+#: once per step before the lane loop (a load inside the loop from a row of lane slot 0, which
+#: the loop's stores might overwrite as far as LLVM can tell, keeps it from vectorising).
+SHARED = False
 ZU = 0  # position of u in the joint-state tuple (-1: the constant speed, parameter SPEEDROW)
 ZV = 0  # position of v in the joint-state tuple (-1: none, zero)
 SPEEDROW = 0  # parameter row of the constant speed of a response kind
@@ -108,16 +118,23 @@ def _hbase(V, j):
     return a, c_ * g_, s_ * g_
 
 
-def _vheld(V, j, c0, s0):
+def _vheld(V, j, c0, s0, pe):
     """Lane slot j's environment loads held over the step (:func:`usvid.sim.lane._heldload`)
-    at the step start: its joint state, the environment series there and the cosine ``c0``
-    and sine ``s0`` of its heading (:func:`_hbase`)."""
+    at the step start: its joint state, its environment block ``pe`` (``_etup``), the
+    environment series there and the cosine ``c0`` and sine ``s0`` of its heading
+    (:func:`_hbase`)."""
     o = VF * CH + j
     nan = np.nan
-    fs = (nan, nan, nan, nan, nan, nan, nan, nan, V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
-          V[o + 11 * CH], nan, nan, nan, nan, nan, nan, nan, nan, V[o + 20 * CH],
-          V[o + 21 * CH], V[o + 22 * CH], V[o + 23 * CH])
-    return _heldload(_ptup(V, j), _etup(V, j), _ztup(V, j), 0.0, fs, c0, s0)
+    # the step's start (tau = 0): the end values are those of the start (s + 0 (e - s) is s for
+    # finite values, and without this the end rows are loaded too: 0 (e - s) is not 0 for an
+    # infinite e - s, so LLVM keeps the loads)
+    cn = V[o + 8 * CH]
+    ce = V[o + 9 * CH]
+    wn = V[o + 10 * CH]
+    we = V[o + 11 * CH]
+    fs = (nan, nan, nan, nan, nan, nan, nan, nan, cn, ce, wn, we, nan, nan, nan, nan, nan, nan,
+          nan, nan, cn, ce, wn, we)
+    return _heldload(_ptup(V, j), pe, _ztup(V, j), 0.0, fs, c0, s0)
 
 
 def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
@@ -152,7 +169,10 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
         f = NOF
         cx = 0.0
         cy = 0.0
-        if WIND:  # but the environment's series (force, current; the wind's are in fe)
+        if WIND and STEADY:  # the series' force is in fe (constant: :data:`STEADY`)
+            cx = fs[8]
+            cy = fs[9]
+        elif WIND:  # but the environment's series (force, current; the wind's are in fe)
             f = (fs[4] + tau * (fs[16] - fs[4]), fs[5] + tau * (fs[17] - fs[5]),
                  fs[6] + tau * (fs[18] - fs[6]), fs[7] + tau * (fs[19] - fs[7]))
             cx = fs[8] + tau * (fs[20] - fs[8])
@@ -163,10 +183,15 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
         n0 = fs[1] + tau * (fs[13] - fs[1])
         n1 = fs[2] + tau * (fs[14] - fs[2])
         n2 = fs[3] + tau * (fs[15] - fs[3])
-        f = (fs[4] + tau * (fs[16] - fs[4]), fs[5] + tau * (fs[17] - fs[5]),
-             fs[6] + tau * (fs[18] - fs[6]), fs[7] + tau * (fs[19] - fs[7]))
-        cx = fs[8] + tau * (fs[20] - fs[8])
-        cy = fs[9] + tau * (fs[21] - fs[9])
+        f = NOF
+        if WIND and STEADY:  # the series' force is in fe (constant: :data:`STEADY`)
+            cx = fs[8]
+            cy = fs[9]
+        else:
+            f = (fs[4] + tau * (fs[16] - fs[4]), fs[5] + tau * (fs[17] - fs[5]),
+                 fs[6] + tau * (fs[18] - fs[6]), fs[7] + tau * (fs[19] - fs[7]))
+            cx = fs[8] + tau * (fs[20] - fs[8])
+            cy = fs[9] + tau * (fs[21] - fs[9])
     cd = 1.0
     sd = 0.0
     hm = 0.0
@@ -176,7 +201,9 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             sd = tr[5]
         else:
             cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
-    if WIND:  # the loads of the step's start, held (:func:`usvid.sim.lane._heldload`)
+    if WIND and STEADY:  # the series' force and the held loads (:func:`_vstep`)
+        f = fe
+    elif WIND:  # the loads of the step's start, held (:func:`usvid.sim.lane._heldload`)
         f = (f[0] + fe[0], f[1] + fe[1], f[2] + fe[2], f[3] + fe[3])
     u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), f)
     k0 = 0.0
@@ -261,13 +288,18 @@ def _vstep(Vp, h, frac, zig, sk):
     nslow = 0.0
     if WIND:  # the heading's bases and the held loads of every lane first (:func:`_vheld`),
         # the loads into the scratch rows VB.. (read below before they are overwritten)
+        pe0 = _etup(V, 0)  # (SHARED: every lane's)
         for j in range(NLANES):
             o = VT * CH + j
             a, c0, s0 = _hbase(V, j)
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
-            fe = _vheld(V, j, c0, s0)
+            fe = _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j))
+            if STEADY:  # the series' force (constant) plus the loads, as :func:`_vderiv` adds
+                o = (VF + SFORCE) * CH + j
+                fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
+                      V[o + 3 * CH] + fe[3])
             V[VB * CH + j] = fe[0]
             V[(VB + 1) * CH + j] = fe[1]
             V[(VB + 2) * CH + j] = fe[2]
@@ -309,6 +341,11 @@ def _vstep(Vp, h, frac, zig, sk):
             fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
                   np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
                   np.nan, np.nan, np.nan, np.nan)
+        elif NOD and STEADY:  # (WIND) the current only, at the step start
+            o = VF * CH + j
+            nan = np.nan
+            fs = (nan, nan, nan, nan, nan, nan, nan, nan, V[o + 8 * CH], V[o + 9 * CH], nan, nan,
+                  nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan)
         else:
             o = VF * CH + j
             fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
