@@ -215,6 +215,19 @@ def test_cli_json_model_file_and_report(turning, tmp_path, capsys):
     assert load_model(out).identification["disturbance"]["estimated_by"] == "regression"
     html = (rep / "report.html").read_text()
     assert "Disturbance per training log" in html and "towards" in html
+    # the training log replayed in its estimated current, a held-out log in calm water: said
+    run = json.loads((rep / "run.json").read_text())
+    assert run["training"][0]["replay_water"]["water"] == "estimated"
+    assert run["training"][0]["replay_water"]["current_north_m_s"] == pytest.approx(
+        row["current_north"]["value"])
+    assert "replayed in the estimated current and biases" in html
+    held = write_csv(_trial(t_end=60.0, seed=4), tmp_path / "held.csv")
+    code = main([*args, "--disturbance", "current", "--validate", str(held)])
+    cap = capsys.readouterr()
+    assert code == 0, cap.err
+    (hrow,) = json.loads(cap.out)["validation"]
+    assert hrow["replay_water"]["water"] == "calm"
+    assert "held-out" in hrow["replay_water"]["why"]
     code = main([*args, "--disturbance", "current,tide"])
     cap = capsys.readouterr()
     assert code == 2 and "--disturbance" in cap.err and "'tide'" in cap.err
