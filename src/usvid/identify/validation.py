@@ -418,10 +418,11 @@ def _water(model: VesselModel, trial: PreparedTrial, out: TrialValidation,
     ``out.replay_water`` for a model identified with a disturbance: ``water`` (the fit's
     :meth:`usvid.identify.estimator.ModelEstimator.water_of`; None: none known) decides."""
     ident = getattr(model, "identification", None) or {}
+    if not ident.get("disturbance"):  # identified without one: calm, as fitted
+        return None
     if water is None:
-        if ident.get("disturbance"):
-            out.replay_water = {"trial": out.trial, "water": "calm",
-                                "why": f"no current or biases are known for this log: {CALM}"}
+        out.replay_water = {"trial": out.trial, "water": "calm",
+                            "why": f"no current or biases are known for this log: {CALM}"}
         return None
     tw, rows = water([_series(model, trial)])
     out.replay_water = rows[0] if rows else None
