@@ -353,13 +353,43 @@ def test_dataflash_format_shorter_than_its_header(tmp_path):
     signal.alarm(60)  # a hang fails the test instead of stalling the suite (a read: 3 ms)
     try:
         dfr = _df_reader_class()(str(q))
-        assert dfr.dropped_formats == [64]  # the input still is the case (type 64: PARM)
+        assert set(dfr.dropped_formats) == {64}  # the input still is the case (64: PARM)
+        assert len(dfr.short_formats) == 1  # one damaged FMT message
         dfr.filehandle.close()
         with pytest.raises(LogReadError, match="no message 'GPS'"):
             read_trial(q, "ardupilot_rover")
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
+
+
+@pytest.mark.parametrize("fast", ["1", "0"])
+def test_dataflash_short_format_counted_once_and_the_log_read(tmp_path, monkeypatch, fast):
+    """A log with two damaged FMT messages declaring a length below the 3-byte header (for
+    types no message uses), between its good FMT messages: the log is read whole with
+    ``bad_format`` 2, one per damaged message, with pymavlink's compiled indexer (which stops at
+    such a message: "Invalid length in FMT message", the log read as FMT only) and with its
+    Python indexer (which counted each twice: the clock's set-up parses the formats again)."""
+    import struct
+
+    monkeypatch.setenv("PYMAVLINK_FAST_INDEX", fast)
+    tr = small_trial(T=1.0)
+    p = write_dataflash(tr, tmp_path / "log.bin")
+    good = read_trial(p, "ardupilot_rover")
+    b = p.read_bytes()
+    assert b[:3] == bytes([0xA3, 0x95, 0x80])  # the FMT message of FMT: 89 bytes
+
+    def short(mtype: int, length: int) -> bytes:
+        return bytes([0xA3, 0x95, 0x80]) + struct.pack("<BB4s16s64s", mtype, length,
+                                                       b"BAD", b"", b"")
+
+    q = tmp_path / "bad.bin"
+    q.write_bytes(b[:89] + short(200, 2) + short(201, 0) + b[89:])
+    got = read_trial(q, "ardupilot_rover")
+    assert got.rejected.get("bad_format") == 2
+    assert len(got.t) == len(good.t)
+    np.testing.assert_array_equal(got["psi"], good["psi"])
+    assert not good.rejected.get("bad_format")
 
 
 def test_dataflash_parameter_message_with_fewer_fields_than_its_format(tmp_path):

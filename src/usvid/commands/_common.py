@@ -288,6 +288,12 @@ def print_validation(rows: list[dict[str, Any]]) -> None:
         for k, v in r.get("replay", {}).items():
             table.add_row(f"free-run replay {k}", f(v), "", "")
         con.print(table)
+        w = r.get("replay_water")
+        if w:  # a model identified with a disturbance: the water the replay ran in
+            vals = ", ".join(f"{k} {v:.4g}" for k, v in w.items()
+                             if isinstance(v, float))
+            con.print(f"  replay water: {w['water']}" + (f" ({vals})" if vals else "")
+                      + f": {w['why']}", highlight=False)
         for m in r.get("messages", []):
             con.print(f"  note: {m}")
 

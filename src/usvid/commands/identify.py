@@ -201,13 +201,13 @@ def identify_logs(logs: list[Path], fmt: str, kind: str, method: str | None = No
     if validate:
         held = _load(validate, fmt, t_start, t_end)
         held_res = validate_model(est.model_, held, psi_switch=psi_switch,
-                                  window_s=est.window_s)
+                                  window_s=est.window_s, water=est.water_of)
         summary["validation"] = held_res.to_dict()["validation"]
     if report is not None:
         from usvid.report.validation_run import write_identify_report
 
         training = validate_model(est.model_, trials, psi_switch=psi_switch,
-                                  window_s=est.window_s)
+                                  window_s=est.window_s, water=est.water_of)
         summary["report"] = str(write_identify_report(
             report, est, training, trials, held_res, held,
             model_file=str(out) if out is not None else None))

@@ -29,6 +29,7 @@ named.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import warnings
 from collections.abc import Mapping, Sequence
@@ -126,6 +127,98 @@ def in_their_water(series: Sequence[Series], quantities: Sequence[str], values: 
     i, j = qs.index("current_north"), qs.index("current_east")
     return [Series(s.name, s.h, through_water(s.data, float(v[i]), float(v[j])))
             for s, v in zip(series, vals, strict=True)]
+
+
+@dataclass(frozen=True)
+class TrialWater:
+    """The water each of several trials is replayed in after a fit with a disturbance: the
+    per-trial ``values`` (n_trials, len(quantities)) of ``quantities`` (keys of
+    :data:`SERIES_OF`: a current [m/s, north, east, towards], force biases [N, N m]); a row of
+    zeros is calm water. The one definition of a replay "as fitted" (identify's own checks,
+    :meth:`usvid.identify.estimator.ModelEstimator.score` and ``simulate``, the validation of
+    the training logs): each window starts from its trial's velocities through the water
+    (:meth:`through`) and runs in its trial's current and biases (:meth:`environment`)."""
+
+    quantities: tuple[str, ...]
+    values: np.ndarray
+
+    def through(self, series: Sequence[Series]) -> list[Series]:
+        """``series`` with their smoothed velocities through each trial's water
+        (:func:`in_their_water`)."""
+        return in_their_water(series, self.quantities, self.values)
+
+    def environment(self, win: Any) -> dict[str, np.ndarray]:
+        """The core's series (B, W) of the windows ``win`` (:class:`usvid.sim.replay.Windows`:
+        ``trial_index``, ``width``) in their trials' water (:func:`window_series`)."""
+        return window_series(self.quantities, self.values, win.trial_index, win.width)
+
+    def row(self, k: int) -> dict[str, float]:
+        """Trial ``k``'s values by quantity and unit (``current_north_m_s``, ``bias_N_N_m``)."""
+        return {f"{q}_{UNITS[q].replace(' ', '_').replace('/', '_')}": float(v)
+                for q, v in zip(self.quantities, np.asarray(self.values, float)[k],
+                                strict=True)}
+
+
+def match_training(log: tuple[str, float, float, str],
+                   training: Sequence[tuple[str, float, float, str]]) -> int | str:
+    """The index in ``training`` (name, first and last time [s], digest of the measured record:
+    :func:`log_key`, of the trials a fit estimated a disturbance for) of the log ``log`` (the
+    same form): the trial with the same record (digest), else the one trial of the same name
+    whose time span overlaps the log's (a training log replayed whole, of which the fit used a
+    part); or the reason there is none (a held-out log, or several candidates: which one's
+    water is ambiguous)."""
+    name, t0, t1, digest = log
+    same = [i for i, k in enumerate(training) if k[3] == digest]
+    if len(same) == 1:
+        return same[0]
+    named = [i for i, k in enumerate(training) if k[0] == name and k[1] <= t1 and t0 <= k[2]]
+    if len(named) == 1:
+        return named[0]
+    if not named:
+        return f"{name} is not one of the training logs (a held-out log)"
+    return (f"{name} matches {len(named)} training logs (or parts) by its name and time span "
+            "and none by its record: whose water is ambiguous")
+
+
+def log_key(name: str, t: np.ndarray, psi: np.ndarray) -> tuple[str, float, float, str]:
+    """(name, first and last time [s], digest of the time stamps and measured heading) of a
+    log: how a log replayed after a fit is matched with its training logs
+    (:func:`match_training`)."""
+    t = np.ascontiguousarray(t, dtype=float)
+    digest = hashlib.sha256(t.tobytes() + b"|"
+                            + np.ascontiguousarray(psi, dtype=float).tobytes()).hexdigest()
+    return str(name), float(t[0]), float(t[-1]), digest
+
+
+#: What a replay in calm water after a fit with a disturbance says of a log.
+CALM = ("replayed in calm water: no current or biases are estimated for it (the fit estimated "
+        "them per training log; a mean of those would assume the runs shared their water)")
+
+
+def water_for(logs: Sequence[tuple[str, float, float, str]], fitted: TrialWater,
+              training: Sequence[tuple[str, float, float, str]]
+              ) -> tuple[TrialWater | None, list[dict[str, Any]]]:
+    """The water of ``logs`` (:func:`log_key` of each log to replay) after a fit that
+    estimated ``fitted`` for the trials ``training`` (same form): a training log
+    (:func:`match_training`) in its estimated current and biases, any other in calm water.
+    Returns the :class:`TrialWater` of ``logs`` (None when all are calm) and one JSON-ready row
+    per log saying which: ``trial``, ``water`` ("estimated" or "calm"), with the values
+    (:meth:`TrialWater.row`) or ``why``."""
+    vals = np.zeros((len(logs), len(fitted.quantities)))
+    rows: list[dict[str, Any]] = []
+    for k, log in enumerate(logs):
+        name = log[0]
+        i = match_training(log, training)
+        if isinstance(i, str):
+            rows.append({"trial": name, "water": "calm", "why": f"{i}: {CALM}"})
+            continue
+        vals[k] = np.asarray(fitted.values, float)[i]
+        rows.append({"trial": name, "water": "estimated",
+                     "why": "the current and biases the fit estimated for this training log",
+                     **fitted.row(i)})
+    if all(r["water"] == "calm" for r in rows):
+        return None, rows
+    return TrialWater(tuple(fitted.quantities), vals), rows
 
 
 def disturbance_for(kind: Any, terms: Sequence[str], trials: Sequence[str]) -> Disturbance | None:
@@ -370,9 +463,10 @@ def regression_report(trials: Sequence[str], x: np.ndarray, cov: np.ndarray, R: 
             "estimated_by": "regression"}
 
 
-__all__ = ["CORR_MAX", "Disturbance", "REGRESSION_TERMS", "SERIES_OF", "TERMS", "UNITS",
-           "disturbance_for", "in_their_water", "parse_disturbance", "regression_current",
-           "regression_report", "report", "through_water", "window_series"]
+__all__ = ["CALM", "CORR_MAX", "Disturbance", "REGRESSION_TERMS", "SERIES_OF", "TERMS",
+           "TrialWater", "UNITS", "disturbance_for", "in_their_water", "log_key", "match_training",
+           "parse_disturbance", "regression_current", "regression_report", "report",
+           "through_water", "water_for", "window_series"]
 
 
 def _current_polar(row: dict) -> None:

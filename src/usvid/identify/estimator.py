@@ -879,15 +879,18 @@ class ModelEstimator(FittedAttributes):
         model = VesselModel(dyn, servo=servo, vessel=vessel)
         # the training trials replayed in the conditions they were fitted in: the logged wind
         # (the model's) and the current / biases estimated per trial
-        trial_env = None
+        water = None
         if oe is not None and oe.disturbance is not None:
-            trial_env = (oe.disturbance.quantities,
-                         oe.disturbance.values(oe.x, oe.x_names))
+            water = _dist.TrialWater(oe.disturbance.quantities,
+                                     oe.disturbance.values(oe.x, oe.x_names))
         elif current is not None:
-            trial_env = (_dist.TERMS["current"], current[0])
-        if trial_env is not None and len(fit_series) != len(series):
-            trial_env = None  # (no kind that carries a disturbance fits a part of the trials)
-        self.fit_ = self._metrics(model, series, trial_env)
+            water = _dist.TrialWater(_dist.TERMS["current"], current[0])
+        if water is not None and len(fit_series) != len(series):
+            water = None  # (no kind that carries a disturbance fits a part of the trials)
+        # what score and simulate replay a training log in (usvid.identify.disturbance)
+        self.water_ = water
+        self.water_logs_ = [_log_key(s) for s in series]
+        self.fit_ = self._metrics(model, series, water)
         # every log the model was identified from: the turning trials of the two-step Norrbin
         # fit too (its alpha comes from them)
         self.data_ = [{"file": str(src), "sha256": _sha256(str(src))}
@@ -1123,24 +1126,32 @@ class ModelEstimator(FittedAttributes):
 
     # -- use -------------------------------------------------------------------------------------
     def _metrics(self, model: VesselModel, series: Sequence[Series],
-                 trial_env: tuple[Sequence[str], np.ndarray] | None = None) -> dict[str, Any]:
+                 water: _dist.TrialWater | None = None) -> dict[str, Any]:
         """Windowed (``window_s``) and free-run fit metrics of ``model`` on ``series``: replays
         through the integration core (:func:`usvid.sim.replay.replay_windows`), each trial in
-        its logged wind and, with ``trial_env`` (quantities, values (n_trials, n_quantities):
-        the current and biases estimated per trial, :mod:`usvid.identify.disturbance`), in its
-        estimated current and biases, as the fit simulated it (the windows started from the
-        velocities through the water)."""
-        env = None
-        if trial_env is not None:
-            quantities, values = trial_env
-            series = _dist.in_their_water(series, quantities, values)
-
-            def env(w: Windows) -> dict[str, np.ndarray]:
-                return _dist.window_series(quantities, values, w.trial_index, w.width)
+        its logged wind and, with ``water`` (the current and biases estimated per trial,
+        :class:`usvid.identify.disturbance.TrialWater`), in its estimated current and biases,
+        as the fit simulated it (the windows started from the velocities through the
+        water)."""
+        if water is not None:
+            series = water.through(series)
+        env = None if water is None else water.environment
         out: dict[str, Any] = {"window_s": self.window_s}
         out.update(_replay_metrics(model, self._windows(series, self.window_s), env))
         out["free_run"] = _replay_metrics(model, self._windows(series, None), env)
         return out
+
+    def water_of(self, series: Sequence[Series]
+                 ) -> tuple[_dist.TrialWater | None, list[dict[str, Any]]]:
+        """The water the trials of ``series`` (:func:`usvid.identify.series.trial_series`) are
+        replayed in after this fit (:func:`usvid.identify.disturbance.water_for`): a training
+        log (the same record, or the same name over the part the fit used) in the current and
+        biases estimated for it, any other (a held-out log) in calm water; with one row per
+        trial saying which (none after a fit without a disturbance: all calm, as fitted)."""
+        fitted = getattr(self, "water_", None)
+        if fitted is None:
+            return None, []
+        return _dist.water_for([_log_key(t) for t in series], fitted, self.water_logs_)
 
     def score(self, trials: Any, *, window_s: float | None = -1.0) -> dict[str, Any]:
         """Fit metrics (RMSE, NRMSE, R^2, max error per output channel) on ``trials``; RMSE and
@@ -1148,26 +1159,42 @@ class ModelEstimator(FittedAttributes):
 
         ``window_s``: -1 (default) the estimator's multiple-shooting window; ``None`` a free run
         over each whole trial from its measured initial state; a number that window [s].
+
+        After a fit with a disturbance (``disturbance="current"``, ``"bias"``) each training log
+        is replayed in the current and biases estimated for it, as the fit's own metrics are,
+        and any other log in calm water (:meth:`water_of`); ``replay_water`` then holds one row
+        per trial saying which (``trial``, ``water``: "estimated" or "calm", ``why``, the
+        values).
         """
         model = self.model_
         series = self._series(one_grid(_as_list(trials)), self.fixed_)
         w = self.window_s if window_s == -1.0 else window_s
         out: dict[str, Any] = {"window_s": w}
+        water, rows = self.water_of(series)
+        if water is not None:
+            series = water.through(series)
         win = self._windows(series, w)
-        out.update(replay_metrics(replay_windows(model, win, wind=self.wind_.model is not None),
-                                  win.outputs))
+        out.update(replay_metrics(replay_windows(
+            model, win, wind=self.wind_.model is not None,
+            environment=None if water is None else water.environment(win)), win.outputs))
+        if rows:
+            out["replay_water"] = rows
         return out
 
     def simulate(self, trial: Any, *, window_s: float | None = None) -> Trial:
         """Replay ``trial``'s measured inputs on the identified model (a free run from its
         measured initial state, or re-initialised every ``window_s`` seconds). Returns a
         :class:`usvid.Trial` with the simulated outputs on the replay grid and the measured
-        inputs; ``meta["measured"]`` holds the measured outputs."""
+        inputs; ``meta["measured"]`` holds the measured outputs. After a fit with a disturbance
+        a training log is replayed in its estimated current and biases, another log in calm
+        water, as :meth:`score`; ``meta["replay_water"]`` says which."""
         model = self.model_
         tr = one_grid(_as_list(trial))[0]
         s = self._series([tr], self.fixed_)
-        win = self._windows(s, window_s)
-        sim = replay_windows(model, win, wind=self.wind_.model is not None)
+        water, rows = self.water_of(s)
+        win = self._windows(s if water is None else water.through(s), window_s)
+        sim = replay_windows(model, win, wind=self.wind_.model is not None,
+                             environment=None if water is None else water.environment(win))
         m = self._decimation(s[0])
         t = s[0]["t"][::m]
         cols: dict[str, np.ndarray] = {"t": t}
@@ -1180,8 +1207,11 @@ class ModelEstimator(FittedAttributes):
         for k in win.inputs:
             cols[k] = s[0][k][::m]
         meas = {ch: s[0][ch][::m] for ch in sim}
+        meta: dict[str, Any] = {"measured": meas, "params": self.params_}
+        if rows:
+            meta["replay_water"] = rows[0]
         return Trial(data=pd.DataFrame(cols), vessel=tr.vessel, sources=list(tr.sources),
-                     name=f"sim:{tr.name}", meta={"measured": meas, "params": self.params_})
+                     name=f"sim:{tr.name}", meta=meta)
 
     def to_dict(self) -> dict[str, Any]:
         """The model file (dict) of the fitted model."""
@@ -1208,6 +1238,11 @@ def _servo_fit(u: np.ndarray, y: np.ndarray, dt: float, max_rate: float = math.i
             _SERVO_FITS.pop(next(iter(_SERVO_FITS)))
         _SERVO_FITS[key] = fit
     return copy.deepcopy(fit)
+
+
+def _log_key(series: Series) -> tuple[str, float, float, str]:
+    """:func:`usvid.identify.disturbance.log_key` of a trial's series."""
+    return _dist.log_key(series.name, series["t"], series["psi"])
 
 
 def _replay_metrics(model: VesselModel, win: Windows,

@@ -72,8 +72,8 @@ def cross_validate(trials: Sequence[Any], kind: str, method: str = "ls", *,
     ok = [f for f in folds if "metrics" in f]
     mean: dict[str, Any] = {}
     if ok:
-        for ch in ok[0]["metrics"]:
-            if ch == "window_s":
+        for ch, m0 in ok[0]["metrics"].items():
+            if not (isinstance(m0, dict) and "rmse" in m0):  # window_s, replay_water
                 continue
             mean[ch] = {m: float(np.mean([f["metrics"][ch][m] for f in ok]))
                         for m in ("rmse", "nrmse", "r2", "max_error")}

@@ -34,6 +34,14 @@ trials' manoeuvres and comparing them with the measured ones):
 * **metrics**: the windowed fit metrics of the replay (multiple shooting over ``window_s``, the
   model's identification window; per output channel rmse, nrmse, r2, max_error in SI units),
   as the estimator reports them for its training data.
+* **replay_water** (a model identified with a disturbance, ``--disturbance``): the water the
+  replay ran in. A training log of the fit (``identify --report``) is replayed in the current
+  and biases estimated for it, as the fit's own metrics
+  (:meth:`usvid.identify.estimator.ModelEstimator.water_of`); any other log in calm water:
+  nothing estimates its current or biases over the whole record (a mean of the training logs'
+  would assume the runs shared their water), and the row says so (``water`` "estimated" or
+  "calm", ``why``, the values). The manoeuvre's ``predicted_in_conditions`` uses the current
+  estimated from the run's own approach.
 
 One :class:`TrialValidation` per trial; its :meth:`~TrialValidation.to_dict` is the JSON row of
 ``usvid validate``, ``usvid identify --validate``, ``usvid batch`` and the report. The trial is
@@ -45,6 +53,7 @@ Units: SI and radians inside; the dictionaries carry degrees in their key names.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import html
 import math
@@ -57,6 +66,7 @@ import numpy as np
 from usvid.errors import UsvidError
 from usvid.identify import thrust_consistency as _tc
 from usvid.identify.conditions import run_conditions
+from usvid.identify.disturbance import CALM, TrialWater
 from usvid.identify.metrics import diverged_at, replay_metrics
 from usvid.identify.series import trial_series
 from usvid.identify.span import kind_channels, logged_span
@@ -105,15 +115,22 @@ class TrialValidation:
     conditions: dict[str, Any] | None = None
     predicted_in_conditions: dict[str, Any] | None = None
     error_in_conditions: dict[str, Any] | None = None
+    replay_water: dict[str, Any] | None = None
+    #: The current and biases the replay ran in (None: calm water); not part of to_dict.
+    water: Any = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON row: ``trial``, ``file``, ``manoeuvre``, ``measured``, ``predicted``,
         ``error``, ``replay``, ``settings``, ``messages``, ``conditions``,
-        ``predicted_in_conditions``, ``error_in_conditions`` and, when a window is known,
-        ``metrics`` (the windowed fit metrics, labelled by their ``window_s``)."""
-        d = {k: v for k, v in dataclasses.asdict(self).items() if k != "series"}
+        ``predicted_in_conditions``, ``error_in_conditions``, when a window is known,
+        ``metrics`` (the windowed fit metrics, labelled by their ``window_s``) and, for a model
+        identified with a disturbance, ``replay_water``."""
+        d = {f.name: copy.deepcopy(getattr(self, f.name)) for f in dataclasses.fields(self)
+             if f.name not in ("series", "water")}
         if not d["metrics"]:
             del d["metrics"]
+        if d["replay_water"] is None:
+            del d["replay_water"]
         return d
 
 
@@ -272,13 +289,30 @@ class _FreeRun:
     dec: dict[str, np.ndarray]
     h: float
     speed: float
+    water: TrialWater | None = None
+
+    def environment(self, win: Windows) -> dict[str, np.ndarray] | None:
+        """The core series of ``win`` in the replay's water (None: calm)."""
+        return None if self.water is None else self.water.environment(win)
 
 
-def _free_run(model: VesselModel, trial: PreparedTrial) -> _FreeRun:
-    kind = kind_of(model.dynamics)
+def _series(model: VesselModel, trial: PreparedTrial) -> Any:
+    """The trial's series for ``model``'s kind (:func:`usvid.identify.series.trial_series`,
+    remembered by the prepared trial), with the model's fixed particulars."""
     fixed = {p.name: getattr(model.dynamics, p.name)
              for p in type(model.dynamics).param_specs() if not p.fit}
-    s = trial_series(trial, kind, fixed=fixed)
+    return trial_series(trial, kind_of(model.dynamics), fixed=fixed)
+
+
+def _free_run(model: VesselModel, trial: PreparedTrial,
+              water: TrialWater | None = None) -> _FreeRun:
+    """The replay material of ``trial``; ``water``: its current and biases (None: calm), the
+    windows then start from the velocities through the water
+    (:meth:`usvid.identify.disturbance.TrialWater.through`)."""
+    kind = kind_of(model.dynamics)
+    s = _series(model, trial)
+    if water is not None:
+        s = water.through([s])[0]
     step = max(int(round(REPLAY_STEP / s.h)), 1)
     dec = s.decimated(step).data
     speed = None
@@ -289,7 +323,7 @@ def _free_run(model: VesselModel, trial: PreparedTrial) -> _FreeRun:
             speed = ap.speed if ap.speed is not None and ap.speed > 0 else None
     if speed is None:  # the model's own (its inputs set the speed of the other kinds)
         speed = float(approach_speed(model, None))
-    return _FreeRun(kind, dec, s.h * step, float(speed))
+    return _FreeRun(kind, dec, s.h * step, float(speed), water)
 
 
 def _windows(fr: _FreeRun, window_s: float | None) -> Windows:
@@ -297,7 +331,8 @@ def _windows(fr: _FreeRun, window_s: float | None) -> Windows:
 
 
 def replay_band(model: VesselModel, trial: Trial, uncertainty: Uncertainty, *,
-                draws: int = 40, seed: int = 0, level: float = 0.95) -> dict[str, Any]:
+                draws: int = 40, seed: int = 0, level: float = 0.95,
+                water: TrialWater | None = None) -> dict[str, Any]:
     """Prediction band of the free-run replay from the parameter uncertainty.
 
     ``draws`` parameter sets from ``uncertainty`` (:meth:`usvid.models.uncertainty.Uncertainty.
@@ -306,9 +341,10 @@ def replay_band(model: VesselModel, trial: Trial, uncertainty: Uncertainty, *,
     the measured initial state (one batch of the integration core); the band is the
     (1 - level)/2 .. (1 + level)/2 quantile at each instant. Returns ``psi_lo``, ``psi_hi``
     [rad], ``r_lo``, ``r_hi`` [rad/s] on the replay grid, ``draws``, ``redrawn`` and
-    ``failed`` (empty when no draw is valid)."""
+    ``failed`` (empty when no draw is valid). ``water``: the current and biases the replay runs
+    in, as the trial's validation row (:attr:`TrialValidation.water`; None: calm)."""
     trial = as_prepared(trial, derivatives=False)
-    fr = _free_run(model, trial)
+    fr = _free_run(model, trial, water)
     win = _windows(fr, None)
     sample = uncertainty.sample(0, draws, seed)
     ok = ~sample.failed
@@ -325,7 +361,8 @@ def replay_band(model: VesselModel, trial: Trial, uncertainty: Uncertainty, *,
                   outputs={k: np.repeat(v, B, 0) for k, v in win.outputs.items()},
                   init={k: np.repeat(v, B) for k, v in win.init.items()},
                   trial_index=np.zeros(B, dtype=int), start=np.zeros(B, dtype=int))
-    sim = window_lanes(fr.kind, P, model.dynamics, rep, channels=("psi", "r")).run().channels
+    sim = window_lanes(fr.kind, P, model.dynamics, rep, channels=("psi", "r"),
+                       environment=fr.environment(rep)).run().channels
     q = [100 * (1 - level) / 2, 100 * (1 + level) / 2]
     out: dict[str, Any] = {"draws": int(draws), "redrawn": sample.redrawn,
                            "failed": sample.n_failed}
@@ -337,12 +374,13 @@ def replay_band(model: VesselModel, trial: Trial, uncertainty: Uncertainty, *,
 
 
 def _replay(model: VesselModel, trial: PreparedTrial, out: TrialValidation,
-            window_s: float | None) -> None:
-    fr = _free_run(model, trial)
+            window_s: float | None, water: Any = None) -> None:
+    fr = _free_run(model, trial, _water(model, trial, out, water))
     win = _windows(fr, None)
     chans = ["psi", "r", "x", "y"] + [c for c in ("u", "v") if c in win.outputs]
     P = fr.kind.pack(model.dynamics, fr.speed)
-    sim = window_lanes(fr.kind, P, model.dynamics, win, channels=chans).run().channels
+    sim = window_lanes(fr.kind, P, model.dynamics, win, channels=chans,
+                       environment=fr.environment(win)).run().channels
     t = fr.dec["t"]
     fit = replay_metrics({c: sim[c] for c in win.outputs if c in sim}, win.outputs)
     rep: dict[str, Any] = {"duration_s": float(t[-1] - t[0])}
@@ -370,8 +408,26 @@ def _replay(model: VesselModel, trial: PreparedTrial, out: TrialValidation,
                       r_replay=sim["r"][0], delta=fr.dec.get("delta"))
     if window_s is not None:  # as the estimator scores its training data
         wwin = _windows(fr, window_s)
-        out.metrics = {"window_s": float(window_s),
-                       **replay_metrics(replay_windows(model, wwin), wwin.outputs)}
+        out.metrics = {"window_s": float(window_s), **replay_metrics(
+            replay_windows(model, wwin, environment=fr.environment(wwin)), wwin.outputs)}
+
+
+def _water(model: VesselModel, trial: PreparedTrial, out: TrialValidation,
+           water: Any) -> TrialWater | None:
+    """The current and biases ``trial`` is replayed in (None: calm water), said in
+    ``out.replay_water`` for a model identified with a disturbance: ``water`` (the fit's
+    :meth:`usvid.identify.estimator.ModelEstimator.water_of`; None: none known) decides."""
+    ident = getattr(model, "identification", None) or {}
+    if not ident.get("disturbance"):  # identified without one: calm, as fitted
+        return None
+    if water is None:
+        out.replay_water = {"trial": out.trial, "water": "calm",
+                            "why": f"no current or biases are known for this log: {CALM}"}
+        return None
+    tw, rows = water([_series(model, trial)])
+    out.replay_water = rows[0] if rows else None
+    out.water = tw
+    return tw
 
 
 def model_window(model: VesselModel) -> float | None:
@@ -383,10 +439,13 @@ def model_window(model: VesselModel) -> float | None:
 
 
 def validate_trial(model: VesselModel, trial: Trial, *, psi_switch: float | None = None,
-                   replay: bool = True, window_s: float | None = None) -> TrialValidation:
+                   replay: bool = True, window_s: float | None = None,
+                   water: Any = None) -> TrialValidation:
     """Validate ``model`` on one trial (module docstring); ``psi_switch`` [rad] overrides the
     detected zig-zag switching angle; ``window_s`` [s] the window of the windowed fit metrics
-    (default: the model's identification window, none when unknown). A step that cannot be
+    (default: the model's identification window, none when unknown); ``water`` the fit's
+    :meth:`usvid.identify.estimator.ModelEstimator.water_of` (a training log is replayed in
+    the current and biases estimated for it; None: calm water). A step that cannot be
     done (no manoeuvre, a channel the model needs is missing) leaves its part empty and says
     why in ``messages``."""
     name = trial.name or (trial.sources[0] if trial.sources else "?")
@@ -423,7 +482,8 @@ def validate_trial(model: VesselModel, trial: Trial, *, psi_switch: float | None
                                 "start): the logged commands did not drive it there, and the "
                                 "replay cannot follow")
         try:
-            _replay(model, trial, out, window_s if window_s is not None else model_window(model))
+            _replay(model, trial, out, window_s if window_s is not None else model_window(model),
+                    water)
         except UsvidError as exc:
             out.messages.append(f"replay: {exc}")
     return out
@@ -431,9 +491,9 @@ def validate_trial(model: VesselModel, trial: Trial, *, psi_switch: float | None
 
 def validate_model(model: VesselModel, trials: Sequence[Trial], *,
                    psi_switch: float | None = None,
-                   window_s: float | None = None) -> ValidationResult:
+                   window_s: float | None = None, water: Any = None) -> ValidationResult:
     """Validate ``model`` on each of ``trials`` (each prepared once,
     :func:`usvid.prep.as_prepared`); see :func:`validate_trial`."""
-    rows = [validate_trial(model, tr, psi_switch=psi_switch, window_s=window_s)
+    rows = [validate_trial(model, tr, psi_switch=psi_switch, window_s=window_s, water=water)
             for tr in trials]
     return ValidationResult(rows, model_kind=kind_of(model.dynamics).name)

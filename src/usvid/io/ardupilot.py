@@ -193,29 +193,65 @@ class _Formats(dict):
             self.dropped.append(key)
 
 
+#: The DataFlash message type of the FMT messages, and the offset of their ``Length`` byte
+#: (after the 3-byte header and the 1-byte ``Type``).
+FMT_TYPE, FMT_LENGTH_AT = 0x80, 4
+
+
+def _may_hold_short_format(data: Any) -> bool:
+    """Whether the bytes ``data`` of a DataFlash log hold a FMT message header (``A3 95 80``)
+    whose ``Length`` byte is below the 3-byte header: a damaged FMT message, or those bytes by
+    chance inside another message (about once per 1.4 GB of log; the log is then indexed by
+    the slower indexer, nothing lost)."""
+    buf = np.frombuffer(data, dtype=np.uint8)
+    n = buf.size - FMT_LENGTH_AT
+    if n <= 0:
+        return False
+    hit = ((buf[:n] == 0xA3) & (buf[1:n + 1] == 0x95) & (buf[2:n + 2] == FMT_TYPE)
+           & (buf[FMT_LENGTH_AT:n + FMT_LENGTH_AT] < 3))
+    return bool(hit.any())
+
+
 @functools.cache
 def _df_reader_class() -> type:
     """pymavlink's ``DFReader_binary`` with its format table a :class:`_Formats` before the
     first FMT message is parsed into it (both indexers fill the table in place and parse
-    messages with it)."""
+    messages with it). pymavlink's compiled indexer stops at a FMT message declaring a length
+    below the header ("Invalid length in FMT message"), losing the rest of the log: a log
+    that may hold one (:func:`_may_hold_short_format`) is indexed by its Python indexer,
+    which steps over it. ``short_formats`` are the offsets [bytes] of such FMT messages in
+    the index, each once (the clock's set-up and the reads parse the formats again:
+    ``dropped_formats`` lists a type each time)."""
     from pymavlink import DFReader
 
     class DFReaderChecked(DFReader.DFReader_binary):
         def __init__(self, filename: str) -> None:
             self.dropped_formats: list = []
+            self.short_formats: list[int] = []
             super().__init__(filename)
 
         def _checked(self) -> None:
             if not isinstance(self.formats, _Formats):
                 self.formats = _Formats(self.formats, self.dropped_formats)
 
+        def _short(self) -> None:
+            n = len(self.data_map)
+            self.short_formats = [int(o) for o in self.offsets[FMT_TYPE]
+                                  if o + FMT_LENGTH_AT < n
+                                  and self.data_map[o + FMT_LENGTH_AT] < 3]
+
         def init_arrays(self, progress_callback: Any = None) -> None:
             self._checked()
             super().init_arrays(progress_callback=progress_callback)
+            self._short()
 
         def init_arrays_fast(self, progress_callback: Any = None) -> None:
+            if _may_hold_short_format(self.data_map):  # the compiled indexer would stop
+                self.init_arrays(progress_callback=progress_callback)
+                return
             self._checked()
             super().init_arrays_fast(progress_callback=progress_callback)
+            self._short()
 
         def init_clock(self) -> None:
             self._checked()
@@ -237,14 +273,16 @@ def _df_index(path: Path) -> tuple[Any, ReadState]:
     nbad = text.count("bad header")
     if nbad:
         state.reject("bad_header", nbad)
-    if dfr.dropped_formats:
+    nshort = len(dfr.short_formats)  # each damaged FMT message once (not once per parse)
+    if nshort or dfr.dropped_formats:
+        nshort = max(nshort, 1)
         types = sorted({int(k) for k in dfr.dropped_formats if isinstance(k, int)})
-        state.reject("bad_format", len(dfr.dropped_formats))
+        state.reject("bad_format", nshort)
         state.findings.append(Finding(
             "warning", "log_damaged",
-            f"{path.name}: {len(dfr.dropped_formats)} FMT message(s) declaring a message "
-            f"shorter than its 3-byte header (type(s) {', '.join(map(str, types))}): those "
-            "types' messages are skipped", count=len(dfr.dropped_formats)))
+            f"{path.name}: {nshort} FMT message(s) declaring a message shorter than its "
+            f"3-byte header (type(s) {', '.join(map(str, types))}): those types' messages "
+            "are skipped", count=nshort))
     if "unknown msg type" in text:
         state.reject("unknown_type")
         state.findings.append(Finding(

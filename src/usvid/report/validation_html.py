@@ -230,7 +230,13 @@ def _conditions(e: Mapping[str, Any], idx: str) -> str:
 def _replay_table(e: Mapping[str, Any]) -> str:
     rows = [[esc(LABELS.get(k, (k, ""))[0]), esc(LABELS.get(k, ("", ""))[1]), fmt(v)]
             for k, v in e.get("replay", {}).items()]
-    return _table(["free-run replay", "unit", "value"], rows, 2) if rows else ""
+    w = e.get("replay_water")  # a model identified with a disturbance: the replay's water
+    note = ""
+    if w:
+        where = ("the estimated current and biases" if w["water"] == "estimated"
+                 else "calm water")
+        note = f'<p class="na">replayed in {where}: {esc(w["why"])}</p>'
+    return (_table(["free-run replay", "unit", "value"], rows, 2) + note) if rows else ""
 
 
 def _imo(e: Mapping[str, Any], vessel: Mapping[str, Any]) -> str:

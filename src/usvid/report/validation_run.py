@@ -104,7 +104,7 @@ def _bands(model: Any, trials: Sequence[Any], rows: Sequence[TrialValidation],
         if not row.replay or unc is None or not unc.names:
             out.append(None)
             continue
-        out.append(replay_band(model, tr, unc))
+        out.append(replay_band(model, tr, unc, water=row.water))
     return out
 
 

@@ -13,7 +13,7 @@ Units: time [s], angles [rad], rates [rad/s], speeds [m/s].
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -148,12 +148,14 @@ def window_initial_state(kind: ModelKind, dynamics: Any, win: Windows,
 def window_lanes(kind: ModelKind, P: np.ndarray, dynamics: Any, win: Windows,
                  init: Mapping[str, np.ndarray] | None = None,
                  channels: Sequence[str] = ("psi", "r"),
-                 env_block: np.ndarray | None = None) -> Lanes:
+                 env_block: np.ndarray | None = None,
+                 environment: Mapping[str, np.ndarray] | None = None) -> Lanes:
     """The core lanes of ``win`` for parameter rows ``P`` ((n_params, 1 or B)); ``init``
     overrides the windows' initial values (output error estimates them); ``dynamics`` gives
     the kind's initial-state map; ``env_block`` (NENV, 1) the packed wind-load model of the
     windows' wind series (:meth:`usvid.sim.Environment.block`; None: calm water, the wind
-    series unused)."""
+    series unused); ``environment`` further core series of the windows (:func:`replay_windows`:
+    a current, force biases)."""
     B, W = win.batch_size, win.width
     Z0 = window_initial_state(kind, dynamics, win, init)
     nsteps = np.full(B, W - 1, dtype=np.int64)
@@ -165,6 +167,7 @@ def window_lanes(kind: ModelKind, P: np.ndarray, dynamics: Any, win: Windows,
     series = {k: np.nan_to_num(v, nan=0.0) for k, v in win.inputs.items()
               if k in kind.inputs or k == "delta"
               or (k in WIND_SERIES and env_block is not None)}
+    series.update(environment or {})
     return Lanes(kind=kind, P=np.broadcast_to(P, (P.shape[0], B)), servo=skind, S=S, Z0=Z0,
                  nsteps=nsteps, dt=win.h, series=series, channels=tuple(channels),
                  env_block=env_block)
@@ -195,10 +198,8 @@ def replay_windows(model: VesselModel, win: Windows,
         speed = approach_speed(model, None)
     P = kind.pack(model.dynamics, speed)
     env = wind_block(model) if wind and "wind_x" in win.inputs else None
-    lanes = window_lanes(kind, P, model.dynamics, win, channels=chans, env_block=env)
-    if environment:
-        lanes = replace(lanes, series={**lanes.series, **environment})
-    out = lanes.run()
+    out = window_lanes(kind, P, model.dynamics, win, channels=chans, env_block=env,
+                       environment=environment).run()
     return {c: out.channels[c] for c in chans}
 
 
