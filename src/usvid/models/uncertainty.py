@@ -29,7 +29,7 @@ Units: the parameters' own SI units.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,13 +37,34 @@ import numpy as np
 
 from usvid.errors import UsvidError
 
-__all__ = ["BLOCK", "MAX_REDRAWS", "Distribution", "Sample", "Uncertainty", "lane_errors"]
+__all__ = ["BLOCK", "MAX_REDRAWS", "Distribution", "Sample", "Uncertainty", "lane_errors",
+           "redraw_invalid"]
 
 #: Runs per sampling block (the unit of the seeded random streams).
 BLOCK = 1024
 #: Largest number of times a run's draw is repeated to bring it within the parameter bounds.
 MAX_REDRAWS = 100
 
+
+
+def redraw_invalid(n: int, invalid: Callable[[np.ndarray], np.ndarray],
+                   draw_again: Callable[[np.ndarray], None]) -> tuple[np.ndarray, np.ndarray]:
+    """The bounds policy of a block of ``n`` draws (module docstring): the rows whose draw is
+    invalid (``invalid(rows)``: a mask over ``rows``) are drawn again (``draw_again(rows)``,
+    from the block's own generator) until valid, at most :data:`MAX_REDRAWS` times. Returns
+    (n,) how often each row was drawn again and (n,) the rows still invalid (failed runs)."""
+    redraws = np.zeros(n, dtype=int)
+    rows = np.arange(n)
+    bad = rows[invalid(rows)]
+    for _ in range(MAX_REDRAWS):
+        if bad.size == 0:
+            break
+        draw_again(bad)
+        redraws[bad] += 1
+        bad = bad[invalid(bad)]
+    failed = np.zeros(n, dtype=bool)
+    failed[bad] = True
+    return redraws, failed
 
 @dataclass(frozen=True)
 class Distribution:
@@ -264,22 +285,17 @@ class Uncertainty:
             draws.update({n: x[:, i].copy() for i, n in enumerate(self.names)})
         for v in self.vary:
             draws[v.name] = v.draw(rng, BLOCK)
-        redraws = np.zeros(BLOCK, dtype=int)
-        rows = np.arange(BLOCK)
-        bad = rows[self._out_of_bounds(draws, rows)]
-        for _ in range(MAX_REDRAWS):
-            if bad.size == 0:
-                break
+
+        def again(bad: np.ndarray) -> None:
             if self.names:
                 x = joint(bad.size)
                 for i, n in enumerate(self.names):
                     draws[n][bad] = x[:, i]
             for v in self.vary:
                 draws[v.name][bad] = v.draw(rng, bad.size)
-            redraws[bad] += 1
-            bad = bad[self._out_of_bounds(draws, bad)]
-        failed = np.zeros(BLOCK, dtype=bool)
-        failed[bad] = True
+
+        redraws, failed = redraw_invalid(BLOCK, lambda rows: self._out_of_bounds(draws, rows),
+                                         again)
         return draws, redraws, failed
 
     def sample(self, lo: int, hi: int, seed: int = 0) -> Sample:

@@ -71,11 +71,11 @@ from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.models.environment import SeaState
 from usvid.models.uncertainty import (
     BLOCK,
-    MAX_REDRAWS,
     Distribution,
     Sample,
     Uncertainty,
     lane_errors,
+    redraw_invalid,
 )
 from usvid.scale.cluster import available_memory, map_ordered
 from usvid.sim.runs import default_t_end
@@ -223,7 +223,8 @@ class MonteCarlo:
     def environment_draws(self, lo: int, hi: int
                           ) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
         """(:meth:`environment_sample`, (n,) how often each run's sea state was drawn again,
-        (n,) runs with no valid sea state in :data:`MAX_REDRAWS` redraws: their values are the
+        (n,) runs with no valid sea state in
+        :data:`usvid.models.uncertainty.MAX_REDRAWS` redraws: their values are the
         distribution's centre, the run a failed row)."""
         out: dict[str, list[np.ndarray]] = {n: [] for n in self.environment}
         red: list[np.ndarray] = []
@@ -233,19 +234,16 @@ class MonteCarlo:
         for blk in range(lo // BLOCK, (hi - 1) // BLOCK + 1):
             rng = np.random.default_rng([int(self.seed), blk, 1])
             draws = {n: self.environment[n].draw(rng, BLOCK) for n in varied}
-            redraws = np.zeros(BLOCK, dtype=int)
-            bad = np.flatnonzero(self._no_sea(draws, sea, np.arange(BLOCK)))
-            for _ in range(MAX_REDRAWS):  # the bounds policy of the parameters
-                if bad.size == 0:
-                    break
+
+            def again(bad: np.ndarray, draws: dict = draws, rng: Any = rng) -> None:
                 for n in sea:
                     draws[n][bad] = self.environment[n].draw(rng, bad.size)
-                redraws[bad] += 1
-                bad = bad[self._no_sea(draws, sea, bad)]
-            failed = np.zeros(BLOCK, dtype=bool)
-            failed[bad] = True
+
+            # the bounds policy of the parameters
+            redraws, failed = redraw_invalid(
+                BLOCK, lambda rows, d=draws: self._no_sea(d, sea, rows), again)
             for n in sea:
-                draws[n][bad] = _centre(self.environment[n])
+                draws[n][failed] = _centre(self.environment[n])
             a = max(lo, blk * BLOCK) - blk * BLOCK
             b = min(hi, (blk + 1) * BLOCK) - blk * BLOCK
             for n, v in self.environment.items():
