@@ -29,7 +29,7 @@ test: $(TSTAMP) browser
 	$(BIN)/python -m pytest -n auto --dist loadfile
 
 # the loaders' fuzzing alone: 10,000 seeded examples per loader and per message-log format
-# (as in make test; see tests/fuzzing.py and tests/test_fuzz_messages.py)
+# (make test runs the first 2,000 of each; see tests/fuzzing.py and tests/test_fuzz_messages.py)
 fuzz: $(TSTAMP)
 	USVID_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -n auto -m fuzz
 

@@ -4,7 +4,8 @@ logs (flipped bits, overwritten lengths and counters, deleted, duplicated and in
 truncation), read with their preset spec, only return a Trial honouring the contract or raise
 a UsvidError, and write nothing beside the log. See tests/fuzzing.py.
 
-10,000 examples per format like the other loaders (``N_MESSAGE``), one test file per format
+As many examples per format as the other loaders (``N_MESSAGE``: 10,000 in ``make fuzz``, the
+first 2,000 of them in ``make test``), one test file per format
 (this one: ROS 2 MCAP; test_fuzz_messages_<format>.py: the others) so that ``--dist loadfile``
 spreads them over the workers. CPU of 10,000 examples (user + sys of the test file less
 pytest's start, 2-core development machine shared with other jobs, load 2-3, 2026-11-24):
