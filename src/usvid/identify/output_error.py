@@ -76,6 +76,10 @@ SETTLED_SE = 0.01
 #: weights (the residual RMS per channel, which a point 0.1 standard error from the optimum
 #: changes by far less than its own sampling scatter).
 SETTLED_SE_PASS = 0.1
+import os
+SECANT_SE = float(os.environ.get("OE26_SEC", "0.3"))
+SECANT_STOP = float(os.environ.get("OE26_STOP", "0.5"))
+SECANT_MAX = int(os.environ.get("OE26_MAX", "10"))
 
 
 @dataclass
@@ -90,7 +94,7 @@ class OEResult:
     cov: np.ndarray
     names: tuple[str, ...]
     cost: float
-    nfev: int
+    nfev: int  # simulations of all windows (a Jacobian's perturbed sets counted one by one)
     success: bool
     message: str
     sigma: dict[str, float]
@@ -104,6 +108,7 @@ class OEResult:
     free_names: tuple[str, ...] = ()  # the fit-space names estimated (the rest held)
     #: each pass's optimum: (fit-space values x, the windows' initial states) (warm starts)
     pass_points: tuple[tuple[np.ndarray, dict[str, np.ndarray]], ...] = ()
+    njac: int = 0  # finite-difference Jacobians computed
 
 
 class OEProblem:
@@ -540,7 +545,7 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
     starts = _warm_starts(warm, prob, x_all, free, inames, B)
     if starts:
         x0 = starts[0]
-    xs, cost, nfev, success, message, sig, Sinv, psi_w, f, ends = _refine_schur(
+    xs, cost, nfev, njac, success, message, sig, Sinv, psi_w, f, ends = _refine_schur(
         resid, resid_many, x0, nf, len(inames), B, len(channels), W - 1, sigma, lo, hi,
         2 if reweight else 1, max_iter, rms_sigma, kind.name, tuple(np.array(prob.names)[free]),
         lambda Si, ps, ff: cov_of(Si, ps, ff)[0], starts)
@@ -566,7 +571,8 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         ws, ws_se = float(xa[j]), float(math.sqrt(max(covx_full[j, j], 0.0)))
     return OEResult(x=xa, x_names=prob.names, x_cov=covx_full,
                     params={n: float(params[n]) for n in pnames}, cov=cov_p, names=pnames,
-                    cost=float(cost), nfev=int(nfev), success=bool(success), message=message,
+                    cost=float(cost), nfev=int(nfev), njac=int(njac), success=bool(success),
+                    message=message,
                     sigma=sig, ac_factor=float(fac), n_residuals=int(m),
                     dof=float(B - 1) if B >= MIN_CLUSTERS else math.inf,
                     init={k: np.asarray(v).copy() for k, v in init.items()},
@@ -629,8 +635,8 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
     standard error (``cov_of(S^-1, psi, residuals)``); that point's Jacobian gives the
     covariance. ``starts``: each pass's warm start (:func:`_warm_starts`), taken when it costs
     less than the previous pass's optimum.
-    Returns (x, cost, nfev, success, message, sigma, S^-1, psi, residuals (B, M), each pass's
-    optimum).
+    Returns (x, cost, nfev, Jacobians, success, message, sigma, S^-1, psi, residuals (B, M),
+    each pass's optimum).
     """
     M = C * W1
 
@@ -688,23 +694,98 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         return Sinv @ rhs, Sinv, psi
 
     def settled(G, L, f, normal_eq, tol):
-        """(S^-1, psi) at x when the Gauss-Newton step from x moves every parameter by less
-        than ``tol`` of its standard error (``cov_of``), else None."""
+        """((S^-1, psi) at x when the Gauss-Newton step from x moves every parameter by less
+        than ``tol`` of its standard error (``cov_of``), else None; the largest step in
+        standard errors; the standard errors)."""
         try:
             dth, Sinv, psi = gauss_newton(G, L, f, *normal_eq)
             se = np.sqrt(np.maximum(np.diag(cov_of(Sinv, psi, f)), 0.0))
         except np.linalg.LinAlgError:
-            return None
+            return None, math.inf, None
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = float(np.max(np.abs(dth) / se)) if np.all(np.isfinite(dth)) else math.inf
+        import os
+        if os.environ.get("OE26_TRACE"):
+            print(f"TRACE pass tol {tol} GN step/SE max {ratio:.4f}", flush=True)
         if np.all(np.isfinite(dth)) and np.all(np.abs(dth) < tol * se):
-            return Sinv, psi
-        return None
+            return (Sinv, psi), ratio, se
+        return None, ratio, se
+
+    def lm_step(x, f, cost, normal_eq, mu, tries):
+        """One Levenberg-Marquardt step from x (at most ``tries`` trial points, the damping
+        raised after each rejected one): (x, f, cost, mu, simulations, improved)."""
+        n = 0
+        for _ in range(tries):
+            try:
+                dx = solve(*normal_eq, mu)
+            except np.linalg.LinAlgError:
+                mu *= 10
+                continue
+            xn = x + dx
+            if np.any(xn[:nf] <= lo) or np.any(xn[:nf] > hi):
+                mu *= 4
+                continue
+            fn = rb(xn, sigma)
+            n += 1
+            cn = 0.5 * float(np.sum(fn * fn))
+            if np.isfinite(cn) and cn < cost:
+                return xn, fn, cn, mu, n, True
+            mu *= 4
+        return x, f, cost, mu, n, False
+
+    def secant(G, L, dx, df, DG, DL):
+        """The Jacobian (G, L) updated by the sparse Broyden (Schubert 1970) update of each
+        window's rows to satisfy the secant equation J_b p_b = df_b of the step ``dx``
+        (p_b its parameter part and window b's initial states, the only unknowns window b's
+        residuals depend on), in the scaled norm of the column norms (DG, DL)."""
+        dth = dx[:nf]
+        ds = dx[nf:].reshape(ni, B).T  # (B, ni)
+        err = df - np.matmul(G, dth) - np.matmul(L, ds[:, :, None])[:, :, 0]
+        wth = DG * DG * dth
+        ws = DL * DL * ds
+        den = float(dth @ wth) + np.sum(ds * ws, axis=1)  # (B,)
+        den = np.where(den > 0, den, np.inf)
+        e = err / den[:, None]
+        return G + e[:, :, None] * wth, L + e[:, :, None] * ws[:, None, :]
+
+    def secant_tail(G, L, x, f, cost, dx, df, se, tol, mu):
+        """The tail of a pass by secant iterations: the last finite-difference Jacobian
+        (G, L) carried along the steps by :func:`secant` updates, each iteration one
+        simulation instead of a Jacobian's 1 + nf + ni, until its Gauss-Newton step is below
+        SECANT_STOP ``tol`` of the standard errors ``se`` (or no step decreases the cost, or
+        SECANT_MAX iterations). Returns (x, f, cost, mu, simulations)."""
+        DG = np.sqrt(np.sum(G * G, axis=(0, 1)))
+        DL = np.sqrt(np.sum(L * L, axis=1))
+        n = 0
+        for _ in range(SECANT_MAX):
+            G, L = secant(G, L, dx, df, DG, DL)
+            neq = normal(G, L, f)
+            try:
+                dth = gauss_newton(G, L, f, *neq)[0]
+            except np.linalg.LinAlgError:
+                break
+            if os.environ.get("OE26_TRACE"):
+                print(f"TRACE   secant GN step/SE {np.max(np.abs(dth) / se):.4f}", flush=True)
+            if not np.all(np.isfinite(dth)) or np.all(np.abs(dth) < SECANT_STOP * tol * se):
+                break
+            xn, fn, cn, mu, used, improved = lm_step(x, f, cost, neq, mu, 4)
+            n += used
+            if os.environ.get("OE26_TRACE"):
+                print(f"TRACE   secant step used {used} improved {improved}", flush=True)
+            if not improved:
+                break
+            dx, df = xn - x, fn - f
+            x, f, cost = xn, fn, cn
+            mu = max(mu / 3, 1e-12)
+        return x, f, cost, mu, n
 
     x = x0.copy()
-    nfev = 0
+    nfev = njac = 0
     message = "maximum number of iterations reached"
     success = False
     at_x = None  # the Jacobian at x with the last pass's weights (G, L, normal equations)
     done = None  # (S^-1, psi) at x when the last pass settled
+    carried = None  # the previous pass's Jacobian at x, reweighted (G, L)
     ends = []  # each pass's optimum
     for k in range(passes):
         last = k == passes - 1
@@ -716,54 +797,52 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
             cw = 0.5 * float(np.sum(fw * fw))
             if np.isfinite(cw) and cw < cost:
                 x, f, cost = starts[k].copy(), fw, cw
+                carried = None
         mu = 1e-3
         for _ in range(max_iter):
-            G, L = jac(x, f, sigma)
-            nfev += 1 + nf + ni
+            if carried is not None:
+                (G, L), carried = carried, None
+            else:
+                G, L = jac(x, f, sigma)
+                nfev += 1 + nf + ni
+                njac += 1
             A, g, Bm, Cm, h = normal(G, L, f)
             at_x = (G, L, (A, g, Bm, Cm, h))
-            done = settled(G, L, f, at_x[2], tol)
+            done, ratio, se = settled(G, L, f, at_x[2], tol)
             if done is not None:
                 message, success = ("converged (the Gauss-Newton step below "
                                     f"{tol:g} standard error of every parameter)"), True
                 break
-            improved = False
-            cn = cost
-            for _ in range(20):
-                try:
-                    dx = solve(A, g, Bm, Cm, h, mu)
-                except np.linalg.LinAlgError:
-                    mu *= 10
-                    continue
-                xn = x + dx
-                if np.any(xn[:nf] <= lo) or np.any(xn[:nf] > hi):
-                    mu *= 4
-                    continue
-                fn = rb(xn, sigma)
-                nfev += 1
-                cn = 0.5 * float(np.sum(fn * fn))
-                if np.isfinite(cn) and cn < cost:
-                    improved = True
-                    break
-                mu *= 4
+            xn, fn, cn, mu, used, improved = lm_step(x, f, cost, at_x[2], mu, 20)
+            nfev += used
             if not improved:  # x unchanged: its Jacobian stays valid
                 message, success = "no further decrease of the cost", True
                 break
             rel = (cost - cn) / max(cost, 1e-300)
+            dx = xn - x
             step = float(np.max(np.abs(dx[:nf]) / np.maximum(np.abs(x[:nf]), 1e-12)))
+            df = fn - f
             x, f, cost = xn, fn, cn
             at_x = done = None
             mu = max(mu / 3, 1e-12)
             if rel < 1e-10 or step < 1e-10:
                 message, success = "converged (cost or step tolerance)", True
                 break
+            if ratio < SECANT_SE and se is not None:  # the tail: secant steps, then check
+                x, f, cost, mu, used = secant_tail(G, L, x, f, cost, dx, df, se, tol, mu)
+                nfev += used
         ends.append(x.copy())
         if not last:
-            sigma = rms_sigma(x)
+            new = rms_sigma(x)
+            if at_x is not None:  # x's Jacobian: the residuals' weights change, not the point
+                sc = np.repeat([sigma[c] / new[c] for c in sigma], W1)[None, :, None]
+                carried = (at_x[0] * sc, at_x[1] * sc)
+            sigma = new
             at_x = done = None
     if done is None:
         if at_x is None:
             G, L = jac(x, f, sigma)
+            njac += 1
             at_x = (G, L, normal(G, L, f))
         G, L, normal_eq = at_x
         try:
@@ -771,4 +850,5 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         except np.linalg.LinAlgError as exc:
             raise _singular(kind_name, free_names) from exc
         done = Sinv, psi
-    return x, 0.5 * float(np.sum(f * f)), nfev, success, message, sigma, *done, f, ends
+    return (x, 0.5 * float(np.sum(f * f)), nfev, njac, success, message, sigma, *done, f,
+            ends)
