@@ -76,10 +76,14 @@ SETTLED_SE = 0.01
 #: weights (the residual RMS per channel, which a point 0.1 standard error from the optimum
 #: changes by far less than its own sampling scatter).
 SETTLED_SE_PASS = 0.1
-import os
-SECANT_SE = float(os.environ.get("OE26_SEC", "0.3"))
-SECANT_STOP = float(os.environ.get("OE26_STOP", "0.5"))
-SECANT_MAX = int(os.environ.get("OE26_MAX", "10"))
+#: The tail of a pass: after a step whose Gauss-Newton size was below this many standard
+#: errors, the next points are found with the Jacobian carried along by secant updates (one
+#: simulation a step, :func:`_refine_schur`) until its Gauss-Newton step is below
+#: ``SECANT_STOP`` of the pass's tolerance (at most ``SECANT_MAX`` steps); then a
+#: finite-difference Jacobian checks the stop and gives the covariance.
+SECANT_SE = 0.3
+SECANT_STOP = 0.5
+SECANT_MAX = 10
 
 
 @dataclass
@@ -704,9 +708,6 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
             return None, math.inf, None
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = float(np.max(np.abs(dth) / se)) if np.all(np.isfinite(dth)) else math.inf
-        import os
-        if os.environ.get("OE26_TRACE"):
-            print(f"TRACE pass tol {tol} GN step/SE max {ratio:.4f}", flush=True)
         if np.all(np.isfinite(dth)) and np.all(np.abs(dth) < tol * se):
             return (Sinv, psi), ratio, se
         return None, ratio, se
@@ -764,20 +765,76 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
                 dth = gauss_newton(G, L, f, *neq)[0]
             except np.linalg.LinAlgError:
                 break
-            if os.environ.get("OE26_TRACE"):
-                print(f"TRACE   secant GN step/SE {np.max(np.abs(dth) / se):.4f}", flush=True)
             if not np.all(np.isfinite(dth)) or np.all(np.abs(dth) < SECANT_STOP * tol * se):
                 break
             xn, fn, cn, mu, used, improved = lm_step(x, f, cost, neq, mu, 4)
             n += used
-            if os.environ.get("OE26_TRACE"):
-                print(f"TRACE   secant step used {used} improved {improved}", flush=True)
             if not improved:
                 break
             dx, df = xn - x, fn - f
             x, f, cost = xn, fn, cn
             mu = max(mu / 3, 1e-12)
         return x, f, cost, mu, n
+
+    def gradient(neq):
+        """J^T r of all unknowns (parameters, then each initial state of all windows)."""
+        return np.concatenate([neq[1], neq[4].T.ravel()])
+
+    def structured(aug, xo, Go, Lo, go, x, G, L, grad, f):
+        """The secant approximation ``aug`` = (U, M), U M U^T, of the residuals' second-order
+        term sum_i r_i nabla^2 r_i updated from the Jacobians at xo and x (Dennis, Gay &
+        Welsch 1981, eq. 2.6, with their sizing factor): s = x - xo, y = J^T r - Jo^T ro,
+        y# = (J - Jo)^T r, A <- tau A + (v y^T + y v^T)/(y^T s) - (v^T s) y y^T/(y^T s)^2,
+        v = y# - tau A s; kept when y^T s > 0. A rank-two term a step, so kept low rank."""
+        sx = x - xo
+        y = grad - go
+        ys = float(y @ sx)
+        if not ys > 0:
+            return aug
+        ysh = np.concatenate([np.einsum("bmi,bm->i", G - Go, f),
+                              np.einsum("bmi,bm->bi", L - Lo, f).T.ravel()])
+        if aug is None:
+            U, Mc = np.zeros((len(x), 0)), np.zeros((0, 0))
+        else:
+            U, Mc = aug
+            Us = U.T @ sx
+            sAs = float(Us @ Mc @ Us)
+            if sAs != 0:
+                Mc = Mc * min(1.0, abs(float(sx @ ysh)) / abs(sAs))
+        v = ysh - U @ (Mc @ (U.T @ sx))
+        r = Mc.shape[0]
+        Mn = np.zeros((r + 2, r + 2))
+        Mn[:r, :r] = Mc
+        Mn[r, r + 1] = Mn[r + 1, r] = 1.0 / ys
+        Mn[r + 1, r + 1] = -float(v @ sx) / ys ** 2
+        return np.column_stack([U, v, y]), Mn
+
+    def aug_step(x, f, cost, neq, aug, mu):
+        """The damped step of the Gauss-Newton normal matrix plus ``aug`` (Woodbury:
+        (K + U M U^T)^-1 = K^-1 - K^-1 U M (I + U^T K^-1 U M)^-1 U^T K^-1, K the damped
+        normal matrix, solved window by window as :func:`solve`); tried once: (x, f, cost,
+        simulations, improved)."""
+        A, g, Bm, Cm, h = neq
+        U, Mc = aug
+
+        def k_inv(col):  # K^-1 col
+            return -solve(A, col[:nf], Bm, Cm, col[nf:].reshape(ni, B).T, mu)
+
+        try:
+            d0 = solve(A, g, Bm, Cm, h, mu)  # K^-1 (-J^T r)
+            KU = np.column_stack([k_inv(U[:, j]) for j in range(U.shape[1])])
+            core = np.eye(U.shape[1]) + U.T @ KU @ Mc
+            dx = d0 - KU @ (Mc @ np.linalg.solve(core, U.T @ d0))
+        except np.linalg.LinAlgError:
+            return x, f, cost, 0, False
+        xn = x + dx
+        if not np.all(np.isfinite(dx)) or np.any(xn[:nf] <= lo) or np.any(xn[:nf] > hi):
+            return x, f, cost, 0, False
+        fn = rb(xn, sigma)
+        cn = 0.5 * float(np.sum(fn * fn))
+        if np.isfinite(cn) and cn < cost:
+            return xn, fn, cn, 1, True
+        return x, f, cost, 1, False
 
     x = x0.copy()
     nfev = njac = 0
@@ -799,6 +856,7 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
                 x, f, cost = starts[k].copy(), fw, cw
                 carried = None
         mu = 1e-3
+        aug = prev = None
         for _ in range(max_iter):
             if carried is not None:
                 (G, L), carried = carried, None
@@ -813,8 +871,19 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
                 message, success = ("converged (the Gauss-Newton step below "
                                     f"{tol:g} standard error of every parameter)"), True
                 break
-            xn, fn, cn, mu, used, improved = lm_step(x, f, cost, at_x[2], mu, 20)
-            nfev += used
+            # the structured (NL2SOL) step first, once two Jacobians of the pass give the
+            # second-order term's secant approximation; Levenberg-Marquardt where it fails
+            improved = False
+            grad = gradient(at_x[2])
+            if prev is not None:
+                aug = structured(aug, *prev, x, G, L, grad, f)
+            prev = (x, G, L, grad)
+            if aug is not None:
+                xn, fn, cn, used, improved = aug_step(x, f, cost, at_x[2], aug, mu)
+                nfev += used
+            if not improved:
+                xn, fn, cn, mu, used, improved = lm_step(x, f, cost, at_x[2], mu, 20)
+                nfev += used
             if not improved:  # x unchanged: its Jacobian stays valid
                 message, success = "no further decrease of the cost", True
                 break
