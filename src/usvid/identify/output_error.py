@@ -22,7 +22,14 @@ window (Schur complement, cost linear in the number of windows). Its Jacobian by
 differences: every perturbed parameter set (one per parameter, one per initial state of all
 windows) simulated in one call of the core, the windows of all sets as its lanes
 (:meth:`OEProblem.simulate_sets`): full chunks of lanes on the kernel's threads instead of one
-call per set. Covariance from the Jacobian at
+call per set. On large residuals (model error, correlated noise) Gauss-Newton converges only
+linearly near the optimum, each iteration a Jacobian; two secant devices cut the Jacobians of
+that tail (:func:`_refine_schur`): the structured secant approximation of the residuals'
+second-order term added to the Gauss-Newton matrix (NL2SOL: Dennis, Gay & Welsch 1981), and
+steps with the last Jacobian carried along by sparse Broyden updates (Broyden 1965; Schubert
+1970; Dennis & Schnabel 1983, ch. 8 and 10), one simulation each, until a fresh
+finite-difference Jacobian checks the stop. The stop and the covariance are always those of a
+finite-difference Jacobian at the final point. Covariance from the Jacobian at
 the optimum: with at least ``MIN_CLUSTERS`` windows the cluster-robust (sandwich) form with the
 windows as clusters,
 
@@ -84,6 +91,10 @@ SETTLED_SE_PASS = 0.1
 SECANT_SE = 0.3
 SECANT_STOP = 0.5
 SECANT_MAX = 10
+#: Levenberg-Marquardt steps with the secant approximation of the residuals' second-order
+#: term added to the Gauss-Newton matrix (NL2SOL's structured update, Dennis, Gay & Welsch
+#: 1981) once a pass has two Jacobians; the plain step where that one does not decrease the cost.
+STRUCTURED = True
 
 
 @dataclass
@@ -639,6 +650,30 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
     standard error (``cov_of(S^-1, psi, residuals)``); that point's Jacobian gives the
     covariance. ``starts``: each pass's warm start (:func:`_warm_starts`), taken when it costs
     less than the previous pass's optimum.
+
+    The tail (large residuals: Gauss-Newton converges linearly, about 0.6 per iteration on
+    manoeuvring data, one Jacobian of 1 + nf + ni simulations an iteration):
+
+    * Structured step (NL2SOL; Dennis, Gay & Welsch 1981; Dennis & Schnabel 1983, sec. 10.3):
+      from two successive Jacobians of a pass, A approximates the second-order term
+      sum_i r_i nabla^2 r_i of the Hessian by their secant update (``structured``: y# =
+      (J - Jo)^T r, sized, rank two a step), and the Levenberg-Marquardt step of
+      J^T J + A is tried first whenever that model predicted the cost at the new point
+      better than Gauss-Newton's (their model switch); the plain step where it does not
+      lower the cost.
+    * Secant tail: once the Gauss-Newton step is below ``SECANT_SE`` standard errors, the
+      next points come from the last Jacobian updated by the sparse Broyden update
+      (Broyden 1965; Schubert 1970; Dennis & Schnabel 1983, sec. 11.3: window b's rows
+      J_b = [G_b, L_b] satisfy the secant equation J_b p_b = r_b(x + p) - r_b(x) of the step
+      restricted to the unknowns they depend on, the parameters and window b's initial states,
+      in the norm scaled by the Jacobian's column norms), one simulation a step, until its
+      Gauss-Newton step is below ``SECANT_STOP`` of the tolerance; then a finite-difference
+      Jacobian at that point decides the stop as above (else the iteration continues from it).
+    * Between passes the point is the same and only the channel weights change: the last
+      Jacobian, rescaled by the ratio of the weights, is the next pass's first.
+
+    So the fixed point (the stop) and the covariance are those of a finite-difference
+    Jacobian at the final point.
     Returns (x, cost, nfev, Jacobians, success, message, sigma, S^-1, psi, residuals (B, M),
     each pass's optimum).
     """
@@ -809,6 +844,17 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         Mn[r + 1, r + 1] = -float(v @ sx) / ys ** 2
         return np.column_stack([U, v, y]), Mn
 
+    def better_model(prev, x, cost, aug):
+        """Whether the augmented model (Gauss-Newton plus ``aug``) predicted the cost at x
+        from the previous Jacobian's point better than the Gauss-Newton model (the model
+        switch of Dennis, Gay & Welsch 1981, judged on the displacement since that point)."""
+        xo, Go, Lo, go, co = prev
+        sx = x - xo
+        Js = np.matmul(Go, sx[:nf]) + np.matmul(Lo, sx[nf:].reshape(ni, B).T[:, :, None])[:, :, 0]
+        gn = co + float(go @ sx) + 0.5 * float(np.sum(Js * Js))
+        Us = aug[0].T @ sx
+        return abs(gn + 0.5 * float(Us @ aug[1] @ Us) - cost) < abs(gn - cost)
+
     def aug_step(x, f, cost, neq, aug, mu):
         """The damped step of the Gauss-Newton normal matrix plus ``aug`` (Woodbury:
         (K + U M U^T)^-1 = K^-1 - K^-1 U M (I + U^T K^-1 U M)^-1 U^T K^-1, K the damped
@@ -873,12 +919,13 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
                 break
             # the structured (NL2SOL) step first, once two Jacobians of the pass give the
             # second-order term's secant approximation; Levenberg-Marquardt where it fails
-            improved = False
+            improved = use_aug = False
             grad = gradient(at_x[2])
             if prev is not None:
-                aug = structured(aug, *prev, x, G, L, grad, f)
-            prev = (x, G, L, grad)
-            if aug is not None:
+                aug = structured(aug, *prev[:4], x, G, L, grad, f)
+                use_aug = aug is not None and better_model(prev, x, cost, aug)
+            prev = (x, G, L, grad, cost)
+            if use_aug and STRUCTURED:
                 xn, fn, cn, used, improved = aug_step(x, f, cost, at_x[2], aug, mu)
                 nfev += used
             if not improved:
