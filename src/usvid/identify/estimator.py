@@ -875,7 +875,8 @@ class ModelEstimator(FittedAttributes):
         if servo_diag:
             diag["servo"] = servo_diag
         self.series_ = series
-        self.oe_ = oe
+        # (the passes' Jacobians are for a warm fit only: not kept with the model)
+        self.oe_ = oe if oe is None else dataclasses.replace(oe, pass_jacobians=())
         self.fixed_ = fixed
         model = VesselModel(dyn, servo=servo, vessel=vessel)
         # the training trials replayed in the conditions they were fitted in: the logged wind

@@ -124,6 +124,9 @@ class OEResult:
     #: each pass's optimum: (fit-space values x, the windows' initial states) (warm starts)
     pass_points: tuple[tuple[np.ndarray, dict[str, np.ndarray]], ...] = ()
     njac: int = 0  # finite-difference Jacobians computed
+    #: each pass's last finite-difference Jacobian at its optimum: (G (B, M, free), L (B, M, ni),
+    #: the channel weights) -- a warm fit's first approximation (None: not kept)
+    pass_jacobians: tuple[tuple[np.ndarray, np.ndarray, dict[str, float]] | None, ...] = ()
 
 
 class OEProblem:
@@ -558,12 +561,18 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
 
     x0 = np.concatenate([x_all[free]] + [init0[k] for k in inames])
     starts = _warm_starts(warm, prob, x_all, free, inames, B)
+    guesses: list = []  # the warm fit's Jacobians of its pass optima, this fit's columns
     if starts:
         x0 = starts[0]
-    xs, cost, nfev, njac, success, message, sig, Sinv, psi_w, f, ends = _refine_schur(
+        assert warm is not None
+        if set(free_names) <= set(warm.free_names):
+            cols = [list(warm.free_names).index(n) for n in free_names]
+            guesses = [None if pj is None or pj[1].shape[2] != len(inames) else
+                       (pj[0][:, :, cols], pj[1], pj[2]) for pj in warm.pass_jacobians]
+    xs, cost, nfev, njac, success, message, sig, Sinv, psi_w, f, ends, jacs = _refine_schur(
         resid, resid_many, x0, nf, len(inames), B, len(channels), W - 1, sigma, lo, hi,
         2 if reweight else 1, max_iter, rms_sigma, kind.name, tuple(np.array(prob.names)[free]),
-        lambda Si, ps, ff: cov_of(Si, ps, ff)[0], starts)
+        lambda Si, ps, ff: cov_of(Si, ps, ff)[0], starts, guesses)
     cov_x, fac = cov_of(Sinv, psi_w, f)
     xa, init = unpack(xs)
     covx_full = np.zeros((len(x_all), len(x_all)))
@@ -593,7 +602,7 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
                     init={k: np.asarray(v).copy() for k, v in init.items()},
                     wind_scale=ws, wind_scale_se=ws_se, disturbance=disturbance,
                     free_names=tuple(free_names),
-                    pass_points=tuple(unpack(e) for e in ends))
+                    pass_points=tuple(unpack(e) for e in ends), pass_jacobians=jacs)
 
 
 def _warm_starts(warm: OEResult | None, prob: OEProblem, x_all: np.ndarray, free: np.ndarray,
@@ -635,7 +644,7 @@ def _param_covariance(Sinv: np.ndarray, s2: float, fac: float, B: int, m: int, n
 
 
 def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes, max_iter,
-                  rms_sigma, kind_name, free_names, cov_of, starts=()):
+                  rms_sigma, kind_name, free_names, cov_of, starts=(), guesses=()):
     """Levenberg-Marquardt with the window initial states eliminated (Schur complement).
 
     Unknowns: model parameters theta (nf) and, per window b, its initial state s_b (ni). With
@@ -674,8 +683,11 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
 
     So the fixed point (the stop) and the covariance are those of a finite-difference
     Jacobian at the final point.
+    ``guesses``: per pass, the Jacobian (G, L, its channel weights) of the warm fit at its
+    optimum of the pass (another point: that fit's held parameters differ), the first
+    approximation of the secant steps from the pass's warm start.
     Returns (x, cost, nfev, Jacobians, success, message, sigma, S^-1, psi, residuals (B, M),
-    each pass's optimum).
+    each pass's optimum, each pass's last Jacobian (G, L, weights) at its optimum or None).
     """
     M = C * W1
 
@@ -784,7 +796,7 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         e = err / den[:, None]
         return G + e[:, :, None] * wth, L + e[:, :, None] * ws[:, None, :]
 
-    def secant_tail(G, L, x, f, cost, dx, df, se, tol, mu):
+    def secant_tail(G, L, x, f, cost, dx, df, se, tol, mu):  # dx None: (G, L) is at x
         """The tail of a pass by secant iterations: the last finite-difference Jacobian
         (G, L) carried along the steps by :func:`secant` updates, each iteration one
         simulation instead of a Jacobian's 1 + nf + ni, until its Gauss-Newton step is below
@@ -794,7 +806,8 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         DL = np.sqrt(np.sum(L * L, axis=1))
         n = 0
         for _ in range(SECANT_MAX):
-            G, L = secant(G, L, dx, df, DG, DL)
+            if dx is not None:
+                G, L = secant(G, L, dx, df, DG, DL)
             neq = normal(G, L, f)
             try:
                 dth = gauss_newton(G, L, f, *neq)[0]
@@ -890,6 +903,7 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
     done = None  # (S^-1, psi) at x when the last pass settled
     carried = None  # the previous pass's Jacobian at x, reweighted (G, L)
     ends = []  # each pass's optimum
+    jacs = []  # each pass's last Jacobian at its optimum
     for k in range(passes):
         last = k == passes - 1
         tol = SETTLED_SE if last else SETTLED_SE_PASS
@@ -903,6 +917,15 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
                 carried = None
         mu = 1e-3
         aug = prev = None
+        if k < len(guesses) and guesses[k] is not None and k < len(starts) \
+                and np.array_equal(x, starts[k]):  # the warm fit's Jacobian: secant steps
+            Gw, Lw, sw = guesses[k]
+            sc = np.repeat([sw[c] / sigma[c] for c in sigma], W1)[None, :, None]
+            Gw, Lw = Gw * sc, Lw * sc
+            _, _, se = settled(Gw, Lw, f, normal(Gw, Lw, f), tol)
+            if se is not None and np.all(se > 0):
+                x, f, cost, mu, used = secant_tail(Gw, Lw, x, f, cost, None, None, se, tol, mu)
+                nfev += used
         for _ in range(max_iter):
             if carried is not None:
                 (G, L), carried = carried, None
@@ -948,6 +971,7 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
                 x, f, cost, mu, used = secant_tail(G, L, x, f, cost, dx, df, se, tol, mu)
                 nfev += used
         ends.append(x.copy())
+        jacs.append(None if at_x is None else (at_x[0], at_x[1], dict(sigma)))
         if not last:
             new = rms_sigma(x)
             if at_x is not None:  # x's Jacobian: the residuals' weights change, not the point
@@ -967,4 +991,4 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
             raise _singular(kind_name, free_names) from exc
         done = Sinv, psi
     return (x, 0.5 * float(np.sum(f * f)), nfev, njac, success, message, sigma, *done, f,
-            ends)
+            ends, jacs)
