@@ -680,6 +680,9 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
       Jacobian at that point decides the stop as above (else the iteration continues from it).
     * Between passes the point is the same and only the channel weights change: the last
       Jacobian, rescaled by the ratio of the weights, is the next pass's first.
+    * A warm fit (``guesses``: the fit again with a parameter held, from the earlier fit's
+      pass optima) starts each pass with secant steps from the earlier fit's Jacobian at that
+      optimum (its held parameter's column dropped, rescaled to this pass's weights).
 
     So the fixed point (the stop) and the covariance are those of a finite-difference
     Jacobian at the final point.
@@ -920,6 +923,9 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         if k < len(guesses) and guesses[k] is not None and k < len(starts) \
                 and np.array_equal(x, starts[k]):  # the warm fit's Jacobian: secant steps
             Gw, Lw, sw = guesses[k]
+        else:
+            Gw = sw = None
+        if sw is not None and set(sw) == set(sigma) and Gw.shape[:2] == (B, C * W1):
             sc = np.repeat([sw[c] / sigma[c] for c in sigma], W1)[None, :, None]
             Gw, Lw = Gw * sc, Lw * sc
             _, _, se = settled(Gw, Lw, f, normal(Gw, Lw, f), tol)
