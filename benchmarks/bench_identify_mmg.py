@@ -13,7 +13,12 @@ of one run, so numba compilation or cache loading is excluded), peak memory of P
 allocations (tracemalloc), the 35 deg turning circles (advance/L, tactical diameter/L) the
 identified models predict, the ratio oe / ls of CPU (each fit from the same prepared trials
 with nothing an earlier fit derived from them kept: every fit estimates the states again),
-and the largest relative difference of the fitted parameters between the two Jacobians.
+and the largest relative difference of the fitted parameters between the two Jacobians; the
+finite-difference Jacobians and the simulations of all windows (a Jacobian's sets counted one by
+one) of every output-error fit (the fit again with a held parameter included); and the output
+error with the plain Levenberg-Marquardt iteration (no secant tail, no structured step:
+``SECANT_SE = 0``, ``STRUCTURED = False``) with its fitted parameters' largest difference in
+their standard errors.
 Then the commands ``usvid identify ... --model mmg --method ls|oe`` in fresh processes (CPU
 of the process, start-up included). The acceptance: oe at most 1.5x the CPU of ls, the same
 fitted parameters to the optimizer's tolerance.
@@ -34,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+import usvid.identify.output_error as oe_mod
 import usvid.io
 import usvid.prep
 from usvid.errors import UsvidError
@@ -58,6 +64,29 @@ def _one_set_per_call(self, xs, inits):
     good = next(o for o in outs if o is not None)
     sims = {c: np.stack([(o if o is not None else good)[c] for o in outs]) for c in good}
     return sims, ok
+
+
+COUNT = {"jac": 0, "sims": 0}
+
+
+def _counting():
+    """Count the finite-difference Jacobians and the simulations of all windows."""
+    fd, one, sets = oe_mod.fd_jacobian, OEProblem.simulate, OEProblem.simulate_sets
+
+    def fd_jacobian(*a, **k):
+        COUNT["jac"] += 1
+        return fd(*a, **k)
+
+    def simulate(self, *a, **k):
+        COUNT["sims"] += 1
+        return one(self, *a, **k)
+
+    def simulate_sets(self, xs, *a, **k):
+        COUNT["sims"] += len(xs)
+        return sets(self, xs, *a, **k)
+
+    oe_mod.fd_jacobian, OEProblem.simulate, OEProblem.simulate_sets = (
+        fd_jacobian, simulate, simulate_sets)
 
 
 def _fit(trials, method: str):
@@ -111,18 +140,25 @@ def main() -> int:
             pass
     print(f"bench_identify_mmg: {len(trials)} HSVA runs ({sum(len(t) for t in trials)} rows), "
           f"{len(os.sched_getaffinity(0))} cores, load average {os.getloadavg()[0]:.1f}")
-    cpu, params = {}, {}
-    for label, method in (("ls", "ls"), ("oe", "oe"), ("oe, one call per set", "oe")):
+    cpu, params, ses = {}, {}, {}
+    plain = (oe_mod.SECANT_SE, oe_mod.STRUCTURED)
+    _counting()
+    for label, method in (("ls", "ls"), ("oe", "oe"), ("oe, plain LM", "oe"),
+                          ("oe, one call per set", "oe")):
         if label == "oe, one call per set":
             batched, OEProblem.simulate_sets = OEProblem.simulate_sets, _one_set_per_call
+        if label == "oe, plain LM":
+            oe_mod.SECANT_SE, oe_mod.STRUCTURED = 0.0, False
+        COUNT.update(jac=0, sims=0)
         try:
             est, wall, cpu[label], peak = _fit(trials, method)
         finally:
             if label == "oe, one call per set":
                 OEProblem.simulate_sets = batched
-        params[label] = est.params_
-        d = est.result_.diagnostics.get("oe", {})
-        sims = f", {d['nfev']} simulations of all windows" if "nfev" in d else ""
+            oe_mod.SECANT_SE, oe_mod.STRUCTURED = plain
+        params[label], ses[label] = est.params_, est.std_errors_
+        sims = (f", {COUNT['jac']} Jacobians, {COUNT['sims']} simulations of all windows"
+                if label != "ls" and COUNT["sims"] else "")
         print(f"  mmg {label:22s} {wall:6.1f} s wall {cpu[label]:6.1f} s CPU, peak traced "
               f"memory {peak:.0f} MiB{sims}; 35 deg turn {_turns(est)}")
     rel = max(abs(params["oe"][k] - v) / max(abs(v), 1e-12)
@@ -130,6 +166,11 @@ def main() -> int:
     print(f"  oe / ls CPU in process: {cpu['oe'] / cpu['ls']:.2f} (acceptance <= 1.5); "
           f"the former Jacobian {cpu['oe, one call per set'] / cpu['ls']:.2f}; fitted "
           f"parameters of the two Jacobians differ by {rel:.2e} relative at most")
+    dse = max(abs(params["oe"][k] - v) / ses["oe, plain LM"][k]
+              for k, v in params["oe, plain LM"].items() if ses["oe, plain LM"][k] > 0)
+    print(f"  oe / ls CPU with the plain Levenberg-Marquardt iteration: "
+          f"{cpu['oe, plain LM'] / cpu['ls']:.2f}; fitted parameters differ from it by "
+          f"{dse:.4f} of their standard errors at most (tolerance 0.01 each: ~0.03)")
     if os.environ.get("USVID_BENCH_SKIP_CLI") != "1":
         exe = str(Path(sys.executable).with_name("usvid"))
         cli = {}

@@ -799,7 +799,8 @@ class ModelEstimator(FittedAttributes):
             oe = refine_output_error(kind, params, fixed, win, channels=self.oe_channels,
                                      wind=wf.model, disturbance=dist,
                                      warm=warm if self.method == "oe" else None)
-            diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "success": oe.success,
+            diag["oe"] = {"cost": oe.cost, "nfev": oe.nfev, "njac": oe.njac,
+                          "success": oe.success,
                           "message": oe.message, "ac_factor": oe.ac_factor, "sigma": oe.sigma,
                           "n_residuals": oe.n_residuals, "window_s": self.window_s,
                           "fit_space": dict(zip(oe.x_names, oe.x.tolist(), strict=True))}
@@ -874,7 +875,8 @@ class ModelEstimator(FittedAttributes):
         if servo_diag:
             diag["servo"] = servo_diag
         self.series_ = series
-        self.oe_ = oe
+        # (the passes' Jacobians are for a warm fit only: not kept with the model)
+        self.oe_ = oe if oe is None else dataclasses.replace(oe, pass_jacobians=())
         self.fixed_ = fixed
         model = VesselModel(dyn, servo=servo, vessel=vessel)
         # the training trials replayed in the conditions they were fitted in: the logged wind

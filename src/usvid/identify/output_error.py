@@ -22,7 +22,14 @@ window (Schur complement, cost linear in the number of windows). Its Jacobian by
 differences: every perturbed parameter set (one per parameter, one per initial state of all
 windows) simulated in one call of the core, the windows of all sets as its lanes
 (:meth:`OEProblem.simulate_sets`): full chunks of lanes on the kernel's threads instead of one
-call per set. Covariance from the Jacobian at
+call per set. On large residuals (model error, correlated noise) Gauss-Newton converges only
+linearly near the optimum, each iteration a Jacobian; two secant devices cut the Jacobians of
+that tail (:func:`_refine_schur`): the structured secant approximation of the residuals'
+second-order term added to the Gauss-Newton matrix (NL2SOL: Dennis, Gay & Welsch 1981), and
+steps with the last Jacobian carried along by sparse Broyden updates (Broyden 1965; Schubert
+1970; Dennis & Schnabel 1983, ch. 8 and 10), one simulation each, until a fresh
+finite-difference Jacobian checks the stop. The stop and the covariance are always those of a
+finite-difference Jacobian at the final point. Covariance from the Jacobian at
 the optimum: with at least ``MIN_CLUSTERS`` windows the cluster-robust (sandwich) form with the
 windows as clusters,
 
@@ -76,6 +83,18 @@ SETTLED_SE = 0.01
 #: weights (the residual RMS per channel, which a point 0.1 standard error from the optimum
 #: changes by far less than its own sampling scatter).
 SETTLED_SE_PASS = 0.1
+#: The tail of a pass: after a step whose Gauss-Newton size was below this many standard
+#: errors, the next points are found with the Jacobian carried along by secant updates (one
+#: simulation a step, :func:`_refine_schur`) until its Gauss-Newton step is below
+#: ``SECANT_STOP`` of the pass's tolerance (at most ``SECANT_MAX`` steps); then a
+#: finite-difference Jacobian checks the stop and gives the covariance.
+SECANT_SE = 0.3
+SECANT_STOP = 0.5
+SECANT_MAX = 10
+#: Levenberg-Marquardt steps with the secant approximation of the residuals' second-order
+#: term added to the Gauss-Newton matrix (NL2SOL's structured update, Dennis, Gay & Welsch
+#: 1981) once a pass has two Jacobians; the plain step where that one does not decrease the cost.
+STRUCTURED = True
 
 
 @dataclass
@@ -90,7 +109,7 @@ class OEResult:
     cov: np.ndarray
     names: tuple[str, ...]
     cost: float
-    nfev: int
+    nfev: int  # simulations of all windows (a Jacobian's perturbed sets counted one by one)
     success: bool
     message: str
     sigma: dict[str, float]
@@ -104,6 +123,10 @@ class OEResult:
     free_names: tuple[str, ...] = ()  # the fit-space names estimated (the rest held)
     #: each pass's optimum: (fit-space values x, the windows' initial states) (warm starts)
     pass_points: tuple[tuple[np.ndarray, dict[str, np.ndarray]], ...] = ()
+    njac: int = 0  # finite-difference Jacobians computed
+    #: each pass's last finite-difference Jacobian at its optimum: (G (B, M, free), L (B, M, ni),
+    #: the channel weights) -- a warm fit's first approximation (None: not kept)
+    pass_jacobians: tuple[tuple[np.ndarray, np.ndarray, dict[str, float]] | None, ...] = ()
 
 
 class OEProblem:
@@ -538,12 +561,18 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
 
     x0 = np.concatenate([x_all[free]] + [init0[k] for k in inames])
     starts = _warm_starts(warm, prob, x_all, free, inames, B)
+    guesses: list = []  # the warm fit's Jacobians of its pass optima, this fit's columns
     if starts:
         x0 = starts[0]
-    xs, cost, nfev, success, message, sig, Sinv, psi_w, f, ends = _refine_schur(
+        assert warm is not None
+        if set(free_names) <= set(warm.free_names):
+            cols = [list(warm.free_names).index(n) for n in free_names]
+            guesses = [None if pj is None or pj[1].shape[2] != len(inames) else
+                       (pj[0][:, :, cols], pj[1], pj[2]) for pj in warm.pass_jacobians]
+    xs, cost, nfev, njac, success, message, sig, Sinv, psi_w, f, ends, jacs = _refine_schur(
         resid, resid_many, x0, nf, len(inames), B, len(channels), W - 1, sigma, lo, hi,
         2 if reweight else 1, max_iter, rms_sigma, kind.name, tuple(np.array(prob.names)[free]),
-        lambda Si, ps, ff: cov_of(Si, ps, ff)[0], starts)
+        lambda Si, ps, ff: cov_of(Si, ps, ff)[0], starts, guesses)
     cov_x, fac = cov_of(Sinv, psi_w, f)
     xa, init = unpack(xs)
     covx_full = np.zeros((len(x_all), len(x_all)))
@@ -566,13 +595,14 @@ def refine_output_error(kind: ModelKind, start: Mapping[str, float], fixed: Mapp
         ws, ws_se = float(xa[j]), float(math.sqrt(max(covx_full[j, j], 0.0)))
     return OEResult(x=xa, x_names=prob.names, x_cov=covx_full,
                     params={n: float(params[n]) for n in pnames}, cov=cov_p, names=pnames,
-                    cost=float(cost), nfev=int(nfev), success=bool(success), message=message,
+                    cost=float(cost), nfev=int(nfev), njac=int(njac), success=bool(success),
+                    message=message,
                     sigma=sig, ac_factor=float(fac), n_residuals=int(m),
                     dof=float(B - 1) if B >= MIN_CLUSTERS else math.inf,
                     init={k: np.asarray(v).copy() for k, v in init.items()},
                     wind_scale=ws, wind_scale_se=ws_se, disturbance=disturbance,
                     free_names=tuple(free_names),
-                    pass_points=tuple(unpack(e) for e in ends))
+                    pass_points=tuple(unpack(e) for e in ends), pass_jacobians=jacs)
 
 
 def _warm_starts(warm: OEResult | None, prob: OEProblem, x_all: np.ndarray, free: np.ndarray,
@@ -614,7 +644,7 @@ def _param_covariance(Sinv: np.ndarray, s2: float, fac: float, B: int, m: int, n
 
 
 def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes, max_iter,
-                  rms_sigma, kind_name, free_names, cov_of, starts=()):
+                  rms_sigma, kind_name, free_names, cov_of, starts=(), guesses=()):
     """Levenberg-Marquardt with the window initial states eliminated (Schur complement).
 
     Unknowns: model parameters theta (nf) and, per window b, its initial state s_b (ni). With
@@ -629,8 +659,38 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
     standard error (``cov_of(S^-1, psi, residuals)``); that point's Jacobian gives the
     covariance. ``starts``: each pass's warm start (:func:`_warm_starts`), taken when it costs
     less than the previous pass's optimum.
-    Returns (x, cost, nfev, success, message, sigma, S^-1, psi, residuals (B, M), each pass's
-    optimum).
+
+    The tail (large residuals: Gauss-Newton converges linearly, about 0.6 per iteration on
+    manoeuvring data, one Jacobian of 1 + nf + ni simulations an iteration):
+
+    * Structured step (NL2SOL; Dennis, Gay & Welsch 1981; Dennis & Schnabel 1983, sec. 10.3):
+      from two successive Jacobians of a pass, A approximates the second-order term
+      sum_i r_i nabla^2 r_i of the Hessian by their secant update (``structured``: y# =
+      (J - Jo)^T r, sized, rank two a step), and the Levenberg-Marquardt step of
+      J^T J + A is tried first whenever that model predicted the cost at the new point
+      better than Gauss-Newton's (their model switch); the plain step where it does not
+      lower the cost.
+    * Secant tail: once the Gauss-Newton step is below ``SECANT_SE`` standard errors, the
+      next points come from the last Jacobian updated by the sparse Broyden update
+      (Broyden 1965; Schubert 1970; Dennis & Schnabel 1983, sec. 11.3: window b's rows
+      J_b = [G_b, L_b] satisfy the secant equation J_b p_b = r_b(x + p) - r_b(x) of the step
+      restricted to the unknowns they depend on, the parameters and window b's initial states,
+      in the norm scaled by the Jacobian's column norms), one simulation a step, until its
+      Gauss-Newton step is below ``SECANT_STOP`` of the tolerance; then a finite-difference
+      Jacobian at that point decides the stop as above (else the iteration continues from it).
+    * Between passes the point is the same and only the channel weights change: the last
+      Jacobian, rescaled by the ratio of the weights, is the next pass's first.
+    * A warm fit (``guesses``: the fit again with a parameter held, from the earlier fit's
+      pass optima) starts each pass with secant steps from the earlier fit's Jacobian at that
+      optimum (its held parameter's column dropped, rescaled to this pass's weights).
+
+    So the fixed point (the stop) and the covariance are those of a finite-difference
+    Jacobian at the final point.
+    ``guesses``: per pass, the Jacobian (G, L, its channel weights) of the warm fit at its
+    optimum of the pass (another point: that fit's held parameters differ), the first
+    approximation of the secant steps from the pass's warm start.
+    Returns (x, cost, nfev, Jacobians, success, message, sigma, S^-1, psi, residuals (B, M),
+    each pass's optimum, each pass's last Jacobian (G, L, weights) at its optimum or None).
     """
     M = C * W1
 
@@ -688,24 +748,165 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         return Sinv @ rhs, Sinv, psi
 
     def settled(G, L, f, normal_eq, tol):
-        """(S^-1, psi) at x when the Gauss-Newton step from x moves every parameter by less
-        than ``tol`` of its standard error (``cov_of``), else None."""
+        """((S^-1, psi) at x when the Gauss-Newton step from x moves every parameter by less
+        than ``tol`` of its standard error (``cov_of``), else None; the largest step in
+        standard errors; the standard errors)."""
         try:
             dth, Sinv, psi = gauss_newton(G, L, f, *normal_eq)
             se = np.sqrt(np.maximum(np.diag(cov_of(Sinv, psi, f)), 0.0))
         except np.linalg.LinAlgError:
-            return None
+            return None, math.inf, None
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = float(np.max(np.abs(dth) / se)) if np.all(np.isfinite(dth)) else math.inf
         if np.all(np.isfinite(dth)) and np.all(np.abs(dth) < tol * se):
-            return Sinv, psi
-        return None
+            return (Sinv, psi), ratio, se
+        return None, ratio, se
+
+    def lm_step(x, f, cost, normal_eq, mu, tries):
+        """One Levenberg-Marquardt step from x (at most ``tries`` trial points, the damping
+        raised after each rejected one): (x, f, cost, mu, simulations, improved)."""
+        n = 0
+        for _ in range(tries):
+            try:
+                dx = solve(*normal_eq, mu)
+            except np.linalg.LinAlgError:
+                mu *= 10
+                continue
+            xn = x + dx
+            if np.any(xn[:nf] <= lo) or np.any(xn[:nf] > hi):
+                mu *= 4
+                continue
+            fn = rb(xn, sigma)
+            n += 1
+            cn = 0.5 * float(np.sum(fn * fn))
+            if np.isfinite(cn) and cn < cost:
+                return xn, fn, cn, mu, n, True
+            mu *= 4
+        return x, f, cost, mu, n, False
+
+    def secant(G, L, dx, df, DG, DL):
+        """The Jacobian (G, L) updated by the sparse Broyden (Schubert 1970) update of each
+        window's rows to satisfy the secant equation J_b p_b = df_b of the step ``dx``
+        (p_b its parameter part and window b's initial states, the only unknowns window b's
+        residuals depend on), in the scaled norm of the column norms (DG, DL)."""
+        dth = dx[:nf]
+        ds = dx[nf:].reshape(ni, B).T  # (B, ni)
+        err = df - np.matmul(G, dth) - np.matmul(L, ds[:, :, None])[:, :, 0]
+        wth = DG * DG * dth
+        ws = DL * DL * ds
+        den = float(dth @ wth) + np.sum(ds * ws, axis=1)  # (B,)
+        den = np.where(den > 0, den, np.inf)
+        e = err / den[:, None]
+        return G + e[:, :, None] * wth, L + e[:, :, None] * ws[:, None, :]
+
+    def secant_tail(G, L, x, f, cost, dx, df, se, tol, mu):  # dx None: (G, L) is at x
+        """The tail of a pass by secant iterations: the last finite-difference Jacobian
+        (G, L) carried along the steps by :func:`secant` updates, each iteration one
+        simulation instead of a Jacobian's 1 + nf + ni, until its Gauss-Newton step is below
+        SECANT_STOP ``tol`` of the standard errors ``se`` (or no step decreases the cost, or
+        SECANT_MAX iterations). Returns (x, f, cost, mu, simulations)."""
+        DG = np.sqrt(np.sum(G * G, axis=(0, 1)))
+        DL = np.sqrt(np.sum(L * L, axis=1))
+        n = 0
+        for _ in range(SECANT_MAX):
+            if dx is not None:
+                G, L = secant(G, L, dx, df, DG, DL)
+            neq = normal(G, L, f)
+            try:
+                dth = gauss_newton(G, L, f, *neq)[0]
+            except np.linalg.LinAlgError:
+                break
+            if not np.all(np.isfinite(dth)) or np.all(np.abs(dth) < SECANT_STOP * tol * se):
+                break
+            xn, fn, cn, mu, used, improved = lm_step(x, f, cost, neq, mu, 4)
+            n += used
+            if not improved:
+                break
+            dx, df = xn - x, fn - f
+            x, f, cost = xn, fn, cn
+            mu = max(mu / 3, 1e-12)
+        return x, f, cost, mu, n
+
+    def gradient(neq):
+        """J^T r of all unknowns (parameters, then each initial state of all windows)."""
+        return np.concatenate([neq[1], neq[4].T.ravel()])
+
+    def structured(aug, xo, Go, Lo, go, x, G, L, grad, f):
+        """The secant approximation ``aug`` = (U, M), U M U^T, of the residuals' second-order
+        term sum_i r_i nabla^2 r_i updated from the Jacobians at xo and x (Dennis, Gay &
+        Welsch 1981, eq. 2.6, with their sizing factor): s = x - xo, y = J^T r - Jo^T ro,
+        y# = (J - Jo)^T r, A <- tau A + (v y^T + y v^T)/(y^T s) - (v^T s) y y^T/(y^T s)^2,
+        v = y# - tau A s; kept when y^T s > 0. A rank-two term a step, so kept low rank."""
+        sx = x - xo
+        y = grad - go
+        ys = float(y @ sx)
+        if not ys > 0:
+            return aug
+        ysh = np.concatenate([np.einsum("bmi,bm->i", G - Go, f),
+                              np.einsum("bmi,bm->bi", L - Lo, f).T.ravel()])
+        if aug is None:
+            U, Mc = np.zeros((len(x), 0)), np.zeros((0, 0))
+        else:
+            U, Mc = aug
+            Us = U.T @ sx
+            sAs = float(Us @ Mc @ Us)
+            if sAs != 0:
+                Mc = Mc * min(1.0, abs(float(sx @ ysh)) / abs(sAs))
+        v = ysh - U @ (Mc @ (U.T @ sx))
+        r = Mc.shape[0]
+        Mn = np.zeros((r + 2, r + 2))
+        Mn[:r, :r] = Mc
+        Mn[r, r + 1] = Mn[r + 1, r] = 1.0 / ys
+        Mn[r + 1, r + 1] = -float(v @ sx) / ys ** 2
+        return np.column_stack([U, v, y]), Mn
+
+    def better_model(prev, x, cost, aug):
+        """Whether the augmented model (Gauss-Newton plus ``aug``) predicted the cost at x
+        from the previous Jacobian's point better than the Gauss-Newton model (the model
+        switch of Dennis, Gay & Welsch 1981, judged on the displacement since that point)."""
+        xo, Go, Lo, go, co = prev
+        sx = x - xo
+        Js = np.matmul(Go, sx[:nf]) + np.matmul(Lo, sx[nf:].reshape(ni, B).T[:, :, None])[:, :, 0]
+        gn = co + float(go @ sx) + 0.5 * float(np.sum(Js * Js))
+        Us = aug[0].T @ sx
+        return abs(gn + 0.5 * float(Us @ aug[1] @ Us) - cost) < abs(gn - cost)
+
+    def aug_step(x, f, cost, neq, aug, mu):
+        """The damped step of the Gauss-Newton normal matrix plus ``aug`` (Woodbury:
+        (K + U M U^T)^-1 = K^-1 - K^-1 U M (I + U^T K^-1 U M)^-1 U^T K^-1, K the damped
+        normal matrix, solved window by window as :func:`solve`); tried once: (x, f, cost,
+        simulations, improved)."""
+        A, g, Bm, Cm, h = neq
+        U, Mc = aug
+
+        def k_inv(col):  # K^-1 col
+            return -solve(A, col[:nf], Bm, Cm, col[nf:].reshape(ni, B).T, mu)
+
+        try:
+            d0 = solve(A, g, Bm, Cm, h, mu)  # K^-1 (-J^T r)
+            KU = np.column_stack([k_inv(U[:, j]) for j in range(U.shape[1])])
+            core = np.eye(U.shape[1]) + U.T @ KU @ Mc
+            dx = d0 - KU @ (Mc @ np.linalg.solve(core, U.T @ d0))
+        except np.linalg.LinAlgError:
+            return x, f, cost, 0, False
+        xn = x + dx
+        if not np.all(np.isfinite(dx)) or np.any(xn[:nf] <= lo) or np.any(xn[:nf] > hi):
+            return x, f, cost, 0, False
+        fn = rb(xn, sigma)
+        cn = 0.5 * float(np.sum(fn * fn))
+        if np.isfinite(cn) and cn < cost:
+            return xn, fn, cn, 1, True
+        return x, f, cost, 1, False
 
     x = x0.copy()
-    nfev = 0
+    nfev = njac = 0
     message = "maximum number of iterations reached"
     success = False
     at_x = None  # the Jacobian at x with the last pass's weights (G, L, normal equations)
     done = None  # (S^-1, psi) at x when the last pass settled
+    carried = None  # the previous pass's Jacobian at x, reweighted (G, L)
     ends = []  # each pass's optimum
+    jacs = []  # each pass's last Jacobian at its optimum
     for k in range(passes):
         last = k == passes - 1
         tol = SETTLED_SE if last else SETTLED_SE_PASS
@@ -716,54 +917,78 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
             cw = 0.5 * float(np.sum(fw * fw))
             if np.isfinite(cw) and cw < cost:
                 x, f, cost = starts[k].copy(), fw, cw
+                carried = None
         mu = 1e-3
+        aug = prev = None
+        if k < len(guesses) and guesses[k] is not None and k < len(starts) \
+                and np.array_equal(x, starts[k]):  # the warm fit's Jacobian: secant steps
+            Gw, Lw, sw = guesses[k]
+        else:
+            Gw = sw = None
+        if sw is not None and set(sw) == set(sigma) and Gw.shape[:2] == (B, C * W1):
+            sc = np.repeat([sw[c] / sigma[c] for c in sigma], W1)[None, :, None]
+            Gw, Lw = Gw * sc, Lw * sc
+            _, _, se = settled(Gw, Lw, f, normal(Gw, Lw, f), tol)
+            if se is not None and np.all(se > 0):
+                x, f, cost, mu, used = secant_tail(Gw, Lw, x, f, cost, None, None, se, tol, mu)
+                nfev += used
         for _ in range(max_iter):
-            G, L = jac(x, f, sigma)
-            nfev += 1 + nf + ni
+            if carried is not None:
+                (G, L), carried = carried, None
+            else:
+                G, L = jac(x, f, sigma)
+                nfev += 1 + nf + ni
+                njac += 1
             A, g, Bm, Cm, h = normal(G, L, f)
             at_x = (G, L, (A, g, Bm, Cm, h))
-            done = settled(G, L, f, at_x[2], tol)
+            done, ratio, se = settled(G, L, f, at_x[2], tol)
             if done is not None:
                 message, success = ("converged (the Gauss-Newton step below "
                                     f"{tol:g} standard error of every parameter)"), True
                 break
-            improved = False
-            cn = cost
-            for _ in range(20):
-                try:
-                    dx = solve(A, g, Bm, Cm, h, mu)
-                except np.linalg.LinAlgError:
-                    mu *= 10
-                    continue
-                xn = x + dx
-                if np.any(xn[:nf] <= lo) or np.any(xn[:nf] > hi):
-                    mu *= 4
-                    continue
-                fn = rb(xn, sigma)
-                nfev += 1
-                cn = 0.5 * float(np.sum(fn * fn))
-                if np.isfinite(cn) and cn < cost:
-                    improved = True
-                    break
-                mu *= 4
+            # the structured (NL2SOL) step first, once two Jacobians of the pass give the
+            # second-order term's secant approximation; Levenberg-Marquardt where it fails
+            improved = use_aug = False
+            grad = gradient(at_x[2])
+            if prev is not None:
+                aug = structured(aug, *prev[:4], x, G, L, grad, f)
+                use_aug = aug is not None and better_model(prev, x, cost, aug)
+            prev = (x, G, L, grad, cost)
+            if use_aug and STRUCTURED:
+                xn, fn, cn, used, improved = aug_step(x, f, cost, at_x[2], aug, mu)
+                nfev += used
+            if not improved:
+                xn, fn, cn, mu, used, improved = lm_step(x, f, cost, at_x[2], mu, 20)
+                nfev += used
             if not improved:  # x unchanged: its Jacobian stays valid
                 message, success = "no further decrease of the cost", True
                 break
             rel = (cost - cn) / max(cost, 1e-300)
+            dx = xn - x
             step = float(np.max(np.abs(dx[:nf]) / np.maximum(np.abs(x[:nf]), 1e-12)))
+            df = fn - f
             x, f, cost = xn, fn, cn
             at_x = done = None
             mu = max(mu / 3, 1e-12)
             if rel < 1e-10 or step < 1e-10:
                 message, success = "converged (cost or step tolerance)", True
                 break
+            if ratio < SECANT_SE and se is not None:  # the tail: secant steps, then check
+                x, f, cost, mu, used = secant_tail(G, L, x, f, cost, dx, df, se, tol, mu)
+                nfev += used
         ends.append(x.copy())
+        jacs.append(None if at_x is None else (at_x[0], at_x[1], dict(sigma)))
         if not last:
-            sigma = rms_sigma(x)
+            new = rms_sigma(x)
+            if at_x is not None:  # x's Jacobian: the residuals' weights change, not the point
+                sc = np.repeat([sigma[c] / new[c] for c in sigma], W1)[None, :, None]
+                carried = (at_x[0] * sc, at_x[1] * sc)
+            sigma = new
             at_x = done = None
     if done is None:
         if at_x is None:
             G, L = jac(x, f, sigma)
+            njac += 1
             at_x = (G, L, normal(G, L, f))
         G, L, normal_eq = at_x
         try:
@@ -771,4 +996,5 @@ def _refine_schur(resid, resid_many, x0, nf, ni, B, C, W1, sigma, lo, hi, passes
         except np.linalg.LinAlgError as exc:
             raise _singular(kind_name, free_names) from exc
         done = Sinv, psi
-    return x, 0.5 * float(np.sum(f * f)), nfev, success, message, sigma, *done, f, ends
+    return (x, 0.5 * float(np.sum(f * f)), nfev, njac, success, message, sigma, *done, f,
+            ends, jacs)
