@@ -37,7 +37,9 @@ from usvid.sim.layout import (
     JW1,
     JW2,
     NOF,
+    VC,
     VF,
+    VH,
     VNOISE,
     VS,
     VT,
@@ -201,14 +203,36 @@ def _heldload(p, pe, z, tau, fs, cps, sps):
                     uw * cps - vw * sps + cx, uw * sps + vw * cps + cy, cps, sps)
 
 
-def _rk4(p, pe, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
+def _holdset(V, j, fn, g, kf):
+    """Lane slot j's held-load rows (:data:`usvid.sim.layout.HOLD_ROWS`) after an evaluation of
+    the loads ``fn`` (X, Y, K, N) at the start of step ``kf``: the rate from the previous
+    evaluation, (fn - F) g (``g``: the extrapolation's weight over the evaluation interval
+    [1/s], 0 at the first evaluation), then fn. The one definition for both paths."""
+    o = VH * CH + j
+    V[o + 4 * CH] = (fn[0] - V[o]) * g
+    V[o + 5 * CH] = (fn[1] - V[o + CH]) * g
+    V[o + 6 * CH] = (fn[2] - V[o + 2 * CH]) * g
+    V[o + 7 * CH] = (fn[3] - V[o + 3 * CH]) * g
+    V[o] = fn[0]
+    V[o + CH] = fn[1]
+    V[o + 2 * CH] = fn[2]
+    V[o + 3 * CH] = fn[3]
+    V[o + 8 * CH] = kf
+
+
+def _holdget(V, j, s):
+    """Lane slot j's loads held over the step (X, Y, K, N): those of the last evaluation plus
+    ``s`` [s] (the time from it to the step's midpoint times the extrapolation's weight, 0 for
+    a zero-order hold) times their rate (:func:`_holdset`)."""
+    o = VH * CH + j
+    return (V[o] + s * V[o + 4 * CH], V[o + CH] + s * V[o + 5 * CH],
+            V[o + 2 * CH] + s * V[o + 6 * CH], V[o + 3 * CH] + s * V[o + 7 * CH])
+
+
+def _rk4(p, fe, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
     """One classical RK4 step of length h [s] from z, covering the fractions tau0 .. tau0 +
     frac of the current step (for the first-order-hold series); with WIND the state-dependent
-    environment loads of its start held over it (:func:`_heldload`)."""
-    fe = NOF
-    if WIND:
-        cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
-        fe = _heldload(p, pe, z, tau0, fs, cps, sps)
+    environment loads ``fe`` held over it (:func:`_substeps`)."""
     k1 = _deriv(p, fe, tau0, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z)
     tm = tau0 + 0.5 * frac
     k2 = _deriv(p, fe, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k1))
@@ -226,6 +250,14 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
     pe = _etup(V, j)
     srv, fs, tr = _inputs(V, j)
     noise = V[VNOISE * CH + j]
+    fe = NOF
+    if WIND:  # the multirate hold: evaluated at this step's start unless the vector step did
+        # (the control row VC, written by the driver), then held over the whole step
+        c = VC * CH
+        if V[c] > 0.0 and V[(VH + 8) * CH + j] != V[c + 1]:
+            cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
+            _holdset(V, j, _heldload(p, pe, z, 0.0, fs, cps, sps), V[c + 3], V[c + 1])
+        fe = _holdget(V, j, V[c + 2])
     ma = srv[0]
     mr = srv[1]
     cap = qt.shape[1]
@@ -241,7 +273,7 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
             what = 2
         if tb > tc + eps:
             te = min(tb, t1)
-            z = _rk4(p, pe, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
+            z = _rk4(p, fe, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
                      cmdin, ramp, noise, fs, tr)
             tc = te
         if what == 1 and tb <= t1 + eps:

@@ -108,6 +108,34 @@ def _series(t_grid: np.ndarray, t: np.ndarray, values: Any) -> np.ndarray:
     return v[:, idx] * (1.0 - w) + v[:, idx + 1] * w
 
 
+#: Default interval [s] of the multirate hold of the state-dependent environment loads (wind,
+#: mean wave drift): evaluated every :func:`load_every` steps, linearly extrapolated from the
+#: last two evaluations to each step's midpoint (:func:`usvid.sim.lane._holdget`).
+LOAD_INTERVAL = 0.1
+
+
+def load_every(interval: float, dt: float) -> int:
+    """The steps between two evaluations of the state-dependent environment loads for a load
+    interval ``interval`` [s] (0: every step) at the step ``dt`` [s]: max(1, round(interval /
+    dt)), so that the interval, not dt's choice, fixes the hold's accuracy."""
+    if not (math.isfinite(interval) and interval >= 0.0):
+        raise SimulationError(f"Environment.load_interval must be >= 0 [s] and finite (got "
+                              f"{interval!r})")
+    return max(1, round(interval / dt))
+
+
+def load_hold(interval: float, dt: float) -> dict[str, Any]:
+    """How the state-dependent loads are held (the ``load_hold`` entry of a simulation's
+    environment meta): the interval asked for and used [s], the steps per evaluation and the
+    scheme."""
+    m = load_every(interval, dt)
+    return {"load_interval_s": float(interval), "load_every_steps": m,
+            "load_interval_used_s": m * float(dt),
+            "scheme": "evaluated at the start of every load interval; linearly extrapolated "
+                      "from the last two evaluations to each step's midpoint, held over the "
+                      "step (second order)"}
+
+
 @dataclass
 class Environment:
     """The environment of a simulation besides the rudder-equivalent noise: a current, a true
@@ -164,6 +192,7 @@ class Environment:
     wave_seed: int = 0
     wave_components: int = 128
     wave_stream: Any = None
+    load_interval: float = LOAD_INTERVAL
 
     @property
     def has_wind(self) -> bool:
@@ -413,6 +442,7 @@ class Lanes:
     channels: Sequence[str] = ("psi", "r")
     record_every: int = 1
     env_block: np.ndarray | None = None
+    load_interval: float = LOAD_INTERVAL
 
     @property
     def size(self) -> int:
@@ -483,7 +513,7 @@ class Lanes:
         core.run(self.kind, c(P), c(self.S), int(self.servo), int(self.logic), c(L),
                  c(Dq), SER, sidx, Z, np.require(self.nsteps, np.int64, ("C", "W")),
                  float(self.dt), int(self.record_every), slots, rec, acc, zz, zzt, status, qcap,
-                 wind=wind)
+                 wind=wind, load_every=load_every(self.load_interval, self.dt))
         acc, zz, zzt, status = acc.T, zz.T, zzt.T, status.T
         return LaneResult(t=np.arange(nrec) * self.record_every * self.dt,
                           channels={n: rec[j] for j, n in enumerate(self.channels)},
@@ -693,13 +723,17 @@ def simulate(model: VesselModel, logic: Any, *, t_end: float, dt: float = 0.02,
         raise SimulationError("simulate: channels must name at least one channel")
     lanes = Lanes(kind=kind, P=P, servo=skind, S=S, Z0=Z0, nsteps=np.full(B, nsteps),
                   dt=dt, logic=lk, L=L, series=series, Dq=Dq, channels=tuple(wanted),
-                  record_every=record_every, env_block=env_block)
+                  record_every=record_every, env_block=env_block,
+                  load_interval=LOAD_INTERVAL if environment is None
+                  else environment.load_interval)
     out = lanes.run()
     chans = out.channels
     _fill_inputs(kind, model.dynamics, chans, B)
     meta: dict[str, Any] = {"nsteps": nsteps, "integrator": "rk4", "u0": speed,
                             "kind": kind.name}
     if environment is not None:
+        if env_block is not None:
+            env_info["load_hold"] = load_hold(environment.load_interval, dt)
         meta["environment"] = _merged(environment.describe(), env_info)
         if environment.sea is not None and environment.wave_motion:
             _add_wave_motion(environment, model, out.t, chans, B)

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from usvid.sim.lane import _heldload
+from usvid.sim.lane import _heldload, _holdget, _holdset
 from usvid.sim.layout import (
     CH,
     DIST_A0,
@@ -48,6 +48,7 @@ from usvid.sim.layout import (
     RPSI,
     RW2,
     SFORCE,
+    VC,
     VCMD,
     VF,
     VL,
@@ -286,16 +287,30 @@ def _vstep(Vp, h, frac, zig, sk):
     w1 = 1.0 if sk == 1.0 else 0.0
     w2 = 1.0 if sk == 2.0 else 0.0
     nslow = 0.0
-    if WIND:  # the heading's bases and the held loads of every lane first (:func:`_vheld`),
-        # the loads into the scratch rows VB.. (read below before they are overwritten)
+    if WIND:  # the heading's bases and the held loads of every lane first, into the scratch
+        # rows VB.. (read below before they are overwritten): the multirate hold
+        # (:func:`usvid.sim.lane._holdset`, :func:`usvid.sim.lane._holdget`; the control row VC
+        # the driver wrote, read before the loops), the loads evaluated (:func:`_vheld`) only
+        # at the steps the driver says
         pe0 = _etup(V, 0)  # (SHARED: every lane's)
+        c = VC * CH
+        ref = V[c] > 0.0
+        kf = V[c + 1]
+        sh = V[c + 2]
+        g = V[c + 3]
         for j in range(NLANES):
             o = VT * CH + j
             a, c0, s0 = _hbase(V, j)
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
-            fe = _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j))
+        if ref:  # a loop of its own, so that the loop of the other steps has no evaluation
+            for j in range(NLANES):
+                fn = _vheld(V, j, V[(VT + 1) * CH + j], V[(VT + 2) * CH + j],
+                            pe0 if SHARED else _etup(V, j))
+                _holdset(V, j, fn, g, kf)
+        for j in range(NLANES):
+            fe = _holdget(V, j, sh)
             if STEADY:  # the series' force (constant) plus the loads, as :func:`_vderiv` adds
                 o = (VF + SFORCE) * CH + j
                 fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
