@@ -140,8 +140,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     disturbance or input series, whether x or y is recorded, and each chunk's switch value.
     ``wind``: ``P`` carries the environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the
     kind's parameters: the per-lane step of :func:`usvid.sim.specialise.wind_step` and the
-    vector step's wind variant (its loads held over each step, :func:`usvid.sim.lane._heldload`,
-    vectorised across the lanes like the rest of the step), the multirate hold: the loads
+    vector step's wind variant (its loads vectorised across the lanes like the rest of the
+    step), with the multirate hold (:func:`usvid.sim.lane._heldload`): the loads
     evaluated at the start of every ``load_every``-th step and, with ``load_extrapolate``,
     linearly extrapolated from the last two evaluations to each step's midpoint, else held
     (:func:`usvid.sim.lane._holdget`).

@@ -272,8 +272,9 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     servo kind (``sk`` -1: the per-lane path's blend), disturbance, series, x and y.
 
     ``wind``: the variant of a batch with the state-dependent environment (wind loads, wave
-    drift; the chunk array of :func:`wind_step`, its ``kinfo``), the loads computed at every
-    RK4 stage by the per-lane step's own function (:func:`usvid.sim.lane._envload`), with the
+    drift; the chunk array of :func:`wind_step`, its ``kinfo``), the loads computed by the
+    per-lane step's own function (:func:`usvid.sim.lane._envload`) at the steps of the
+    multirate hold and extrapolated between (:func:`usvid.sim.lane._holdget`), with the
     series and x, y (the heading's rotation); without it the variants compile as if the
     environment code did not exist (``WIND`` a compile-time False). ``wcode``: the wind-load
     model's code (:mod:`usvid.models.environment.wind_loads`) common to the batch's lanes, a
