@@ -206,21 +206,27 @@ def _heldload(p, pe, z, tau, fs, cps, sps):
                     uw * cps - vw * sps + cx, uw * sps + vw * cps + cy, cps, sps)
 
 
-def _holdset(V, j, fn, g, kf):
+def _holdset(V, j, fn, g, kf, ok):
     """Lane slot j's held-load rows (:data:`usvid.sim.layout.HOLD_ROWS`) after an evaluation of
     the loads ``fn`` (X, Y, K, N) at the start of step ``kf``: the rate from the previous
     evaluation, (fn - F) g (``g``: the extrapolation's weight over the evaluation interval
-    [1/s], 0 at the first evaluation), then fn. The one definition for both paths."""
+    [1/s], 0 at the first evaluation), then fn. The one definition for both paths. Not ``ok``
+    (the vector step's heading base NaN, the lane then flagged): the rows kept (selects, no
+    branch), so that the per-lane step evaluates the loads itself."""
     o = VH * CH + j
-    V[o + 4 * CH] = (fn[0] - V[o]) * g
-    V[o + 5 * CH] = (fn[1] - V[o + CH]) * g
-    V[o + 6 * CH] = (fn[2] - V[o + 2 * CH]) * g
-    V[o + 7 * CH] = (fn[3] - V[o + 3 * CH]) * g
-    V[o] = fn[0]
-    V[o + CH] = fn[1]
-    V[o + 2 * CH] = fn[2]
-    V[o + 3 * CH] = fn[3]
-    V[o + 8 * CH] = kf
+    f0 = V[o]
+    f1 = V[o + CH]
+    f2 = V[o + 2 * CH]
+    f3 = V[o + 3 * CH]
+    V[o + 4 * CH] = (fn[0] - f0) * g if ok else V[o + 4 * CH]
+    V[o + 5 * CH] = (fn[1] - f1) * g if ok else V[o + 5 * CH]
+    V[o + 6 * CH] = (fn[2] - f2) * g if ok else V[o + 6 * CH]
+    V[o + 7 * CH] = (fn[3] - f3) * g if ok else V[o + 7 * CH]
+    V[o] = fn[0] if ok else f0
+    V[o + CH] = fn[1] if ok else f1
+    V[o + 2 * CH] = fn[2] if ok else f2
+    V[o + 3 * CH] = fn[3] if ok else f3
+    V[o + 8 * CH] = kf if ok else V[o + 8 * CH]
 
 
 def _holdget(V, j, s):
@@ -259,7 +265,7 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
         c = VC * CH
         if V[c] > 0.0 and V[(VH + 8) * CH + j] != V[c + 1]:
             cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
-            _holdset(V, j, _heldload(p, pe, z, 0.0, fs, cps, sps), V[c + 3], V[c + 1])
+            _holdset(V, j, _heldload(p, pe, z, 0.0, fs, cps, sps), V[c + 3], V[c + 1], True)
         fe = _holdget(V, j, V[c + 2])
     ma = srv[0]
     mr = srv[1]

@@ -303,7 +303,8 @@ def _vstep(Vp, h, frac, zig, sk):
             g = V[c + 3]
             for j in range(NLANES):
                 a, c0, s0 = _hbase(V, j)
-                _holdset(V, j, _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j)), g, kf)
+                _holdset(V, j, _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j)), g, kf,
+                         not np.isnan(c0))
     for j in range(NLANES):
         a = V[RPSI * CH + j]
         c0 = 1.0
