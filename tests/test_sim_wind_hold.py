@@ -28,7 +28,7 @@ from usvid.models import (
     mu2018_threedof,
     registry,
 )
-from usvid.models.environment import true_to_apparent, wind_load_model, wind_loads
+from usvid.models.environment import gust_series, true_to_apparent, wind_load_model, wind_loads
 from usvid.sim import Environment, Turning, ZigZag, core, simulate, specialise
 from usvid.sim.simulate import load_every
 from usvid.trial import Vessel
@@ -217,3 +217,28 @@ def test_constant_wind_without_disturbance_takes_its_own_variant_and_equals_per_
                                rtol=0.0, atol=1e-10, equal_nan=True)
     calm = simulate(model, logic, t_end=30.0, dt=0.05, channels=("psi",))
     assert np.max(np.abs(a["psi"] - calm["psi"])) > 1e-3  # the wind acts
+
+
+def test_gusty_wind_and_a_quick_turn_on_the_vector_step_equal_per_lane():
+    """A gust series (the loads evaluated by the multirate hold) and a turn quicker than the
+    vector step's trig base follows (more than 0.05 rad of heading a step at dt = 0.25 s), x
+    and y not recorded: a lane whose base the vector step cannot rotate takes the per-lane
+    step and its loads are evaluated when due, so both paths give the same runs (to 1e-12 of
+    each channel's scale: FMA contraction may differ in the last bits). Before, such a lane's
+    vector result was kept with the loads of its last good step, unrefreshed from then on."""
+    model = _model()
+    dt, t_end = 0.25, 60.0
+    t = np.arange(0.0, t_end + dt, dt)
+    ws = gust_series(t, 8.0, spectrum="norsok", seed=3, n_batch=1)
+    env = Environment(t=t, wind_speed=ws, wind_dir=np.full_like(ws, 0.8))
+    kw = dict(t_end=t_end, dt=dt, environment=env, channels=("psi", "r", "u", "v"))
+    try:
+        a = simulate(model, Turning(DELTA, T_EXEC), **kw)
+        core.SIMD = False
+        b = simulate(model, Turning(DELTA, T_EXEC), **kw)
+    finally:
+        core.SIMD = True
+    assert np.max(np.abs(np.diff(b["psi"][0]))) > 0.05  # the base cannot follow
+    for name, x in a.channels.items():
+        scale = max(float(np.max(np.abs(b[name]))), 1e-3)
+        np.testing.assert_allclose(x, b[name], rtol=0.0, atol=1e-12 * scale, err_msg=name)

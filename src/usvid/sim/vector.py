@@ -315,8 +315,12 @@ def _vstep(Vp, h, frac, zig, sk):
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
-        if WIND:  # the loads held over the step
+        if WIND:  # the loads held over the step; NaN with the heading's base (0 c0 is NaN
+            # then, else a zero: X unchanged), so that such a lane's result is not finite and
+            # the per-lane step takes the step (and evaluates the loads if due): without x, y
+            # nothing else in the step reads the base, and held loads would go on unrefreshed
             fe = _holdget(V, j, sh)
+            fe = (fe[0] + 0.0 * c0, fe[1], fe[2], fe[3])
             if STEADY:  # the series' force (constant) plus the loads, as :func:`_vderiv` adds
                 o = (VF + SFORCE) * CH + j
                 fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
