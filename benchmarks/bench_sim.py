@@ -16,7 +16,8 @@ then a table of ns CPU per RK4 step per model kind for the SIMD kernel and for t
 (``core.SIMD = False``: every step integrated lane by lane, the reference; its right-hand side
 is called out of line), with their ratio and the ratio to solve_ivp; then the 3-DOF zig-zag in
 calm water and with a constant wind and current (:data:`WIND`: the wind loads of the apparent wind
-and the current held over each RK4 step, on the vector step's wind variant), recording the
+evaluated every load interval, 0.1 s by default, and extrapolated to each RK4 step, on the vector
+step's wind variant), recording the
 heading only and recording x and y too, the minimum of three runs each, interleaved, with the
 wind/calm ratios (``--wind``: only that table; ``USVID_BENCH_REPEATS`` its repeats). The
 machine may be shared: CPU time per step is the figure to compare; wall time depends on the

@@ -31,7 +31,7 @@ from usvid.models.environment import (
     wind_load_model,
     wind_loads,
 )
-from usvid.sim import Commanded, Environment, Turning, ZigZag, simulate
+from usvid.sim import Commanded, Environment, Turning, ZigZag, core, simulate
 from usvid.trial import Vessel
 
 A_T, A_L = 2.0, 6.0  # windage areas [m^2] of the test boat (Blendermann's form: A_T, A_L, L)
@@ -159,8 +159,15 @@ def test_response_kind_in_wind_is_the_rudder_equivalent_run():
     dyn = Nomoto1(K=0.2, T=5.0)
     model = VesselModel(dyn, servo=IdealServo(), vessel=vessel)
     t_end, dt, V, wdir = 60.0, 0.02, 5.0, math.pi / 2
-    res = simulate(model, _straight(t_end), t_end=t_end, dt=dt,
-                   environment=Environment(wind_speed=V, wind_dir=wdir))
+    # the loads of every step's start held over it (interval 0, no extrapolation), as the
+    # reference's rudder series is: the multirate hold's own error is tests/test_sim_wind_hold.py's
+    old = core.LOAD_EXTRAPOLATE
+    try:
+        core.LOAD_EXTRAPOLATE = False
+        res = simulate(model, _straight(t_end), t_end=t_end, dt=dt,
+                       environment=Environment(wind_speed=V, wind_dir=wdir, load_interval=0.0))
+    finally:
+        core.LOAD_EXTRAPOLATE = old
     re = rudder_equivalent("nomoto1", dyn.values(), vessel)
     env = res.meta["environment"]["wind"]
     assert env["rudder_equivalent"]["N_delta_N_m_per_rad"] == pytest.approx(re.N_delta)

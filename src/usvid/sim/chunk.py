@@ -94,8 +94,10 @@ from usvid.sim.layout import (
     SERVO_ROWS,
     SFORCE,
     TURNING,
+    VC,
     VCMD,
     VF,
+    VH,
     VL,
     VNOISE,
     VRAMP,
@@ -324,7 +326,7 @@ def _finite_rows(V, o, j, nt):
 
 
 def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, rec_every, slots,
-           rec, acc, zz, zzt, status, qt, qv, simd, vaddr, laddr, ki, sconst):
+           rec, acc, zz, zzt, status, qt, qv, simd, vaddr, laddr, ki, sconst, hold_m, hold_w):
     """Integrate lanes lo..hi-1 (at most :data:`CH`) together: one task of
     :func:`usvid.sim.core.run` (module docstring).
 
@@ -335,6 +337,11 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     :data:`usvid.sim.layout.KINFO`. ``sconst``: the input series are the environment's only
     and constant in time (a constant current, wind, force): loaded once, at the start, so that
     the lanes may be quiet (as in calm water) instead of taking phase 1 at every step.
+    ``hold_m`` > 0 (a batch with wind loads or wave drift): the multirate hold of the
+    state-dependent loads, evaluated at the start of every ``hold_m``-th step and held, or
+    (``hold_w`` = 1) linearly extrapolated from the last two evaluations to each step's
+    midpoint (:func:`usvid.sim.lane._holdget`); the driver writes the hold's control row
+    (:data:`usvid.sim.layout.HOLD_CTRL`) the vector and per-lane steps read.
     """
     ns = ki[KNS]
     npk = ki[KNPK]
@@ -354,6 +361,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             none = np.nan if i < SFORCE else 0.0
             V[(VF + i) * CH + j] = none
             V[(VF + NSER + i) * CH + j] = none
+        V[(VH + 8) * CH + j] = -1.0  # the step of the last load evaluation: none yet
     act = np.zeros(W, dtype=np.bool_)
     simple = np.zeros(W, dtype=np.bool_)
     rngs = np.zeros(W, dtype=np.uint64)
@@ -427,6 +435,12 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         t = k * dt
         t1 = t + dt
         recnow = k % rec_every == 0
+        if hold_m > 0:  # the multirate hold's control row (:data:`usvid.sim.layout.HOLD_CTRL`)
+            kr = k % hold_m
+            V[VC * CH] = 1.0 if kr == 0 else 0.0
+            V[VC * CH + 1] = k
+            V[VC * CH + 2] = hold_w * (kr + 0.5) * dt
+            V[VC * CH + 3] = 0.0 if k == 0 else hold_w / (hold_m * dt)
         jrec = k // rec_every
         # -- quiet lanes (no logic and no event at the start of or inside the step: the
         # per-lane branches below would do nothing but the record and max |delta|) --

@@ -99,6 +99,10 @@ SIMD = True
 #: Set to True to use the generic variant of the vector step (any servo kind, disturbance,
 #: series, with x and y; see :func:`vector_step`) for every batch.
 FORCE_GENERIC = False
+#: The multirate hold of the state-dependent environment loads (:func:`run`): linearly
+#: extrapolated from the last two evaluations (second order), else a zero-order hold of the
+#: last evaluation (first order; kept for the accuracy comparison of the tests).
+LOAD_EXTRAPOLATE = True
 
 
 def kernel(kind: ModelKind) -> KindCode:
@@ -120,7 +124,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         Dq: np.ndarray, SER: np.ndarray, sidx: np.ndarray, Z: np.ndarray, nsteps: np.ndarray,
         dt: float, rec_every: int, slots: np.ndarray, rec: np.ndarray, acc: np.ndarray,
         zz: np.ndarray, zzt: np.ndarray, status: np.ndarray, qcap: int,
-        chunk: int = CH, wind: bool = False) -> None:
+        chunk: int = CH, wind: bool = False, load_every: int = 1,
+        load_extrapolate: bool | None = None) -> None:
     """Integrate all lanes of ``Z`` (in place) and fill the outputs.
 
     Arrays are lane-major (a lane's parameters, state and work values contiguous): ``P``
@@ -135,8 +140,11 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     disturbance or input series, whether x or y is recorded, and each chunk's switch value.
     ``wind``: ``P`` carries the environment block (:data:`usvid.sim.layout.ENVBLOCK`) after the
     kind's parameters: the per-lane step of :func:`usvid.sim.specialise.wind_step` and the
-    vector step's wind variant (its loads held over each step, :func:`usvid.sim.lane._heldload`,
-    vectorised across the lanes like the rest of the step).
+    vector step's wind variant (its loads vectorised across the lanes like the rest of the
+    step), with the multirate hold (:func:`usvid.sim.lane._heldload`): the loads
+    evaluated at the start of every ``load_every``-th step and, with ``load_extrapolate``,
+    linearly extrapolated from the last two evaluations to each step's midpoint, else held
+    (:func:`usvid.sim.lane._holdget`).
     """
     B, nz = Z.shape
     chunk = max(1, min(chunk, CH))
@@ -160,6 +168,10 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     used = [i for i in range(NSER) if sidx[i] >= 0]
     sconst = bool(used) and min(used) >= SFORCE and all(
         bool(np.all(SER[sidx[i]] == SER[sidx[i], :, :1])) for i in used)
+    hold_m = max(1, int(load_every)) if wind else 0
+    if load_extrapolate is None:
+        load_extrapolate = bool(LOAD_EXTRAPOLATE)
+    hold_w = 1.0 if (wind and load_extrapolate) else 0.0
     starts = list(range(0, B, chunk))
     vaddr = dict.fromkeys(starts, 0)
     if simd:
@@ -192,7 +204,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
     def task(lo: int) -> None:
         drive(lo, min(B, lo + chunk), P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps,
               dt, rec_every, slots, rec, acc, zz, zzt, status, qt, qv, simd, vaddr[lo],
-              lstep, kinfo, sconst)
+              lstep, kinfo, sconst, hold_m, hold_w)
 
     threads = min(numba.get_num_threads(), len(starts))
     if threads <= 1:

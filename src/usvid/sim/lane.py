@@ -37,7 +37,9 @@ from usvid.sim.layout import (
     JW1,
     JW2,
     NOF,
+    VC,
     VF,
+    VH,
     VNOISE,
     VS,
     VT,
@@ -174,25 +176,28 @@ def _deriv(p, fe, tau, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z):
 
 
 def _heldload(p, pe, z, tau, fs, cps, sps):
-    """The state-dependent environment loads (X, Y, K, N) held over an RK4 (sub-)step: those of
-    the joint state ``z`` at its start (the fraction ``tau`` of the step: the current and the
-    true wind of the first-order-hold series ``fs`` there), the heading's cosine ``cps`` and
-    sine ``sps`` (:func:`_envload`). The one definition of the hold, for the per-lane step and
-    the vector step (:mod:`usvid.sim.vector`).
+    """The state-dependent environment loads (X, Y, K, N) of the joint state ``z`` at the
+    fraction ``tau`` of the step (the current and the true wind of the first-order-hold series
+    ``fs`` there), the heading's cosine ``cps`` and sine ``sps`` (:func:`_envload`): one
+    evaluation of the multirate hold (:func:`_holdset`, :func:`_holdget`). The one definition
+    for the per-lane step and the vector step (:mod:`usvid.sim.vector`).
 
-    A zero-order hold of the wind and wave-drift forcing over the step (the hull, rudder,
-    servo and kinematics keep classical RK4): the loads' variation within a step, through the
-    vessel's velocity and heading, is left out, a first-order error in dt of the forcing
-    alone. Chosen by measurement (the 3-DOF zig-zag of ``benchmarks/bench_sim.py --wind``, load
-    averages 11-15): evaluated at every stage, the loads made the step 4.2-4.9x the calm
+    The multirate hold of the wind and wave-drift forcing (the hull, rudder, servo and
+    kinematics keep classical RK4): the loads are evaluated at the start of every m-th step
+    (m = max(1, round(load_interval / dt)), :func:`usvid.sim.simulate.load_every`; the
+    ``Environment.load_interval``, default 0.1 s), linearly extrapolated from the last two
+    evaluations to each step's midpoint and held over the step (a multirate scheme, second
+    order in the interval: Gear & Wells 1984 for multirate integration). Chosen by
+    measurement: evaluated at every RK4 stage, the loads made the step 4.2-4.9x the calm
     step's cost (four evaluations of the apparent and of the still air's loads, each a square
-    root and four divisions in the stage's dependency chain); held (with the cheaper
-    Blendermann form and the leaner variant), 2.2x. A 35 deg turning of the Lanxin 3-DOF model
-    in an 8 m/s wind and a 0.5 m/s current at the default dt = 0.02 s moves advance, transfer
-    and tactical diameter by 1e-5 to 2e-4 of their values from the per-stage evaluation and
-    the IMO drift by 3e-5 m/s, halving with dt (tests/test_sim_wind_hold.py, against the
-    continuous model), far below what the wind-load coefficients are known to (Blendermann
-    1994: 10-20 %)."""
+    root and four divisions in the stage's dependency chain); once per step and held over it,
+    1.8-2.3x. A 35 deg turning of the Lanxin 3-DOF model in an 8 m/s wind and a 0.5 m/s
+    current at the default dt = 0.02 s and interval 0.1 s moves advance, transfer and
+    tactical diameter by at most 3e-5 of their values from the continuous model's (the loads
+    of every step's start held over it: 1.9e-4; the last evaluation held over 0.1 s: 9.4e-4)
+    and the IMO drift by 4e-5 m/s; the error falls by four when the interval halves
+    (tests/test_sim_wind_hold.py), far below what the wind-load coefficients are known to
+    (Blendermann 1994: 10-20 %)."""
     uw = z[ZU] if ZU >= 0 else p[SPEEDROW]
     vw = z[ZV] if ZV >= 0 else 0.0
     cx = fs[8] + tau * (fs[20] - fs[8])
@@ -201,14 +206,42 @@ def _heldload(p, pe, z, tau, fs, cps, sps):
                     uw * cps - vw * sps + cx, uw * sps + vw * cps + cy, cps, sps)
 
 
-def _rk4(p, pe, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
+def _holdset(V, j, fn, g, kf, ok):
+    """Lane slot j's held-load rows (:data:`usvid.sim.layout.HOLD_ROWS`) after an evaluation of
+    the loads ``fn`` (X, Y, K, N) at the start of step ``kf``: the rate from the previous
+    evaluation, (fn - F) g (``g``: the extrapolation's weight over the evaluation interval
+    [1/s], 0 at the first evaluation), then fn. The one definition for both paths. Not ``ok``
+    (the vector step's heading base NaN, the lane then flagged): the rows kept (selects, no
+    branch), so that the per-lane step evaluates the loads itself."""
+    o = VH * CH + j
+    f0 = V[o]
+    f1 = V[o + CH]
+    f2 = V[o + 2 * CH]
+    f3 = V[o + 3 * CH]
+    V[o + 4 * CH] = (fn[0] - f0) * g if ok else V[o + 4 * CH]
+    V[o + 5 * CH] = (fn[1] - f1) * g if ok else V[o + 5 * CH]
+    V[o + 6 * CH] = (fn[2] - f2) * g if ok else V[o + 6 * CH]
+    V[o + 7 * CH] = (fn[3] - f3) * g if ok else V[o + 7 * CH]
+    V[o] = fn[0] if ok else f0
+    V[o + CH] = fn[1] if ok else f1
+    V[o + 2 * CH] = fn[2] if ok else f2
+    V[o + 3 * CH] = fn[3] if ok else f3
+    V[o + 8 * CH] = kf if ok else V[o + 8 * CH]
+
+
+def _holdget(V, j, s):
+    """Lane slot j's loads held over the step (X, Y, K, N): those of the last evaluation plus
+    ``s`` [s] (the time from it to the step's midpoint times the extrapolation's weight, 0 for
+    a zero-order hold) times their rate (:func:`_holdset`)."""
+    o = VH * CH + j
+    return (V[o] + s * V[o + 4 * CH], V[o + CH] + s * V[o + 5 * CH],
+            V[o + 2 * CH] + s * V[o + 6 * CH], V[o + 3 * CH] + s * V[o + 7 * CH])
+
+
+def _rk4(p, fe, z, h, tau0, frac, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr):
     """One classical RK4 step of length h [s] from z, covering the fractions tau0 .. tau0 +
     frac of the current step (for the first-order-hold series); with WIND the state-dependent
-    environment loads of its start held over it (:func:`_heldload`)."""
-    fe = NOF
-    if WIND:
-        cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
-        fe = _heldload(p, pe, z, tau0, fs, cps, sps)
+    environment loads ``fe`` held over it (:func:`_substeps`)."""
     k1 = _deriv(p, fe, tau0, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, z)
     tm = tau0 + 0.5 * frac
     k2 = _deriv(p, fe, tm, srv, w0, w1, w2, cmdin, ramp, noise, fs, tr, _axpy(z, 0.5 * h, k1))
@@ -226,6 +259,14 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
     pe = _etup(V, j)
     srv, fs, tr = _inputs(V, j)
     noise = V[VNOISE * CH + j]
+    fe = NOF
+    if WIND:  # the multirate hold: evaluated at this step's start unless the vector step did
+        # (the control row VC, written by the driver), then held over the whole step
+        c = VC * CH
+        if V[c] > 0.0 and V[(VH + 8) * CH + j] != V[c + 1]:
+            cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
+            _holdset(V, j, _heldload(p, pe, z, 0.0, fs, cps, sps), V[c + 3], V[c + 1], True)
+        fe = _holdget(V, j, V[c + 2])
     ma = srv[0]
     mr = srv[1]
     cap = qt.shape[1]
@@ -241,7 +282,7 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
             what = 2
         if tb > tc + eps:
             te = min(tb, t1)
-            z = _rk4(p, pe, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
+            z = _rk4(p, fe, z, te - tc, (tc - t) * idt, (te - tc) * idt, srv, w0, w1, w2,
                      cmdin, ramp, noise, fs, tr)
             tc = te
         if what == 1 and tb <= t1 + eps:

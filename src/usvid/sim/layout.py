@@ -5,7 +5,8 @@ slot ``j`` is ``V[R * CH + j]`` (:data:`CH` lanes per chunk). The rows, in this 
 
 * the logic variables (:data:`LOGIC`, rows ``VL + L...``), the servo values (:data:`SERVO`),
   the command in force, the ramp rate and the step's noise sample, the first-order-hold input
-  series at the step's two ends (:data:`SERIES_ROWS`), the trig bases (:data:`TRIG_ROWS`): the
+  series at the step's two ends (:data:`SERIES_ROWS`), the trig bases (:data:`TRIG_ROWS`), the
+  held environment loads and the hold's control row (:data:`HOLD_ROWS`, :data:`HOLD_CTRL`): the
   same rows for every kind;
 * the joint state (:func:`joint_names`): x, y, psi, the servo angle and rate, the disturbance
   filter (w1, w2), then the kind's own states, by name;
@@ -90,6 +91,18 @@ SERVO = ("max_angle", "max_rate", "t_or_wn", "zeta", "gain", "delay", "inv_t")
 SERIES_ROWS = 2 * NSER
 #: Trig-base rows: heading angle, cos, sin; steering angle, cos, sin (at the step start).
 TRIG_ROWS = 6
+#: Held-load rows of a batch with wind loads or wave drift (the multirate hold,
+#: :func:`usvid.sim.lane._heldrows`): the loads X, Y, K, N of the last evaluation, their rates
+#: [per s] from the evaluation before, and the step index of the last evaluation; both paths
+#: (per-lane, vector) read and write these rows, so that a lane's loads do not depend on which
+#: path ran a step.
+HOLD_ROWS = 9
+#: The hold's control row (slots 0-3, the same for every lane of a chunk, written by the
+#: driver at every step): 1 when the loads are evaluated at this step's start (else 0), the
+#: step index, the time [s] from the last evaluation to the step's midpoint times the
+#: extrapolation's weight (0: a zero-order hold), and the weight over the evaluation
+#: interval [1/s] (0 at the first evaluation: no rate yet).
+HOLD_CTRL = ("refresh", "step", "offset", "rate_scale")
 
 SERVO_ROWS = len(SERVO)
 
@@ -103,8 +116,11 @@ VRAMP = VCMD + 1
 VNOISE = VRAMP + 1
 VF = VNOISE + 1
 VT = VF + SERIES_ROWS
+#: First held-load row (:data:`HOLD_ROWS`) and the hold's control row (:data:`HOLD_CTRL`).
+VH = VT + TRIG_ROWS
+VC = VH + HOLD_ROWS
 #: First row of the joint state.
-VZ = VT + TRIG_ROWS
+VZ = VC + 1
 
 #: The joint state's rows common to every kind (positions in the lane's tuple), then the kind's
 #: states from position :data:`JS`.

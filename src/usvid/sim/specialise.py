@@ -48,17 +48,19 @@ from usvid.sim.scalar import _FM
 INLINE_MAX_PARAMS = 40
 
 #: The per-lane path's templates (:mod:`usvid.sim.lane`); the C callback :func:`lane._lstep`.
-LANE_TEMPLATES = ("_inputs", "_heldload", "_deriv", "_rk4", "_substeps")
+LANE_TEMPLATES = ("_inputs", "_heldload", "_holdset", "_holdget", "_deriv", "_rk4",
+                  "_substeps")
 #: The vector path's templates (:mod:`usvid.sim.vector`); the C callback :func:`vector._vstep`.
-VECTOR_TEMPLATES = ("_steer", "_heldload", "_hbase", "_vheld", "_vderiv", "_vrk4")
+VECTOR_TEMPLATES = ("_steer", "_heldload", "_holdset", "_holdget", "_hbase", "_vheld",
+                    "_vderiv", "_vrk4")
 #: The generated joint-state helpers of a vector-step variant (:func:`layout.joint_helpers`).
 VARIANT_HELPERS = ("_vaxpy", "_vrk4sum", "_vput")
 #: Templates inlined by LLVM where they are called (tuples only: no reference counting; numba's
 #: own inlining, inline="always", copies the IR at every call site, most of the compile time).
 #: ``_deriv`` stays out of line in the per-lane step (integrating only the steps with an event
 #: inside, or lanes the vector step does not take): a quarter of the compile work.
-_FORCEINLINE = ("_rk4", "_heldload", "_hbase", "_vheld", "_inputs", "_substeps", "_steer",
-                "_vderiv", "_vrk4", "_chval", "_finite_rows")
+_FORCEINLINE = ("_rk4", "_heldload", "_holdset", "_holdget", "_hbase", "_vheld", "_inputs",
+                "_substeps", "_steer", "_vderiv", "_vrk4", "_chval", "_finite_rows")
 
 _MODULES = (_scalar, _layout, _lane_mod, _vector_mod, _chunk_mod)
 #: The modules of the environment's numba functions the templates compile into themselves
@@ -270,8 +272,9 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     servo kind (``sk`` -1: the per-lane path's blend), disturbance, series, x and y.
 
     ``wind``: the variant of a batch with the state-dependent environment (wind loads, wave
-    drift; the chunk array of :func:`wind_step`, its ``kinfo``), the loads computed at every
-    RK4 stage by the per-lane step's own function (:func:`usvid.sim.lane._envload`), with the
+    drift; the chunk array of :func:`wind_step`, its ``kinfo``), the loads computed by the
+    per-lane step's own function (:func:`usvid.sim.lane._envload`) at the steps of the
+    multirate hold and extrapolated between (:func:`usvid.sim.lane._holdget`), with the
     series and x, y (the heading's rotation); without it the variants compile as if the
     environment code did not exist (``WIND`` a compile-time False). ``wcode``: the wind-load
     model's code (:mod:`usvid.models.environment.wind_loads`) common to the batch's lanes, a

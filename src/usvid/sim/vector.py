@@ -6,9 +6,10 @@ its address): the trig bases, one RK4 step (:func:`_vrk4` of :func:`_vderiv`) an
 the step of every lane slot, with the lane loop innermost so that LLVM vectorises it (SIMD);
 the right-hand side of the kind is inlined. A variant fixes at compile time the servo kind
 (``SK``), the absence of disturbance and input series (``NOD``), whether x and y are
-integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the loads of the
-step's start held over it, :func:`usvid.sim.lane._heldload`, computed for every lane in a loop
-of their own before the step's, no library call in it, so both loops vectorise) and, for a
+integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the multirate
+hold of the loads, :func:`usvid.sim.lane._heldload`, evaluated for every lane in a loop of
+their own before the step's at the steps the driver says and extrapolated at every step, no
+library call in them, so the loops vectorise) and, for a
 kind with a switch row, its value (a literal in ``_ptup``).
 
 Globals the specialisation sets: the kind's ``rhs``, ``TRIG``, the layout constants (``VB``,
@@ -22,7 +23,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from usvid.sim.lane import _heldload
+from usvid.sim.lane import _heldload, _holdget, _holdset
 from usvid.sim.layout import (
     CH,
     DIST_A0,
@@ -48,6 +49,7 @@ from usvid.sim.layout import (
     RPSI,
     RW2,
     SFORCE,
+    VC,
     VCMD,
     VF,
     VL,
@@ -65,7 +67,7 @@ from usvid.sim.scalar import _clip, _rot_nan, _rotv
 #: recorded: no other quantity depends on them, and with them goes the heading's rotation).
 SK, NOD, XY = 2, False, True
 #: Variant constant: the batch has wind loads or wave drift (the environment block after the
-#: kind's parameters, ``_etup``; the loads of the step's start held over it,
+#: kind's parameters, ``_etup``; the loads' multirate hold,
 #: :func:`usvid.sim.lane._heldload`), with x, y (XY) and the environment's series (force,
 #: current, wind: with WIND, NOD means no disturbance and no delta or n series only).
 WIND = False
@@ -119,7 +121,7 @@ def _hbase(V, j):
 
 
 def _vheld(V, j, c0, s0, pe):
-    """Lane slot j's environment loads held over the step (:func:`usvid.sim.lane._heldload`)
+    """Lane slot j's environment loads (an evaluation of the hold, :func:`usvid.sim.lane._heldload`)
     at the step start: its joint state, its environment block ``pe`` (``_etup``), the
     environment series there and the cosine ``c0`` and sine ``s0`` of its heading
     (:func:`_hbase`)."""
@@ -203,7 +205,7 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
             cd, sd, hm = _rotv(de, tr[3], tr[4], tr[5])
     if WIND and STEADY:  # the series' force and the held loads (:func:`_vstep`)
         f = fe
-    elif WIND:  # the loads of the step's start, held (:func:`usvid.sim.lane._heldload`)
+    elif WIND:  # the loads held over the step (:func:`usvid.sim.lane._heldload`)
         f = (f[0] + fe[0], f[1] + fe[1], f[2] + fe[2], f[3] + fe[3])
     u, v, r, ds = rhs(p, _states(z), (de, cd, sd, n0, n1, n2), f)
     k0 = 0.0
@@ -235,7 +237,7 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
 
 def _vrk4(p, fe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
     """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``; with WIND the
-    environment's loads of its start held over it, :func:`usvid.sim.lane._heldload`); the heading
+    environment's loads ``fe`` held over it, :func:`usvid.sim.lane._heldload`); the heading
     is NaN when an angle moved more than 0.05 rad from its base (the lane is then flagged)."""
     k1, m1 = _vderiv(p, fe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
     tm = 0.5 * frac
@@ -286,37 +288,43 @@ def _vstep(Vp, h, frac, zig, sk):
     w1 = 1.0 if sk == 1.0 else 0.0
     w2 = 1.0 if sk == 2.0 else 0.0
     nslow = 0.0
-    if WIND:  # the heading's bases and the held loads of every lane first (:func:`_vheld`),
-        # the loads into the scratch rows VB.. (read below before they are overwritten)
-        pe0 = _etup(V, 0)  # (SHARED: every lane's)
-        for j in range(NLANES):
-            o = VT * CH + j
-            a, c0, s0 = _hbase(V, j)
-            V[o] = a
-            V[o + CH] = c0
-            V[o + 2 * CH] = s0
-            fe = _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j))
-            if STEADY:  # the series' force (constant) plus the loads, as :func:`_vderiv` adds
-                o = (VF + SFORCE) * CH + j
-                fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
-                      V[o + 3 * CH] + fe[3])
-            V[VB * CH + j] = fe[0]
-            V[(VB + 1) * CH + j] = fe[1]
-            V[(VB + 2) * CH + j] = fe[2]
-            V[(VB + 3) * CH + j] = fe[3]
+    fe = NOF
+    sh = 0.0
+    if WIND:  # the multirate hold (:func:`usvid.sim.lane._holdset`,
+        # :func:`usvid.sim.lane._holdget`; the control row VC the driver wrote, read before
+        # the loops): at the steps the driver says, the loads of every lane evaluated first
+        # (:func:`_vheld`), in a loop of their own (the other steps' loop has no evaluation);
+        # the heading's bases there as in the step's loop (not stored: the same values)
+        c = VC * CH
+        sh = V[c + 2]
+        if V[c] > 0.0:
+            pe0 = _etup(V, 0)  # (SHARED: every lane's)
+            kf = V[c + 1]
+            g = V[c + 3]
+            for j in range(NLANES):
+                a, c0, s0 = _hbase(V, j)
+                _holdset(V, j, _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j)), g, kf,
+                         not np.isnan(c0))
     for j in range(NLANES):
         a = V[RPSI * CH + j]
         c0 = 1.0
         s0 = 0.0
-        if WIND:  # (the bases of the loop above)
-            c0 = V[(VT + 1) * CH + j]
-            s0 = V[(VT + 2) * CH + j]
-        elif XY:
+        if WIND or XY:
             o = VT * CH + j
             a, c0, s0 = _hbase(V, j)
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
+        if WIND:  # the loads held over the step; NaN with the heading's base (0 c0 is NaN
+            # then, else a zero: X unchanged), so that such a lane's result is not finite and
+            # the per-lane step takes the step (and evaluates the loads if due): without x, y
+            # nothing else in the step reads the base, and held loads would go on unrefreshed
+            fe = _holdget(V, j, sh)
+            fe = (fe[0] + 0.0 * c0, fe[1], fe[2], fe[3])
+            if STEADY:  # the series' force (constant) plus the loads, as :func:`_vderiv` adds
+                o = (VF + SFORCE) * CH + j
+                fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
+                      V[o + 3 * CH] + fe[3])
         x7 = V[RDL * CH + j]
         ma = V[VS * CH + j]
         d = ma if x7 > ma else (-ma if x7 < -ma else x7)  # _clip, as selects
@@ -355,10 +363,6 @@ def _vstep(Vp, h, frac, zig, sk):
                   V[o + 19 * CH], V[o + 20 * CH], V[o + 21 * CH], V[o + 22 * CH],
                   V[o + 23 * CH])
         z = _ztup(V, j)
-        fe = NOF
-        if WIND:
-            fe = (V[VB * CH + j], V[(VB + 1) * CH + j], V[(VB + 2) * CH + j],
-                  V[(VB + 3) * CH + j])
         y = _vrk4(_ptup(V, j), fe, z, h, frac, srv, V[VCMD * CH + j],
                   V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
         quiet = V[(VL + LQ) * CH + j] > 0.0
