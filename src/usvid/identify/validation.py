@@ -30,7 +30,9 @@ trials' manoeuvres and comparing them with the measured ones):
   metrics of :func:`usvid.identify.metrics.replay_metrics`, the estimator's own definition: a
   replay that diverged has an infinite RMS and ``diverged_at_s`` says when) and the RMS and
   largest distance between the measured and the replayed track [m]
-  (e_track = sqrt((x - x_hat)^2 + (y - y_hat)^2)).
+  (e_track = sqrt((x - x_hat)^2 + (y - y_hat)^2)). A log with wind is replayed in its logged
+  wind through the model's wind loads, as the windowed metrics and the fit
+  (:func:`usvid.sim.replay.logged_wind`; ``wind`` says which air the replay ran in and why).
 * **metrics**: the windowed fit metrics of the replay (multiple shooting over ``window_s``, the
   model's identification window; per output channel rmse, nrmse, r2, max_error in SI units),
   as the estimator reports them for its training data.
@@ -76,7 +78,7 @@ from usvid.models.model import VesselModel
 from usvid.models.registry import kind_of
 from usvid.models.uncertainty import Uncertainty
 from usvid.prep.prepare import PreparedTrial, as_prepared
-from usvid.sim.replay import Windows, make_windows, replay_windows, window_lanes
+from usvid.sim.replay import Windows, logged_wind, make_windows, replay_windows, window_lanes
 from usvid.sim.runs import run_turning, run_zigzag
 from usvid.sim.simulate import approach_speed
 from usvid.trial import Trial
@@ -342,7 +344,8 @@ def replay_band(model: VesselModel, trial: Trial, uncertainty: Uncertainty, *,
     (1 - level)/2 .. (1 + level)/2 quantile at each instant. Returns ``psi_lo``, ``psi_hi``
     [rad], ``r_lo``, ``r_hi`` [rad/s] on the replay grid, ``draws``, ``redrawn`` and
     ``failed`` (empty when no draw is valid). ``water``: the current and biases the replay runs
-    in, as the trial's validation row (:attr:`TrialValidation.water`; None: calm)."""
+    in, as the trial's validation row (:attr:`TrialValidation.water`; None: calm); the logged
+    wind as the row's replay (:func:`usvid.sim.replay.logged_wind`)."""
     trial = as_prepared(trial, derivatives=False)
     fr = _free_run(model, trial, water)
     win = _windows(fr, None)
@@ -362,6 +365,7 @@ def replay_band(model: VesselModel, trial: Trial, uncertainty: Uncertainty, *,
                   init={k: np.repeat(v, B) for k, v in win.init.items()},
                   trial_index=np.zeros(B, dtype=int), start=np.zeros(B, dtype=int))
     sim = window_lanes(fr.kind, P, model.dynamics, rep, channels=("psi", "r"),
+                       env_block=logged_wind(model, rep)[0],
                        environment=fr.environment(rep)).run().channels
     q = [100 * (1 - level) / 2, 100 * (1 + level) / 2]
     out: dict[str, Any] = {"draws": int(draws), "redrawn": sample.redrawn,
@@ -379,11 +383,12 @@ def _replay(model: VesselModel, trial: PreparedTrial, out: TrialValidation,
     win = _windows(fr, None)
     chans = ["psi", "r", "x", "y"] + [c for c in ("u", "v") if c in win.outputs]
     P = fr.kind.pack(model.dynamics, fr.speed)
-    sim = window_lanes(fr.kind, P, model.dynamics, win, channels=chans,
+    env, wind = logged_wind(model, win)
+    sim = window_lanes(fr.kind, P, model.dynamics, win, channels=chans, env_block=env,
                        environment=fr.environment(win)).run().channels
     t = fr.dec["t"]
     fit = replay_metrics({c: sim[c] for c in win.outputs if c in sim}, win.outputs)
-    rep: dict[str, Any] = {"duration_s": float(t[-1] - t[0])}
+    rep: dict[str, Any] = {"duration_s": float(t[-1] - t[0]), "wind": wind}
     rep["psi_rms_deg"] = math.degrees(fit["psi"]["rmse"])
     rep["r_rms_deg_s"] = math.degrees(fit["r"]["rmse"])
     if "u" in fit:

@@ -52,6 +52,7 @@ LABELS: dict[str, tuple[str, str]] = {
     "track_max_m": ("track error, largest", "m"),
     "duration_s": ("replayed duration", "s"),
     "diverged_at_s": ("free run diverged after", "s"),
+    "wind": ("replayed in", ""),
 }
 
 PRINT_CSS = """

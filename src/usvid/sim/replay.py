@@ -197,10 +197,25 @@ def replay_windows(model: VesselModel, win: Windows,
     else:  # the model's own approach speed (an error when it has none, never an assumed one)
         speed = approach_speed(model, None)
     P = kind.pack(model.dynamics, speed)
-    env = wind_block(model) if wind and "wind_x" in win.inputs else None
+    env = logged_wind(model, win)[0] if wind else None
     out = window_lanes(kind, P, model.dynamics, win, channels=chans, env_block=env,
                        environment=environment).run()
     return {c: out.channels[c] for c in chans}
+
+
+def logged_wind(model: VesselModel, win: Windows) -> tuple[np.ndarray | None, str]:
+    """How ``win`` is replayed with ``model`` in its logged wind: (the environment block of the
+    model's wind loads, :func:`wind_block`, or None for calm air; what was done and why, the
+    text a replay's row states). The windows carry the logged true wind as the air's velocity
+    over ground (``wind_x``, ``wind_y``) when the log has it; a model without wind loads (a
+    response kind, a vessel without windage particulars) replays them in calm air."""
+    if "wind_x" not in win.inputs:
+        return None, "calm air: no wind logged"
+    env = wind_block(model)
+    if env is None:
+        return None, ("calm air: wind logged, but the model has no wind loads (a response kind, "
+                      "or its vessel lacks the windage particulars)")
+    return env, "the logged wind"
 
 
 def wind_block(model: VesselModel) -> np.ndarray | None:
@@ -218,5 +233,5 @@ def wind_block(model: VesselModel) -> np.ndarray | None:
     return blk
 
 
-__all__ = ["WIND_SERIES", "Windows", "make_windows", "replay_windows", "wind_block",
-           "window_initial_state", "window_lanes"]
+__all__ = ["WIND_SERIES", "Windows", "logged_wind", "make_windows", "replay_windows",
+           "wind_block", "window_initial_state", "window_lanes"]
