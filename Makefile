@@ -24,14 +24,17 @@ $(TSTAMP): pyproject.toml | $(BIN)/python
 demo: $(STAMP)
 	$(BIN)/usvid demo --out demo-out
 
-# the suite runs on every core (pytest-xdist; one test file per worker keeps module fixtures whole)
+# the suite runs on every core (pytest-xdist; one test file per worker keeps module fixtures whole).
+# It writes Python's bytecode caches even where PYTHONDONTWRITEBYTECODE is set (an empty value
+# unsets it): without them every worker rewrites and compiles each test module's assertions again
+# (~8 s CPU per worker) and every command the tests start compiles usvid again.
 test: $(TSTAMP) browser
-	$(BIN)/python -m pytest -n auto --dist loadfile
+	PYTHONDONTWRITEBYTECODE= $(BIN)/python -m pytest -n auto --dist loadfile
 
 # the loaders' fuzzing alone: 10,000 seeded examples per loader and per message-log format
 # (make test runs the first 2,000 of each; see tests/fuzzing.py and tests/test_fuzz_messages.py)
 fuzz: $(TSTAMP)
-	USVID_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -n auto -m fuzz
+	PYTHONDONTWRITEBYTECODE= USVID_FUZZ_EXAMPLES=10000 $(BIN)/python -m pytest -n auto -m fuzz
 
 # Headless Chromium (Debian's package) for the report's browser test; best effort: where it cannot
 # be installed (not root, no apt) the browser test is skipped with the reason.
