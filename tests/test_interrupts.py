@@ -15,9 +15,11 @@ USVID_HEAVY_TESTS=1, the real ``demo --quick`` at N_KILLS + N_REAL_KILLS random 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import multiprocessing
 import os
+import select
 import shutil
 import signal
 import subprocess
@@ -368,32 +370,80 @@ def test_concurrent_identify_to_one_output(log, tmp_path) -> None:
     assert [p.name for p in tmp_path.iterdir()] == ["m.json"]
 
 
+def _fork_cli(argv: list[str], setup, err: Path) -> tuple[int, int]:
+    """Fork a child that runs ``usvid ARGV`` (``main``, as ``sys.exit(main(ARGV))`` in a
+    process of its own runs it: Python's SIGINT handler, the CLI's SIGTERM handler) after
+    ``setup(ready)``, ``ready()`` writing a line to the pipe whose read end is returned with the
+    pid; its stderr goes to the file ``err``, its stdout to /dev/null. A fork of this process
+    (modules imported) rather than a new interpreter: ~3 s of CPU less a run."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child
+        code = 1
+        try:
+            os.close(r)
+            numba_parallel._backend_init_process_lock = multiprocessing.RLock()  # (_fork_run)
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
+            os.dup2(os.open(err, os.O_WRONLY | os.O_CREAT | os.O_TRUNC), 2)
+            sys.stdout = open(1, "w", closefd=False)  # (not pytest's capture)
+            sys.stderr = open(2, "w", buffering=1, closefd=False)
+            warnings.simplefilter("ignore")
+            setup(lambda: os.write(w, b"ready\n"))
+            code = main(argv)
+        finally:
+            with contextlib.suppress(Exception):
+                sys.stderr.flush()
+            os._exit(code)
+    os.close(w)
+    return pid, r
+
+
+def _ready(r: int, timeout: float = 120.0) -> bytes:
+    """The first line the child writes to the pipe ``r`` (b"" when it ended without one)."""
+    buf = b""
+    deadline = time.monotonic() + timeout
+    while not buf.endswith(b"\n") and time.monotonic() < deadline:
+        if select.select([r], [], [], 0.1)[0]:
+            chunk = os.read(r, 64)
+            if not chunk:
+                break
+            buf += chunk
+    return buf.strip()
+
+
 def test_ctrl_c_exits_130(log, tmp_path) -> None:
-    """A real Ctrl-C (SIGINT to a separate ``usvid`` process) in the middle of a command: exit
-    code 130, one line, no traceback."""
+    """A real Ctrl-C (SIGINT to the ``usvid`` process, a child of this one) in the middle of a
+    command: exit code 130, one line, no traceback."""
     csv, spec = log
-    code = ("import signal, sys, time\n"
-            "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
-            "from usvid.cli import main\n"
-            "import usvid.identify.estimator as e\n"
-            "orig = e.ModelEstimator.fit\n"
-            "def slow(self, *a, **k):\n"
-            "    print('fitting', flush=True); time.sleep(60)\n"
-            "e.ModelEstimator.fit = slow\n"
-            f"sys.exit(main(['identify', {str(csv)!r}, '--format', {str(spec)!r}, '--model', "
-            f"'nomoto1', '--out', {str(tmp_path / 'm.json')!r}]))\n")
-    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, cwd=REPO)
+    out = tmp_path / "out"
+    out.mkdir()
+    err = tmp_path / "stderr.txt"
+
+    def setup(ready) -> None:
+        import usvid.identify.estimator as e
+
+        def slow(self, *a, **k):
+            ready()
+            time.sleep(60)
+
+        e.ModelEstimator.fit = slow
+
+    pid, r = _fork_cli(["identify", str(csv), "--format", str(spec), "--model", "nomoto1",
+                        "--out", str(out / "m.json")], setup, err)
     try:
-        assert proc.stdout.readline().strip() == b"fitting"
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
+        assert _ready(r) == b"ready", err.read_text()
+        os.kill(pid, signal.SIGINT)
+        code = _wait(pid, 60.0)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 130
-    assert err.decode().strip() == "usvid: interrupted"
-    assert not (tmp_path / "m.json").exists()
+        os.close(r)
+        with contextlib.suppress(ChildProcessError, ProcessLookupError):
+            if os.waitpid(pid, os.WNOHANG)[0] == 0:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+    assert code == 130
+    assert err.read_text().strip() == "usvid: interrupted"
+    assert not (out / "m.json").exists()
 
 
 def _child(code: str, **kw) -> subprocess.Popen:
@@ -418,36 +468,52 @@ def test_sigterm_exits_143_like_ctrl_c(log, tmp_path) -> None:
     SIGTERM between writing the output's temporary file and renaming it removes the temporary
     file (the fsync is held back to reach that moment)."""
     csv, spec = log
-    out = tmp_path / "m.json"
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    out = out_dir / "m.json"
+    err = tmp_path / "stderr.txt"
     for stage in ("fit", "fsync"):
-        code = ("import os, sys, time\n"
-                "from usvid.cli import main\n"
-                "import usvid.identify.estimator as e, usvid.files as f\n"
-                f"stage = {stage!r}\n"
-                "orig_fit, orig_fsync = e.ModelEstimator.fit, os.fsync\n"
-                "def fit(self, *a, **k):\n"
-                "    if stage == 'fit':\n"
-                "        print('ready', flush=True); time.sleep(60)\n"
-                "    return orig_fit(self, *a, **k)\n"
-                "def fsync(fd):\n"
-                "    print('ready', flush=True); time.sleep(60)\n"
-                "e.ModelEstimator.fit = fit\n"
-                "if stage == 'fsync':\n"
-                "    f.os.fsync = fsync\n"
-                f"sys.exit(main(['identify', {str(csv)!r}, '--format', {str(spec)!r}, "
-                f"'--model', 'nomoto1', '--out', {str(out)!r}]))\n")
-        proc = _child(code)
-        assert proc.stdout.readline().strip() == b"ready"
-        names = [p.name for p in tmp_path.iterdir()]
-        if stage == "fit":
-            assert names == []
-        else:  # the temporary file is written, not yet renamed
-            assert len(names) == 1 and names[0].startswith(".m.json.") \
-                and names[0].endswith(".tmp"), names
-        proc.send_signal(signal.SIGTERM)
-        rc, err = _finish(proc)
-        assert rc == 143 and err.strip() == "usvid: terminated", (stage, rc, err[-2000:])
-        assert list(tmp_path.iterdir()) == [], stage  # no model file, no temporary file
+        def setup(ready, stage=stage) -> None:
+            import usvid.files as f
+            import usvid.identify.estimator as e
+
+            orig_fit = e.ModelEstimator.fit
+
+            def fit(self, *a, **k):
+                if stage == "fit":
+                    ready()
+                    time.sleep(60)
+                return orig_fit(self, *a, **k)
+
+            def fsync(fd):
+                ready()
+                time.sleep(60)
+
+            e.ModelEstimator.fit = fit
+            if stage == "fsync":
+                f.os.fsync = fsync  # (the child's os module: this process's is untouched)
+
+        pid, r = _fork_cli(["identify", str(csv), "--format", str(spec), "--model", "nomoto1",
+                            "--out", str(out)], setup, err)
+        try:
+            assert _ready(r) == b"ready", (stage, err.read_text())
+            names = [p.name for p in out_dir.iterdir()]
+            if stage == "fit":
+                assert names == []
+            else:  # the temporary file is written, not yet renamed
+                assert len(names) == 1 and names[0].startswith(".m.json.") \
+                    and names[0].endswith(".tmp"), names
+            os.kill(pid, signal.SIGTERM)
+            rc = _wait(pid, 120.0)
+        finally:
+            os.close(r)
+            with contextlib.suppress(ChildProcessError, ProcessLookupError):
+                if os.waitpid(pid, os.WNOHANG)[0] == 0:
+                    os.kill(pid, signal.SIGKILL)
+                    os.waitpid(pid, 0)
+        text = err.read_text()
+        assert rc == 143 and text.strip() == "usvid: terminated", (stage, rc, text[-2000:])
+        assert list(out_dir.iterdir()) == [], stage  # no model file, no temporary file
 
 
 def test_ctrl_c_while_the_cli_starts_is_quiet() -> None:
@@ -488,9 +554,10 @@ def _running(psutil, pid: int) -> bool:
 
 def test_ctrl_c_during_dask_montecarlo_and_batch_is_quiet(tmp_path) -> None:
     """A terminal's Ctrl-C (SIGINT to the whole process group: the command and its Dask
-    worker processes) while montecarlo (on a local cluster: --workers above the cores) and
-    batch run their tasks: exit 130, exactly one line "usvid: interrupted" (no traceback, no
-    Dask log line, no worker's traceback), no temporary file, no process left."""
+    worker processes) while montecarlo (on a local cluster: --workers above the cores, here
+    2 workers on one core) and batch run their tasks: exit 130, exactly one line "usvid:
+    interrupted" (no traceback, no Dask log line, no worker's traceback), no temporary file,
+    no process left."""
     psutil = pytest.importorskip("psutil")
     from test_scale import SPEC, _write_log
 
@@ -502,13 +569,19 @@ def test_ctrl_c_during_dask_montecarlo_and_batch_is_quiet(tmp_path) -> None:
     groups = [{"name": f"g{i}", "logs": ["*.csv"], "spec": "spec.yaml",
                "kinds": ["nomoto1", "norrbin"], "method": "oe"} for i in range(8)]
     (tmp_path / "c.yaml").write_text(json.dumps({"groups": groups}))
-    cores = len(os.sched_getaffinity(0))
+    # the commands run on one core (CPU affinity), so that two workers are more than the
+    # cores and montecarlo takes its cluster; batch gets one worker: each worker is a new
+    # interpreter that imports usvid (~3 s of CPU), and two processes of a cluster (or one
+    # worker and the command) are what a Ctrl-C of the process group must end quietly
+    one_core = min(os.sched_getaffinity(0))
     runs = [["montecarlo", str(model), "--manoeuvre", "zigzag", "--runs", "2000000",
-             "--chunk", "4000", "--vary", "K=normal:0.707,0.01", "--workers", str(cores + 1),
+             "--chunk", "4000", "--vary", "K=normal:0.707,0.01", "--workers", "2",
              "--out", str(tmp_path / "mc.parquet")],
-            ["batch", str(tmp_path / "c.yaml"), "--out", str(tmp_path / "out")]]
+            ["batch", str(tmp_path / "c.yaml"), "--out", str(tmp_path / "out"), "--workers",
+             "1"]]
     for argv in runs:
-        proc = _child(_SCALE.format(argv=argv))
+        proc = _child(_SCALE.format(argv=argv),
+                      preexec_fn=lambda: os.sched_setaffinity(0, {one_core}))
         assert proc.stdout.readline().strip() == b"tasks", _finish(proc)
         time.sleep(1.0)  # the tasks run on the workers
         family = [proc.pid, *(p.pid for p in psutil.Process(proc.pid).children(recursive=True))]
