@@ -84,3 +84,21 @@ def test_lazy_names_of_prep_resolve_to_their_definitions():
 
 def test_the_simulation_package_loads_no_pandas_or_scipy_signal():
     assert _loaded("usvid.sim") == {"numpy", "numba"}
+
+
+def test_model_files_load_without_pandas_or_the_readers():
+    """Loading a model file (``usvid simulate``, ``usvid autopilot``) needs none of the log
+    readers: ``usvid.io`` loads them, and pandas, on first use of their names, each name then
+    resolving to its definition."""
+    assert _loaded("usvid.io.modelfile") <= {"numpy", "numba"}
+    code = ("import sys, usvid.io as io, usvid.io.modelfile; "
+            "assert 'pandas' not in sys.modules and 'usvid.io.reader' not in sys.modules; "
+            "import usvid.io.reader as r, usvid.io.spec as s, usvid.io.writers as w; "
+            "assert (io.read_trial, io.FormatSpec, io.write_csv) == "
+            "(r.read_trial, s.FormatSpec, w.write_csv); "
+            "assert set(io.__all__) <= set(dir(io)); [getattr(io, n) for n in io.__all__]")
+    subprocess.run([sys.executable, "-c", code], check=True)
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        import usvid.io
+
+        usvid.io.nonexistent  # noqa: B018 - the attribute access is the test
