@@ -16,7 +16,7 @@ import csv
 import io
 import re
 import warnings
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -131,16 +131,17 @@ def map_columns(
     where: np.ndarray | None = None,
     where_name: str = "data row",
     findings: list[Finding] | None = None,
-    own: bool = False,
+    own: Collection[str] = (),
 ) -> tuple[np.ndarray, dict[str, np.ndarray], dict]:
     """Convert the mapped source columns; rows with non-numeric cells are rejected (bad_value).
 
     ``where`` gives the position of each row in the file (``where_name``, e.g. "line" 1-based);
     default the 1-based data row. Each column with bad cells gets a warning appended to
     ``findings`` naming the column, the count and the first bad cell; when no row is left a
-    :class:`LogReadError` says the same. ``own``: the columns' values are the caller's to give
-    (a frame made for this call and dropped after it): a float column is then converted in
-    place (:func:`_owned`), not into a new array.
+    :class:`LogReadError` says the same. ``own``: the names of the columns whose values are the
+    caller's to give (of a frame made for this call and dropped after it, each source column
+    mapped by no other name): such a float column is converted in place (:func:`_owned`), not
+    into a new array.
     """
     out: dict[str, np.ndarray] = {}
     bad_any = None
@@ -154,7 +155,7 @@ def map_columns(
                 meta["t0_utc"] = t0
         else:
             v, bad = _to_float(raw)
-        if own and c.scale == 1.0 and c.offset == 0.0 and (w := _owned(v)) is not None:
+        if name in own and c.scale == 1.0 and c.offset == 0.0 and (w := _owned(v)) is not None:
             if c.factor != 1.0:  # (the same product as ``convert``, written into the column)
                 np.multiply(w, c.factor, out=w)
             out[name] = w
@@ -588,8 +589,10 @@ def _parse_clean(path: Path, spec: FormatSpec, source: io.RawIOBase | io.Buffere
     rejected: dict[str, int] = {}
     findings: list[Finding] = []
     del df  # (the frame is this call's: its columns are given away, converted in place)
+    used = list(pos.values())
+    own = {n for n, p in pos.items() if used.count(p) == 1}  # (a column mapped twice: copies)
     t, chans, meta = map_columns(path, spec, cols, rejected, where=i + 1 + np.arange(nrows),
-                                 where_name="line", findings=findings, own=True)
+                                 where_name="line", findings=findings, own=own)
     return assemble(path, t, chans, spec=spec, rejected=rejected, meta=meta, findings=findings,
                     own=True)  # (the arrays are this call's: pandas' columns or new ones)
 
