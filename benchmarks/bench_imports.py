@@ -9,8 +9,10 @@ library, or runs ``usvid --help``, against its peer measured in the same run:
 Each command runs ``--repeat`` times (default 9) in fresh processes, the commands interleaved
 so that the load of the shared machine weighs on all alike. The figure is the child's CPU time
 (user + system, from ``os.wait4``; what ``time.process_time`` reads at its exit), interpreter
-start-up included for both sides. Prints the fastest and the median of each, their ratios and
-the load average.
+start-up included for both sides; Python's bytecode is written as for any installed package
+(``PYTHONDONTWRITEBYTECODE`` is dropped for the children: the warm-up run writes usvid's, pip
+wrote the peers' at install). Prints the fastest and the median of each, their ratios and the
+load average.
 
 Run: ``.venv/bin/python benchmarks/bench_imports.py [--repeat N]``; ``python -X importtime -c
 "import usvid.sim"`` shows where the time goes.
@@ -23,6 +25,7 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 
 PY = sys.executable
 
@@ -35,15 +38,30 @@ PAIRS = [
 ]
 
 
+#: The children's environment: Python writes the bytecode of what they import, as for any
+#: installed package (pip compiles the peers' at install; a shell with PYTHONDONTWRITEBYTECODE
+#: set would otherwise measure the compilation of usvid's sources at every start).
+ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
+def run_child(argv: list[str]) -> tuple[float, str]:
+    """(CPU time [s] (user + system), standard output) of one run of ``argv`` in a fresh
+    process."""
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        proc = subprocess.Popen(argv, stdout=out, stderr=err, env=ENV)
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        if proc.returncode != 0:
+            raise SystemExit(f"{' '.join(argv)}: exit {proc.returncode}: "
+                             f"{err.read().decode(errors='replace')[-400:]}")
+        return usage.ru_utime + usage.ru_stime, out.read().decode(errors="replace")
+
+
 def cpu_seconds(argv: list[str]) -> float:
     """CPU time [s] (user + system) of one run of ``argv`` in a fresh process."""
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    err = proc.stderr.read() if proc.stderr else b""
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(argv)}: exit {proc.returncode}: {err.decode()[-400:]}")
-    return usage.ru_utime + usage.ru_stime
+    return run_child(argv)[0]
 
 
 def main() -> None:

@@ -23,10 +23,31 @@ def _loaded(module: str) -> set[str]:
     return set(out.split())
 
 
-@pytest.mark.parametrize("module", ["usvid.prep", "usvid.prep.filters", "usvid.manoeuvres",
-                                    "usvid.trial"])
+@pytest.mark.parametrize("module", ["usvid.prep", "usvid.prep.filters", "usvid.manoeuvres.detect",
+                                    "usvid.manoeuvres.metrics", "usvid.trial"])
 def test_prep_and_manoeuvres_load_only_numpy(module):
     assert _loaded(module) == {"numpy"}
+
+
+def test_the_manoeuvres_package_loads_its_modules_on_first_use():
+    """``import usvid.manoeuvres`` loads none of its modules; each public name resolves to its
+    definition on first use, and the simulation (which needs only the logics) loads neither the
+    detection nor :mod:`usvid.prep`."""
+    code = ("import sys, usvid.manoeuvres as m; "
+            "assert not [n for n in sys.modules if n.startswith('usvid.manoeuvres.')]; "
+            "import usvid.manoeuvres.detect as d, usvid.manoeuvres.metrics as mt; "
+            "assert (m.find_execute, m.zigzag_metrics) == (d.find_execute, mt.zigzag_metrics); "
+            "assert m.imo is sys.modules['usvid.manoeuvres.imo']; "
+            "assert set(m.__all__) <= set(dir(m)); [getattr(m, n) for n in m.__all__]; "
+            "import subprocess; out = subprocess.run([sys.executable, '-c', 'import sys, "
+            "usvid.sim; print(sorted(n for n in sys.modules if n.startswith((\"usvid.prep\", "
+            "\"usvid.manoeuvres.\"))))'], capture_output=True, text=True, check=True).stdout; "
+            "assert out.strip() == \"['usvid.manoeuvres.logic']\", out")
+    subprocess.run([sys.executable, "-c", code], check=True)
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        import usvid.manoeuvres
+
+        usvid.manoeuvres.nonexistent  # noqa: B018 - the attribute access is the test
 
 
 def test_the_model_kinds_load_no_scipy_or_pandas():
@@ -63,3 +84,21 @@ def test_lazy_names_of_prep_resolve_to_their_definitions():
 
 def test_the_simulation_package_loads_no_pandas_or_scipy_signal():
     assert _loaded("usvid.sim") == {"numpy", "numba"}
+
+
+def test_model_files_load_without_pandas_or_the_readers():
+    """Loading a model file (``usvid simulate``, ``usvid autopilot``) needs none of the log
+    readers: ``usvid.io`` loads them, and pandas, on first use of their names, each name then
+    resolving to its definition."""
+    assert _loaded("usvid.io.modelfile") <= {"numpy", "numba"}
+    code = ("import sys, usvid.io as io, usvid.io.modelfile; "
+            "assert 'pandas' not in sys.modules and 'usvid.io.reader' not in sys.modules; "
+            "import usvid.io.reader as r, usvid.io.spec as s, usvid.io.writers as w; "
+            "assert (io.read_trial, io.FormatSpec, io.write_csv) == "
+            "(r.read_trial, s.FormatSpec, w.write_csv); "
+            "assert set(io.__all__) <= set(dir(io)); [getattr(io, n) for n in io.__all__]")
+    subprocess.run([sys.executable, "-c", code], check=True)
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        import usvid.io
+
+        usvid.io.nonexistent  # noqa: B018 - the attribute access is the test

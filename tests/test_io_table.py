@@ -394,3 +394,25 @@ def test_whitespace_table_with_a_short_line_goes_to_line_reader(tmp_path) -> Non
     lines[4] = lines[4] + "  9.9"
     tr = read_trial(_write(tmp_path, "s.dat", "h1\nh2\n" + "\n".join(lines) + "\n"), WS)
     assert len(tr) == 4 and tr.rejected == {"truncated": 1, "field_count": 1}
+
+
+@pytest.mark.parametrize("rows", [50, 60_000])  # the bytes path, and the block check from the file
+def test_a_source_column_mapped_twice_is_converted_once_for_each(tmp_path, rows):
+    """The clean path converts pandas' columns in place; a source column that two channels map
+    (here knots, 1 kn = 1852/3600 m/s exactly) gives each its own array, converted once, and
+    the apparent wind angle in degrees is wrapped to (-pi, pi] in place (350 deg -> -10 deg)."""
+    p = _write(tmp_path, "twice.csv", "time,speed,awa\n" + "".join(
+        f"{i * 0.1:.1f},{2.0 + (i % 7) * 0.5:.2f},350.0\n" for i in range(rows)))
+    assert (p.stat().st_size >= 2**20) == (rows > 50)  # (1 MiB: the block-checked path)
+    spec = {"reader": "table", "delimiter": ",", "header": True,
+            "columns": {"t": {"col": "time", "unit": "s"}, "u": {"col": "speed", "unit": "kn"},
+                        "U": {"col": "speed", "unit": "kn"},
+                        "wind_angle": {"col": "awa", "unit": "deg"}}}
+    tr = read_trial(p, spec)
+    kn = 1852.0 / 3600.0
+    want = (2.0 + (np.arange(rows) % 7) * 0.5) * kn
+    u, U = tr.data["u"].to_numpy(), tr.data["U"].to_numpy()
+    np.testing.assert_allclose(u, want, rtol=1e-15)  # (one product: exact to rounding)
+    np.testing.assert_allclose(U, want, rtol=1e-15)
+    assert not np.shares_memory(u, U)
+    np.testing.assert_allclose(tr.data["wind_angle"].to_numpy(), math.radians(-10.0), rtol=1e-12)

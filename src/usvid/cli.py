@@ -18,6 +18,7 @@ would otherwise kill it by the signal, exit status -2).
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import sys
@@ -182,6 +183,23 @@ def _on_sigterm(signum: int, frame: object) -> None:
     raise Terminated()
 
 
+#: Collections of the youngest generation between two full collections (generation 2) in a
+#: process of its own (Python's default: 10): see :func:`_short_lived_gc`.
+GC_FULL_EVERY = 100
+
+
+def _short_lived_gc() -> None:
+    """The cyclic garbage collector set for a CLI process, which is short-lived and whose heap
+    is mostly the libraries it imports (after numba's and the kernels' loading ~130,000 objects
+    that live until exit): full collections, each a pass over all of them, are made ten times
+    rarer (young garbage is collected as before, and a full collection still runs when the
+    objects that survived the younger generations grow by a quarter). Measured on
+    ``usvid simulate zigzag`` (KVLCC2, warm numba cache): the collector took 0.25 s of its
+    1.4 s of CPU, 0.15 s of them in three full collections."""
+    gen0, gen1, _ = gc.get_threshold()
+    gc.set_threshold(gen0, gen1, GC_FULL_EVERY)
+
+
 def _ignore_signals() -> None:
     """The exit code is known: SIGINT and SIGTERM can no longer change it (nor kill the
     interpreter while it shuts down worker threads and pools)."""
@@ -199,6 +217,8 @@ def main(argv: list[str] | None = None) -> int:
     warnings.formatwarning = _one_line_warning  # restored on return (main() called in-process)
     handlers = {}
     _TERMINATED.clear()
+    if argv is None:  # a process of its own (not a test calling main in process)
+        _short_lived_gc()
     if threading.current_thread() is threading.main_thread():
         handlers[signal.SIGTERM] = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
@@ -224,6 +244,11 @@ def _main(argv: list[str] | None) -> int:
             print(message, file=sys.stderr)
         if argv is None:  # a process of its own: the code is final
             _ignore_signals()
+            # the interpreter's shut-down need not search the heap for garbage cycles (its full
+            # collections over every object cost ~0.2 s of CPU after numba's imports): what
+            # must be released at exit is released by the command and the atexit handlers,
+            # which still run; the standard streams are still flushed
+            gc.freeze()
         return code
 
     try:

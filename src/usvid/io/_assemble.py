@@ -172,18 +172,24 @@ DIRECTION_CHANNELS = {"wind_angle": "pm_pi", "wind_angle_true": "pm_pi",
                       "wind_dir_true": "two_pi"}
 
 
-def wrap_directions(chans: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def wrap_directions(chans: dict[str, np.ndarray], *, own: bool = False
+                    ) -> dict[str, np.ndarray]:
     """``chans`` with the direction channels of :data:`DIRECTION_CHANNELS` wrapped into their
     interval (a wind angle logged in [0, 2 pi), as many anemometers write it, becomes
-    (-pi, pi]); other channels as they are."""
+    (-pi, pi]); other channels as they are. ``own``: the arrays are the caller's to give
+    (writeable float arrays are then wrapped in place: the same operations, no new array)."""
     out = dict(chans)
     for k, kind in DIRECTION_CHANNELS.items():
         if k in out:
             a = np.asarray(out[k], dtype=float)
+            w = a if own and a.flags.writeable and a is out[k] else None
             if kind == "two_pi":
-                out[k] = np.remainder(a, 2.0 * np.pi)
+                out[k] = np.remainder(a, 2.0 * np.pi, out=w)
             else:  # (-pi, pi]: the mirror of [-pi, pi)
-                out[k] = -(np.remainder(np.pi - a, 2.0 * np.pi) - np.pi)
+                b = np.subtract(np.pi, a, out=w)
+                b = np.remainder(b, 2.0 * np.pi, out=w)
+                b = np.subtract(b, np.pi, out=w)
+                out[k] = np.negative(b, out=w)
     return out
 
 
@@ -308,13 +314,17 @@ def assemble(
     rejected = dict(rejected or {})
     findings = list(findings or [])
     t = np.asarray(t, dtype=float)
-    chans = wrap_directions({k: np.asarray(v, dtype=float) for k, v in channels.items()})
+    chans = wrap_directions({k: np.asarray(v, dtype=float) for k, v in channels.items()},
+                            own=own)
     if streams is not None:  # carried along as an internal channel, taken out for the merge
         chans["_stream"] = np.asarray(streams, dtype=float)
     nm = non_monotonic or (spec.non_monotonic if spec is not None else "sort")
 
-    with np.errstate(invalid="ignore"):  # beyond MAX_ABS_TIME_S differences overflow: no time
-        keep = np.isfinite(t) & (np.abs(t) <= MAX_ABS_TIME_S)
+    if len(t) and -MAX_ABS_TIME_S <= t.min() and t.max() <= MAX_ABS_TIME_S:
+        keep = np.ones(len(t), dtype=bool)  # (every stamp usable: a NaN fails the comparison)
+    else:
+        with np.errstate(invalid="ignore"):  # beyond MAX_ABS_TIME_S differences overflow
+            keep = np.isfinite(t) & (np.abs(t) <= MAX_ABS_TIME_S)
     _add(rejected, "nan_time", int((~keep).sum()))
     emptied = np.zeros(len(t), dtype=bool)
     if "lat" in chans or "lon" in chans or "_fix_type" in chans or "_hdop" in chans:
@@ -323,7 +333,11 @@ def assemble(
         anyval = np.zeros(len(t), dtype=bool)
         for k, v in chans.items():
             if k != "_stream":
-                anyval |= np.isfinite(v)
+                finite = np.isfinite(v)
+                if finite.all():  # (a channel without a gap: every record has a value)
+                    anyval = finite
+                    break
+                anyval |= finite
         bad = keep & ~anyval & ~emptied  # (a record emptied by a dropped fix is counted there)
         _add(rejected, "nan_row", int(bad.sum()))
         keep &= anyval
@@ -340,7 +354,7 @@ def assemble(
         meta = {**(meta or {}), "time_breaks": breaks}
 
     # time going backwards (small steps: jitter, records written slightly out of order)
-    if len(t) > 1:
+    if len(t) > 1 and not _non_decreasing(t):
         runmax = np.maximum.accumulate(t)
         late = np.zeros(len(t), dtype=bool)
         np.less(t[1:], runmax[:-1], out=late[1:])
@@ -451,23 +465,38 @@ def _diff(t: np.ndarray) -> np.ndarray:
     return t[1:] - t[:-1]
 
 
-def _median(d: np.ndarray) -> float:
+def _non_decreasing(t: np.ndarray) -> bool:
+    """``(np.diff(t) >= 0).all()`` of a 1-D float array, without the array of differences."""
+    return bool(np.greater_equal(t[1:], t[:-1]).all())
+
+
+def _median(d: np.ndarray, *, overwrite: bool = False) -> float:
     """``float(np.median(d))`` of a non-empty 1-D float array without NaN: the middle of the
     sorted values, or the mean of the two middle ones (``(a + b) / 2``, as ``np.mean`` of two
-    values), without ``np.median``'s general machinery (30 us a call here, 2 us this way)."""
+    values), without ``np.median``'s general machinery (30 us a call here, 2 us this way). The
+    middle values are found by a partition (linear time), not a sort; ``overwrite``: of ``d``
+    itself (a scratch array of the caller's), not of a copy."""
     n = len(d)
-    s = np.sort(d)
+    k = n // 2 if n % 2 else (n // 2 - 1, n // 2)
+    if overwrite:
+        d.partition(k)
+        s = d
+    else:
+        s = np.partition(d, k)
     if n % 2:
         return float(s[n // 2])
     return float((s[n // 2 - 1] + s[n // 2]) / 2.0)
 
 
+def _positive_median(d: np.ndarray) -> float:
+    """Median of the positive time steps ``d`` [s] (0 when there is none)."""
+    pos = d[d > 0]
+    return _median(pos, overwrite=True) if len(pos) else 0.0
+
+
 def jump_threshold(t: np.ndarray) -> float:
     """The step [s] beyond which a time step of ``t`` [s] is a jump (see ``JUMP_STEPS``)."""
-    d = _diff(t)
-    d = d[d > 0]
-    med = _median(d) if len(d) else 0.0
-    return max(JUMP_STEPS * med, JUMP_MIN_S)
+    return max(JUMP_STEPS * _positive_median(_diff(t)), JUMP_MIN_S)
 
 
 def bad_stamps(t: np.ndarray) -> np.ndarray:
@@ -477,7 +506,7 @@ def bad_stamps(t: np.ndarray) -> np.ndarray:
     stamp: on either side of it the running median follows the records.
     """
     n = len(t)
-    if n < BAD_STAMP_WINDOW or (_diff(t) >= 0).all():
+    if n < BAD_STAMP_WINDOW or _non_decreasing(t):
         # (in time order the running median of each stamp is the stamp itself)
         return np.zeros(n, dtype=bool)
     h = BAD_STAMP_WINDOW // 2
@@ -520,13 +549,12 @@ def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
             f"their neighbours (first at record {int(idx[0])}, stamped {t0:.3f} s, re-timed "
             f"{float(t[idx[0]]):.3f} s); each was re-timed between its neighbours",
             count=len(idx), data={"records": [int(i) for i in idx[:20]]}))
-    thr = jump_threshold(t)
     d = _diff(t)
-    jumps = np.flatnonzero((d < -thr) | (d > thr))
+    med = _positive_median(d)
+    thr = max(JUMP_STEPS * med, JUMP_MIN_S)  # (jump_threshold(t), from the same differences)
+    jumps = np.flatnonzero(np.abs(d, out=d) > thr)  # (d is not used after this)
     if not len(jumps):
         return t, chans, []
-    pos = d[d > 0]
-    med = _median(pos) if len(pos) else 0.0
     t = t.copy()
     breaks = []
     repaired = []

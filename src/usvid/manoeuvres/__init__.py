@@ -19,41 +19,78 @@ Layer: above :mod:`usvid.prep`, below :mod:`usvid.sim` (imports only ``usvid.tri
   :func:`current_corrected_turning`.
 - :mod:`.measure`: the segments of a log measured with those metrics (:func:`measured_metrics`).
 - :mod:`.imo`: the IMO MSC.137(76) criteria.
+
+The names load with their modules on first use (PEP 562): the simulation imports only
+:mod:`.logic` (``usvid.manoeuvres.logic``), and importing this package loads none of the
+others (nor :mod:`usvid.prep`).
 """
 
-from usvid.manoeuvres.detect import (
-    Segment,
-    SteadyTurn,
-    find_execute,
-    find_manoeuvres,
-    manoeuvre_findings,
-    nominal_switch,
-    plateau_level,
-    rudder_amplitude,
-    rudder_rate,
-    steady_turn,
-    zigzag_crossings,
-)
-from usvid.manoeuvres.drift import (
-    CurrentEstimate,
-    current_corrected_track,
-    current_corrected_turning,
-    imo_current,
-)
-from usvid.manoeuvres.imo import (
-    imo_turning_applies,
-    imo_turning_check,
-    imo_zigzag_check,
-    zigzag_kind,
-)
-from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
-from usvid.manoeuvres.measure import manoeuvre_metrics, measured_metrics
-from usvid.manoeuvres.metrics import (
-    TurningMetrics,
-    ZigZagMetrics,
-    turning_metrics,
-    zigzag_metrics,
-)
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from usvid.manoeuvres.detect import (
+        Segment,
+        SteadyTurn,
+        find_execute,
+        find_manoeuvres,
+        manoeuvre_findings,
+        nominal_switch,
+        plateau_level,
+        rudder_amplitude,
+        rudder_rate,
+        steady_turn,
+        zigzag_crossings,
+    )
+    from usvid.manoeuvres.drift import (
+        CurrentEstimate,
+        current_corrected_track,
+        current_corrected_turning,
+        imo_current,
+    )
+    from usvid.manoeuvres.imo import (
+        imo_turning_applies,
+        imo_turning_check,
+        imo_zigzag_check,
+        zigzag_kind,
+    )
+    from usvid.manoeuvres.logic import PID, Commanded, CourseChange, Disturbance, Turning, ZigZag
+    from usvid.manoeuvres.measure import manoeuvre_metrics, measured_metrics
+    from usvid.manoeuvres.metrics import (
+        TurningMetrics,
+        ZigZagMetrics,
+        turning_metrics,
+        zigzag_metrics,
+    )
+
+#: Module -> the public names it defines (loaded on first use of any of them).
+_MODULES = {
+    "detect": ("Segment", "SteadyTurn", "find_execute", "find_manoeuvres", "manoeuvre_findings",
+               "nominal_switch", "plateau_level", "rudder_amplitude", "rudder_rate",
+               "steady_turn", "zigzag_crossings"),
+    "drift": ("CurrentEstimate", "current_corrected_track", "current_corrected_turning",
+              "imo_current"),
+    "imo": ("imo_turning_applies", "imo_turning_check", "imo_zigzag_check", "zigzag_kind"),
+    "logic": ("PID", "Commanded", "CourseChange", "Disturbance", "Turning", "ZigZag"),
+    "measure": ("manoeuvre_metrics", "measured_metrics"),
+    "metrics": ("TurningMetrics", "ZigZagMetrics", "turning_metrics", "zigzag_metrics"),
+}
+_LAZY = {name: module for module, names in _MODULES.items() for name in names}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f"usvid.manoeuvres.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    if name in _MODULES:  # a submodule named as an attribute of the package
+        return importlib.import_module(f"usvid.manoeuvres.{name}")
+    raise AttributeError(f"module 'usvid.manoeuvres' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY) | set(_MODULES))
+
 
 __all__ = [
     "PID", "Commanded", "CourseChange", "CurrentEstimate", "Disturbance", "Segment",

@@ -8,9 +8,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from usvid import manoeuvres  # its metrics load on first use (PEP 562), not with the simulation
 from usvid.errors import SimulationError
 from usvid.manoeuvres.logic import Turning, ZigZag
-from usvid.manoeuvres.metrics import turning_metrics, zigzag_metrics
 from usvid.trial import CHANNEL_UNITS, Trial, Vessel
 
 if TYPE_CHECKING:
@@ -115,7 +115,7 @@ class SimResult:
                 args["phi"] = self.channels["phi"][i]
             args.update(kw)
             delta = self.channels["delta"][i] if "delta" in self.channels else None
-            out.append(zigzag_metrics(self.t, self["psi"][i], delta, **args))
+            out.append(manoeuvres.zigzag_metrics(self.t, self["psi"][i], delta, **args))
         return out
 
     def turning_metrics(self, **kw: Any) -> list[Any]:
@@ -129,8 +129,8 @@ class SimResult:
                 if name in self.channels:
                     args[name] = self.channels[name][i]
             args.update(kw)
-            out.append(turning_metrics(self.t, self["x"][i], self["y"][i], self["psi"][i],
-                                       **args))
+            out.append(manoeuvres.turning_metrics(self.t, self["x"][i], self["y"][i],
+                                                  self["psi"][i], **args))
         return out
 
     def course_metrics(self) -> list[dict[str, float]]:

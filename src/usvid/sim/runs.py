@@ -9,15 +9,17 @@ Arguments in SI units; angles in degrees at this edge, named ``*_deg``; inside r
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from usvid.errors import SimulationError, UsvidError
 from usvid.manoeuvres.logic import PID, CourseChange, Disturbance, Turning, ZigZag
-from usvid.manoeuvres.metrics import TurningMetrics, ZigZagMetrics
 from usvid.sim.result import SimResult
 from usvid.sim.simulate import approach_speed, simulate
+
+if TYPE_CHECKING:
+    from usvid.manoeuvres.metrics import TurningMetrics, ZigZagMetrics
 
 __all__ = ["MAX_T_END", "default_ki", "default_t_end", "run_course", "run_turning", "run_zigzag"]
 

@@ -88,7 +88,7 @@ import numpy as np
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.errors import UsvidError
 from usvid.models.environment.wind import true_to_apparent_scalar
-from usvid.models.mmg import priors
+from usvid.models.hull import zhou_added_mass
 from usvid.trial import Vessel
 
 #: Air density [kg/m^3] at 15 deg C and sea-level pressure (ISO 2533 standard atmosphere).
@@ -624,7 +624,8 @@ def yaw_inertia(vessel: Vessel, *, rho: float = 1025.0) -> tuple[float, list[str
 
     ``I_z``: ``vessel.extra.yaw_inertia`` [kg m^2], else ``m (0.25 L)^2`` (radius of gyration a
     quarter of the length, the rule of :func:`usvid.models.mmg.priors`). ``J_z``: the added yaw
-    inertia of Zhou et al.'s regression of Motora's charts (:func:`usvid.models.mmg.priors`) when
+    inertia of Zhou et al.'s regression of Motora's charts
+    (:func:`usvid.models.hull.zhou_added_mass`, as :func:`usvid.models.mmg.priors` uses it) when
     length, beam, draft and mass are known; else ``J_z = I_z`` (an assumption: for ships the
     regressions give J_z / I_z of about 0.5-1.5). The mass is ``vessel.mass`` [kg], else ``rho *
     vessel.displacement`` [m^3]. Raises :class:`UsvidError` when neither mass nor yaw inertia is
@@ -649,8 +650,7 @@ def yaw_inertia(vessel: Vessel, *, rho: float = 1025.0) -> tuple[float, list[str
     B, d = vessel.beam, vessel.draft
     if None not in (L, B, d, m):
         Cb = vessel.block_coefficient or m / (rho * L * B * d)
-        pri = priors(L, B, d, Cb, m, rho=rho)
-        Jz = pri["J_z"] * 0.5 * rho * L**4 * d
+        Jz = float(zhou_added_mass(L, B, d, Cb, m).J_zz)
     else:
         Jz = Iz
         assumed.append("added yaw inertia J_z = I_z (length, beam, draft or mass unknown)")
