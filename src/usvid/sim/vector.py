@@ -29,6 +29,7 @@ from usvid.sim.layout import (
     DIST_A0,
     DIST_A1,
     DIST_B,
+    HOLD_ROWS,
     JDD,
     JDL,
     JPSI,
@@ -52,6 +53,7 @@ from usvid.sim.layout import (
     VC,
     VCMD,
     VF,
+    VH,
     VL,
     VNOISE,
     VRAMP,
@@ -293,8 +295,10 @@ def _vstep(Vp, h, frac, zig, sk):
     if WIND:  # the multirate hold (:func:`usvid.sim.lane._holdset`,
         # :func:`usvid.sim.lane._holdget`; the control row VC the driver wrote, read before
         # the loops): at the steps the driver says, the loads of every lane evaluated first
-        # (:func:`_vheld`), in a loop of their own (the other steps' loop has no evaluation);
-        # the heading's bases there as in the step's loop (not stored: the same values)
+        # (:func:`_vheld`), in a loop of their own (the other steps' loop has no evaluation),
+        # into the scratch rows VB.. (free before the step's loop), then copied to the held
+        # rows; the heading's bases there as in the step's loop (with XY: the same values,
+        # stored by the step's loop; without: the only bases of the vector step, stored here)
         c = VC * CH
         sh = V[c + 2]
         if V[c] > 0.0:
@@ -303,18 +307,31 @@ def _vstep(Vp, h, frac, zig, sk):
             g = V[c + 3]
             for j in range(NLANES):
                 a, c0, s0 = _hbase(V, j)
+                if not XY:
+                    o = VT * CH + j
+                    V[o] = a
+                    V[o + CH] = c0
+                    V[o + 2 * CH] = s0
                 _holdset(V, j, _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j)), g, kf,
-                         not np.isnan(c0))
+                         not np.isnan(c0), VB)
+            for j in range(NLANES):
+                for i in range(HOLD_ROWS):
+                    V[(VH + i) * CH + j] = V[(VB + i) * CH + j]
     for j in range(NLANES):
         a = V[RPSI * CH + j]
         c0 = 1.0
         s0 = 0.0
-        if WIND or XY:
+        if XY:
             o = VT * CH + j
             a, c0, s0 = _hbase(V, j)
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
+        elif WIND:  # the heading's cosine at the last evaluation of the loads (NaN: the
+            # evaluation could not rotate the base, the loads not refreshed); without x and
+            # y nothing else in the step reads the bases: they follow the heading at the
+            # evaluations only (rotated over the load interval, :func:`_hbase`)
+            c0 = V[(VT + 1) * CH + j]
         if WIND:  # the loads held over the step; NaN with the heading's base (0 c0 is NaN
             # then, else a zero: X unchanged), so that such a lane's result is not finite and
             # the per-lane step takes the step (and evaluates the loads if due): without x, y
