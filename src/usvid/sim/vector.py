@@ -82,6 +82,10 @@ STEADY = False
 #: once per step before the lane loop (a load inside the loop from a row of lane slot 0, which
 #: the loop's stores might overwrite as far as LLVM can tell, keeps it from vectorising).
 SHARED = False
+#: Variant constant (with STEADY): some lane has an external force series (else its rows hold
+#: zeros and are not read: three to four more loads and adds a lane-step were, in the
+#: heading-only wind zig-zag of ``benchmarks/bench_sim.py --wind``, 4 ns of the step's 26).
+FORCE = True
 ZU = 0  # position of u in the joint-state tuple (-1: the constant speed, parameter SPEEDROW)
 ZV = 0  # position of v in the joint-state tuple (-1: none, zero)
 SPEEDROW = 0  # parameter row of the constant speed of a response kind
@@ -338,7 +342,8 @@ def _vstep(Vp, h, frac, zig, sk):
             # nothing else in the step reads the base, and held loads would go on unrefreshed
             fe = _holdget(V, j, sh)
             fe = (fe[0] + 0.0 * c0, fe[1], fe[2], fe[3])
-            if STEADY:  # the series' force (constant) plus the loads, as :func:`_vderiv` adds
+            if STEADY and FORCE:  # the series' force (constant) plus the loads, as
+                # :func:`_vderiv` adds
                 o = (VF + SFORCE) * CH + j
                 fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
                       V[o + 3 * CH] + fe[3])
