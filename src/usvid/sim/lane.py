@@ -216,8 +216,8 @@ def _holdset(V, j, fn, g, kf, ok, d):
     ``d`` (:data:`usvid.sim.layout.VH`: in place; the vector step: scratch rows it copies
     to VH after its loop): every row loaded unconditionally and a select of it stored
     elsewhere, because a select of a row's own value stored back in place compiles to a
-    masked store (``vmaskmovpd``, microcoded on AMD Zen: 8 of them per lane slot cost the
-    evaluation loop more than its two square roots and six divisions)."""
+    masked store (``vmaskmovpd``, microcoded on AMD Zen; the vector step's evaluation loop had
+    eight a lane slot)."""
     o = VH * CH + j
     f0 = V[o]
     f1 = V[o + CH]

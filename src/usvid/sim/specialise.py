@@ -291,8 +291,8 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     of the step's samples stalled at one parameter load; with both, 1.13x).
 
     ``force``: with ``steady``, some lane has an external force series; without one its
-    rows (zeros) are not read (3-4 loads and adds a lane-step fewer: in the heading-only wind
-    zig-zag of the benchmark 26 -> 22 ns a lane-step, the calm variant's 16.6).
+    rows (zeros) are not read (their loads and adds: in the heading-only wind zig-zag of the
+    benchmark 25.9 -> 22.9 ns a lane-step, the calm variant's 16.6, load average 5).
 
     ``narrow``: the variant for a chunk of at most :data:`usvid.sim.vector.VW` lanes (a single
     run, a few runs): its lane loop computes VW lane slots instead of :data:`CH` (a constant

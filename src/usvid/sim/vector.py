@@ -9,7 +9,9 @@ the right-hand side of the kind is inlined. A variant fixes at compile time the 
 integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the multirate
 hold of the loads, :func:`usvid.sim.lane._heldload`, evaluated for every lane in a loop of
 their own before the step's at the steps the driver says and extrapolated at every step, no
-library call in them, so the loops vectorise) and, for a
+library call in them, so the loops vectorise; without x and y the heading's trig base is
+rotated at those steps only, over the load interval: nothing else in the step reads it), whether
+a steady wind batch has an external force series (``FORCE``) and, for a
 kind with a switch row, its value (a literal in ``_ptup``).
 
 Globals the specialisation sets: the kind's ``rhs``, ``TRIG``, the layout constants (``VB``,
@@ -83,8 +85,8 @@ STEADY = False
 #: the loop's stores might overwrite as far as LLVM can tell, keeps it from vectorising).
 SHARED = False
 #: Variant constant (with STEADY): some lane has an external force series (else its rows hold
-#: zeros and are not read: three to four more loads and adds a lane-step were, in the
-#: heading-only wind zig-zag of ``benchmarks/bench_sim.py --wind``, 4 ns of the step's 26).
+#: zeros and are not read: their loads and adds were, in the heading-only wind zig-zag of
+#: ``benchmarks/bench_sim.py --wind``, 3 ns of the lane-step's 26).
 FORCE = True
 ZU = 0  # position of u in the joint-state tuple (-1: the constant speed, parameter SPEEDROW)
 ZV = 0  # position of v in the joint-state tuple (-1: none, zero)
@@ -271,7 +273,8 @@ def _vstep(Vp, h, frac, zig, sk):
     :mod:`usvid.sim.layout`): one array, so that LLVM knows every access's offset and needs
     no alias checks. Per lane slot:
 
-    * trig bases: the heading's (with :data:`XY`) and, for a TRIG kind, the steering angle's,
+    * trig bases: the heading's (with :data:`XY`; with WIND and without XY at the loads'
+      evaluations only) and, for a TRIG kind, the steering angle's,
       rotated from the previous step's (:func:`_rot_nan`) and renormalised; NaN where the angle
       moved more than 0.05 rad (the lane is then flagged, and its bases are computed by the
       library before the per-lane step);
