@@ -112,12 +112,12 @@ def kernel(kind: ModelKind) -> KindCode:
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool,
                 wind: bool = False, wcode: int = -1, narrow: bool = False,
-                shared: bool = False, steady: bool = False) -> int:
+                shared: bool = False, steady: bool = False, force: bool = True) -> int:
     """Address of a vector-step variant of ``kind`` (:func:`usvid.sim.specialise.vector_step`;
     the generic one for every batch when :data:`FORCE_GENERIC`)."""
     return specialise.vector_step(kind, swi, sk, nod, xy, generic=bool(FORCE_GENERIC),
                                   wind=wind, wcode=wcode, narrow=narrow, shared=shared,
-                                  steady=steady)
+                                  steady=steady, force=force)
 
 
 def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: np.ndarray,
@@ -184,6 +184,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
         xy = bool(slots[0] >= 0 or slots[1] >= 0)
         wcode = -1  # the wind-load model's code of every lane: a literal in the variant
         shared = steady = False
+        force = True
         if wind:
             codes = P[:, kind.n_params]
             wcode = int(codes[0]) if bool(np.all(codes == codes[0])) else -1
@@ -191,6 +192,8 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
             # constant in time, or none (their rows then hold constant zeros)
             shared = bool(np.all(P[:, kind.n_params:] == P[:1, kind.n_params:]))
             steady = sconst or not used
+            # an external force series in some lane (else its rows, zeros, are not read)
+            force = bool(np.any(sidx[SFORCE:SFORCE + 4] >= 0))
         steps: dict[tuple[int, bool], int] = {}
         for lo in starts:
             hi = min(B, lo + chunk)
@@ -198,7 +201,7 @@ def run(kind: ModelKind, P: np.ndarray, S: np.ndarray, skind: int, lk: int, L: n
             narrow = hi - lo <= VW  # a single run: the vector step of one vector of lanes
             if (swi, narrow) not in steps:
                 steps[swi, narrow] = vector_step(kind, swi, skind, nod, xy, wind, wcode, narrow,
-                                                 shared, steady)
+                                                 shared, steady, force)
             vaddr[lo] = steps[swi, narrow]
 
     def task(lo: int) -> None:

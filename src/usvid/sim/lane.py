@@ -206,27 +206,38 @@ def _heldload(p, pe, z, tau, fs, cps, sps):
                     uw * cps - vw * sps + cx, uw * sps + vw * cps + cy, cps, sps)
 
 
-def _holdset(V, j, fn, g, kf, ok):
+def _holdset(V, j, fn, g, kf, ok, d):
     """Lane slot j's held-load rows (:data:`usvid.sim.layout.HOLD_ROWS`) after an evaluation of
     the loads ``fn`` (X, Y, K, N) at the start of step ``kf``: the rate from the previous
     evaluation, (fn - F) g (``g``: the extrapolation's weight over the evaluation interval
     [1/s], 0 at the first evaluation), then fn. The one definition for both paths. Not ``ok``
     (the vector step's heading base NaN, the lane then flagged): the rows kept (selects, no
-    branch), so that the per-lane step evaluates the loads itself."""
+    branch), so that the per-lane step evaluates the loads itself. Written to the rows from
+    ``d`` (:data:`usvid.sim.layout.VH`: in place; the vector step: scratch rows it copies
+    to VH after its loop): every row loaded unconditionally and a select of it stored
+    elsewhere, because a select of a row's own value stored back in place compiles to a
+    masked store (``vmaskmovpd``, microcoded on AMD Zen; the vector step's evaluation loop had
+    eight a lane slot)."""
     o = VH * CH + j
     f0 = V[o]
     f1 = V[o + CH]
     f2 = V[o + 2 * CH]
     f3 = V[o + 3 * CH]
-    V[o + 4 * CH] = (fn[0] - f0) * g if ok else V[o + 4 * CH]
-    V[o + 5 * CH] = (fn[1] - f1) * g if ok else V[o + 5 * CH]
-    V[o + 6 * CH] = (fn[2] - f2) * g if ok else V[o + 6 * CH]
-    V[o + 7 * CH] = (fn[3] - f3) * g if ok else V[o + 7 * CH]
-    V[o] = fn[0] if ok else f0
-    V[o + CH] = fn[1] if ok else f1
-    V[o + 2 * CH] = fn[2] if ok else f2
-    V[o + 3 * CH] = fn[3] if ok else f3
-    V[o + 8 * CH] = kf if ok else V[o + 8 * CH]
+    r0 = V[o + 4 * CH]
+    r1 = V[o + 5 * CH]
+    r2 = V[o + 6 * CH]
+    r3 = V[o + 7 * CH]
+    k = V[o + 8 * CH]
+    q = d * CH + j
+    V[q + 4 * CH] = (fn[0] - f0) * g if ok else r0
+    V[q + 5 * CH] = (fn[1] - f1) * g if ok else r1
+    V[q + 6 * CH] = (fn[2] - f2) * g if ok else r2
+    V[q + 7 * CH] = (fn[3] - f3) * g if ok else r3
+    V[q] = fn[0] if ok else f0
+    V[q + CH] = fn[1] if ok else f1
+    V[q + 2 * CH] = fn[2] if ok else f2
+    V[q + 3 * CH] = fn[3] if ok else f3
+    V[q + 8 * CH] = kf if ok else k
 
 
 def _holdget(V, j, s):
@@ -265,7 +276,8 @@ def _substeps(V, j, z, t, t1, eps, idt, w0, w1, w2, skind, cmdin, ramp, rend, qt
         c = VC * CH
         if V[c] > 0.0 and V[(VH + 8) * CH + j] != V[c + 1]:
             cps, sps = _rot(z[JPSI], tr[0], tr[1], tr[2])
-            _holdset(V, j, _heldload(p, pe, z, 0.0, fs, cps, sps), V[c + 3], V[c + 1], True)
+            _holdset(V, j, _heldload(p, pe, z, 0.0, fs, cps, sps), V[c + 3], V[c + 1], True,
+                     VH)
         fe = _holdget(V, j, V[c + 2])
     ma = srv[0]
     mr = srv[1]

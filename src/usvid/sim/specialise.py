@@ -255,7 +255,8 @@ def wind_step(kind: ModelKind) -> tuple[int, np.ndarray]:
 
 def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
                 generic: bool = False, wind: bool = False, wcode: int = -1,
-                narrow: bool = False, shared: bool = False, steady: bool = False) -> int:
+                narrow: bool = False, shared: bool = False, steady: bool = False,
+                force: bool = True) -> int:
     """Address of the vector step (:func:`usvid.sim.vector._vstep`, a C callback) of ``kind``
     for the switch value ``swi`` (index into the kind's switch values; the last: generic), the
     servo kind ``sk``, without disturbance and input series (``nod``), with x and y (``xy``);
@@ -289,6 +290,10 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     ``benchmarks/bench_sim.py --wind``: its RK4 loop took 1.58x the calm variant's, a tenth
     of the step's samples stalled at one parameter load; with both, 1.13x).
 
+    ``force``: with ``steady``, some lane has an external force series; without one its
+    rows (zeros) are not read (their loads and adds: in the heading-only wind zig-zag of the
+    benchmark 25.9 -> 22.9 ns a lane-step, the calm variant's 16.6, load average 5).
+
     ``narrow``: the variant for a chunk of at most :data:`usvid.sim.vector.VW` lanes (a single
     run, a few runs): its lane loop computes VW lane slots instead of :data:`CH` (a constant
     trip count either way, so that LLVM vectorises it), compiled only when such a chunk runs."""
@@ -300,14 +305,16 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
         sk, nod, xy = -1, False, True
     if not wind:
         wcode, shared, steady = -1, False, False
+    if not steady:
+        force = True
     vk = (code.key, swi, sk, bool(nod), bool(xy), bool(wind), int(wcode), bool(narrow),
-          bool(shared), bool(steady))
+          bool(shared), bool(steady), bool(force))
     if vk in _VSTEPS:
         return _VSTEPS[vk].address
     const = {code.swr: code.swv[swi]} if code.swr >= 0 and swi < len(code.swv) else {}
     gv = dict(_wind_globals(code) if wind else code.g, SK=sk, NOD=bool(nod), XY=bool(xy),
               NLANES=_vector_mod.VW if narrow else _layout.CH, SHARED=bool(shared),
-              STEADY=bool(steady))
+              STEADY=bool(steady), FORCE=bool(force))
     if wind and wcode >= 0:
         gv["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(
             lay, gv, read=True, const={0: float(wcode)}))
@@ -317,6 +324,7 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
         gv[name] = _helper(helpers[name])
     tag = (f"{swi}{'g' if sk < 0 else sk}{int(bool(nod))}{int(bool(xy))}"
            + (f"w{wcode if wcode >= 0 else 'g'}{'s' if shared else ''}{'c' if steady else ''}"
+              f"{'' if force else 'f'}"
               if wind else "") + ("n" if narrow else ""))
     for name in VECTOR_TEMPLATES:
         _specialise(gv, name, f"{name}{tag}__{code.key}",

@@ -9,7 +9,9 @@ the right-hand side of the kind is inlined. A variant fixes at compile time the 
 integrated (``XY``), whether the batch has wind loads or wave drift (``WIND``: the multirate
 hold of the loads, :func:`usvid.sim.lane._heldload`, evaluated for every lane in a loop of
 their own before the step's at the steps the driver says and extrapolated at every step, no
-library call in them, so the loops vectorise) and, for a
+library call in them, so the loops vectorise; without x and y the heading's trig base is
+rotated at those steps only, over the load interval: nothing else in the step reads it), whether
+a steady wind batch has an external force series (``FORCE``) and, for a
 kind with a switch row, its value (a literal in ``_ptup``).
 
 Globals the specialisation sets: the kind's ``rhs``, ``TRIG``, the layout constants (``VB``,
@@ -29,6 +31,7 @@ from usvid.sim.layout import (
     DIST_A0,
     DIST_A1,
     DIST_B,
+    HOLD_ROWS,
     JDD,
     JDL,
     JPSI,
@@ -52,6 +55,7 @@ from usvid.sim.layout import (
     VC,
     VCMD,
     VF,
+    VH,
     VL,
     VNOISE,
     VRAMP,
@@ -80,6 +84,10 @@ STEADY = False
 #: once per step before the lane loop (a load inside the loop from a row of lane slot 0, which
 #: the loop's stores might overwrite as far as LLVM can tell, keeps it from vectorising).
 SHARED = False
+#: Variant constant (with STEADY): some lane has an external force series (else its rows hold
+#: zeros and are not read: their loads and adds were, in the heading-only wind zig-zag of
+#: ``benchmarks/bench_sim.py --wind``, 3 ns of the lane-step's 26).
+FORCE = True
 ZU = 0  # position of u in the joint-state tuple (-1: the constant speed, parameter SPEEDROW)
 ZV = 0  # position of v in the joint-state tuple (-1: none, zero)
 SPEEDROW = 0  # parameter row of the constant speed of a response kind
@@ -265,7 +273,8 @@ def _vstep(Vp, h, frac, zig, sk):
     :mod:`usvid.sim.layout`): one array, so that LLVM knows every access's offset and needs
     no alias checks. Per lane slot:
 
-    * trig bases: the heading's (with :data:`XY`) and, for a TRIG kind, the steering angle's,
+    * trig bases: the heading's (with :data:`XY`; with WIND and without XY at the loads'
+      evaluations only) and, for a TRIG kind, the steering angle's,
       rotated from the previous step's (:func:`_rot_nan`) and renormalised; NaN where the angle
       moved more than 0.05 rad (the lane is then flagged, and its bases are computed by the
       library before the per-lane step);
@@ -293,8 +302,10 @@ def _vstep(Vp, h, frac, zig, sk):
     if WIND:  # the multirate hold (:func:`usvid.sim.lane._holdset`,
         # :func:`usvid.sim.lane._holdget`; the control row VC the driver wrote, read before
         # the loops): at the steps the driver says, the loads of every lane evaluated first
-        # (:func:`_vheld`), in a loop of their own (the other steps' loop has no evaluation);
-        # the heading's bases there as in the step's loop (not stored: the same values)
+        # (:func:`_vheld`), in a loop of their own (the other steps' loop has no evaluation),
+        # into the scratch rows VB.. (free before the step's loop), then copied to the held
+        # rows; the heading's bases there as in the step's loop (with XY: the same values,
+        # stored by the step's loop; without: the only bases of the vector step, stored here)
         c = VC * CH
         sh = V[c + 2]
         if V[c] > 0.0:
@@ -303,25 +314,39 @@ def _vstep(Vp, h, frac, zig, sk):
             g = V[c + 3]
             for j in range(NLANES):
                 a, c0, s0 = _hbase(V, j)
+                if not XY:
+                    o = VT * CH + j
+                    V[o] = a
+                    V[o + CH] = c0
+                    V[o + 2 * CH] = s0
                 _holdset(V, j, _vheld(V, j, c0, s0, pe0 if SHARED else _etup(V, j)), g, kf,
-                         not np.isnan(c0))
+                         not np.isnan(c0), VB)
+            for j in range(NLANES):
+                for i in range(HOLD_ROWS):
+                    V[(VH + i) * CH + j] = V[(VB + i) * CH + j]
     for j in range(NLANES):
         a = V[RPSI * CH + j]
         c0 = 1.0
         s0 = 0.0
-        if WIND or XY:
+        if XY:
             o = VT * CH + j
             a, c0, s0 = _hbase(V, j)
             V[o] = a
             V[o + CH] = c0
             V[o + 2 * CH] = s0
+        elif WIND:  # the heading's cosine at the last evaluation of the loads (NaN: the
+            # evaluation could not rotate the base, the loads not refreshed); without x and
+            # y nothing else in the step reads the bases: they follow the heading at the
+            # evaluations only (rotated over the load interval, :func:`_hbase`)
+            c0 = V[(VT + 1) * CH + j]
         if WIND:  # the loads held over the step; NaN with the heading's base (0 c0 is NaN
             # then, else a zero: X unchanged), so that such a lane's result is not finite and
             # the per-lane step takes the step (and evaluates the loads if due): without x, y
             # nothing else in the step reads the base, and held loads would go on unrefreshed
             fe = _holdget(V, j, sh)
             fe = (fe[0] + 0.0 * c0, fe[1], fe[2], fe[3])
-            if STEADY:  # the series' force (constant) plus the loads, as :func:`_vderiv` adds
+            if STEADY and FORCE:  # the series' force (constant) plus the loads, as
+                # :func:`_vderiv` adds
                 o = (VF + SFORCE) * CH + j
                 fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
                       V[o + 3 * CH] + fe[3])
