@@ -237,7 +237,9 @@ def test_ctrl_c_leaves_no_half_written_output(demo_runs, tmp_path: Path) -> None
     err = errf.read_bytes()
     assert code != 0, "the demo finished before the interrupt could be sent"
     assert code == 130, (code, err[-3000:])  # the CLI's exit code of Ctrl-C
-    assert b"Traceback" not in err  # KeyboardInterrupt handled, not an internal error
+    # KeyboardInterrupt handled, not an internal error: the CLI's one line, no traceback
+    assert err.decode().strip().splitlines()[-1:] == ["usvid: interrupted"], err[-3000:]
+    assert b"Traceback" not in err
     assert _leftovers(out) == []
     report = out / "report.html"
     assert not report.exists() or report.read_text().rstrip().endswith("</html>")

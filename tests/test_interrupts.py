@@ -60,8 +60,11 @@ def log(tmp_path_factory) -> tuple[Path, Path]:
 
 
 def _fork_run(argv: list[str], setup=None, stderr: Path | None = None) -> int:
-    """Fork a child that runs ``usvid ARGV`` in process and exits with its code; its stdout
-    and stderr go to /dev/null, or its stderr to the file ``stderr``."""
+    """Fork a child that runs ``usvid ARGV`` in process (``main``, as ``sys.exit(main(ARGV))``
+    in a process of its own runs it: Python's SIGINT handler, the CLI's SIGTERM handler) after
+    ``setup()``, and exits with its code; its stdout and stderr go to /dev/null, or its stderr
+    to the file ``stderr``. A fork of this process (modules imported, kernels loaded) rather
+    than a new interpreter: ~3 s of CPU less a run."""
     pid = os.fork()
     if pid == 0:  # child
         code = 1
@@ -77,6 +80,10 @@ def _fork_run(argv: list[str], setup=None, stderr: Path | None = None) -> int:
                 os.dup2(devnull, 1)
                 os.dup2(devnull if stderr is None
                         else os.open(stderr, os.O_WRONLY | os.O_CREAT | os.O_TRUNC), 2)
+                # Python's streams on those descriptors, not pytest's capture (which writes to
+                # a file of the parent's: what the command prints would not reach ``stderr``)
+                sys.stdout = open(1, "w", closefd=False)
+                sys.stderr = open(2, "w", buffering=1, closefd=False)
                 warnings.simplefilter("ignore")
                 if setup is not None:
                     setup()
@@ -85,6 +92,9 @@ def _fork_run(argv: list[str], setup=None, stderr: Path | None = None) -> int:
                 raise
             code = main(argv)
         finally:
+            with contextlib.suppress(Exception):  # (os._exit flushes nothing)
+                sys.stdout.flush()
+                sys.stderr.flush()
             os._exit(code)
     return pid
 
@@ -371,30 +381,15 @@ def test_concurrent_identify_to_one_output(log, tmp_path) -> None:
 
 
 def _fork_cli(argv: list[str], setup, err: Path) -> tuple[int, int]:
-    """Fork a child that runs ``usvid ARGV`` (``main``, as ``sys.exit(main(ARGV))`` in a
-    process of its own runs it: Python's SIGINT handler, the CLI's SIGTERM handler) after
-    ``setup(ready)``, ``ready()`` writing a line to the pipe whose read end is returned with the
-    pid; its stderr goes to the file ``err``, its stdout to /dev/null. A fork of this process
-    (modules imported) rather than a new interpreter: ~3 s of CPU less a run."""
+    """:func:`_fork_run` of ``usvid ARGV`` after ``setup(ready)``, ``ready()`` writing a line to
+    the pipe whose read end is returned with the pid; its stderr goes to the file ``err``."""
     r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # child
-        code = 1
-        try:
-            os.close(r)
-            numba_parallel._backend_init_process_lock = multiprocessing.RLock()  # (_fork_run)
-            signal.signal(signal.SIGINT, signal.default_int_handler)
-            os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
-            os.dup2(os.open(err, os.O_WRONLY | os.O_CREAT | os.O_TRUNC), 2)
-            sys.stdout = open(1, "w", closefd=False)  # (not pytest's capture)
-            sys.stderr = open(2, "w", buffering=1, closefd=False)
-            warnings.simplefilter("ignore")
-            setup(lambda: os.write(w, b"ready\n"))
-            code = main(argv)
-        finally:
-            with contextlib.suppress(Exception):
-                sys.stderr.flush()
-            os._exit(code)
+
+    def child_setup() -> None:
+        os.close(r)
+        setup(lambda: os.write(w, b"ready\n"))
+
+    pid = _fork_run(argv, child_setup, stderr=err)
     os.close(w)
     return pid, r
 

@@ -6,8 +6,7 @@ Public names load their module on first use (PEP 562): importing a light module 
 (``usvid.identify.defaults``, read by ``usvid identify --help``) does not load the estimators.
 """
 
-import importlib
-from typing import Any
+from usvid.lazy import lazy_names
 
 #: Public name -> the module that defines it.
 _WHERE = {
@@ -58,13 +57,4 @@ _WHERE = {
 __all__ = sorted(_WHERE)
 
 
-def __getattr__(name: str) -> Any:
-    if name in _WHERE:
-        value = getattr(importlib.import_module(_WHERE[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'usvid.identify' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_WHERE))
+__getattr__, __dir__ = lazy_names(__name__, _WHERE)

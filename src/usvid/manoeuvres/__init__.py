@@ -25,8 +25,9 @@ The names load with their modules on first use (PEP 562): the simulation imports
 others (nor :mod:`usvid.prep`).
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from usvid.lazy import lazy_names
 
 if TYPE_CHECKING:
     from usvid.manoeuvres.detect import (
@@ -75,21 +76,9 @@ _MODULES = {
     "measure": ("manoeuvre_metrics", "measured_metrics"),
     "metrics": ("TurningMetrics", "ZigZagMetrics", "turning_metrics", "zigzag_metrics"),
 }
-_LAZY = {name: module for module, names in _MODULES.items() for name in names}
-
-
-def __getattr__(name: str) -> Any:
-    if name in _LAZY:
-        value = getattr(importlib.import_module(f"usvid.manoeuvres.{_LAZY[name]}"), name)
-        globals()[name] = value
-        return value
-    if name in _MODULES:  # a submodule named as an attribute of the package
-        return importlib.import_module(f"usvid.manoeuvres.{name}")
-    raise AttributeError(f"module 'usvid.manoeuvres' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY) | set(_MODULES))
+_LAZY = {name: f"{__name__}.{module}" for module, names in _MODULES.items() for name in names}
+# (a submodule named as an attribute of the package is that submodule)
+__getattr__, __dir__ = lazy_names(__name__, _LAZY, _MODULES)
 
 
 __all__ = [
