@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import browser
-from test_interrupts import N_KILLS, _fork_run, _wait, run_demo_frozen
+from test_interrupts import N_KILLS, _fork_run, _reap, _wait, run_demo_frozen
 from usvid.cli import main
 from usvid.report.html import external_urls
 
@@ -230,10 +230,7 @@ def test_ctrl_c_leaves_no_half_written_output(demo_runs, tmp_path: Path) -> None
             os.kill(pid, signal.SIGINT)
             code = _wait(pid)
     finally:
-        with contextlib.suppress(ChildProcessError, ProcessLookupError):
-            if os.waitpid(pid, os.WNOHANG)[0] == 0:
-                os.kill(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
+        _reap(pid)
     err = errf.read_bytes()
     assert code != 0, "the demo finished before the interrupt could be sent"
     assert code == 130, (code, err[-3000:])  # the CLI's exit code of Ctrl-C

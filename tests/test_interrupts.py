@@ -394,6 +394,14 @@ def _fork_cli(argv: list[str], setup, err: Path) -> tuple[int, int]:
     return pid, r
 
 
+def _reap(pid: int) -> None:
+    """Kill the child ``pid`` if it still runs, and reap it (a test's cleanup)."""
+    with contextlib.suppress(ChildProcessError, ProcessLookupError):
+        if os.waitpid(pid, os.WNOHANG)[0] == 0:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+
+
 def _ready(r: int, timeout: float = 120.0) -> bytes:
     """The first line the child writes to the pipe ``r`` (b"" when it ended without one)."""
     buf = b""
@@ -432,10 +440,7 @@ def test_ctrl_c_exits_130(log, tmp_path) -> None:
         code = _wait(pid, 60.0)
     finally:
         os.close(r)
-        with contextlib.suppress(ChildProcessError, ProcessLookupError):
-            if os.waitpid(pid, os.WNOHANG)[0] == 0:
-                os.kill(pid, signal.SIGKILL)
-                os.waitpid(pid, 0)
+        _reap(pid)
     assert code == 130
     assert err.read_text().strip() == "usvid: interrupted"
     assert not (out / "m.json").exists()
@@ -502,10 +507,7 @@ def test_sigterm_exits_143_like_ctrl_c(log, tmp_path) -> None:
             rc = _wait(pid, 120.0)
         finally:
             os.close(r)
-            with contextlib.suppress(ChildProcessError, ProcessLookupError):
-                if os.waitpid(pid, os.WNOHANG)[0] == 0:
-                    os.kill(pid, signal.SIGKILL)
-                    os.waitpid(pid, 0)
+            _reap(pid)
         text = err.read_text()
         assert rc == 143 and text.strip() == "usvid: terminated", (stage, rc, text[-2000:])
         assert list(out_dir.iterdir()) == [], stage  # no model file, no temporary file
