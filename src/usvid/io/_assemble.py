@@ -496,7 +496,12 @@ def _positive_median(d: np.ndarray) -> float:
 
 def jump_threshold(t: np.ndarray) -> float:
     """The step [s] beyond which a time step of ``t`` [s] is a jump (see ``JUMP_STEPS``)."""
-    return max(JUMP_STEPS * _positive_median(_diff(t)), JUMP_MIN_S)
+    return _jump_threshold(_positive_median(_diff(t)))
+
+
+def _jump_threshold(med: float) -> float:
+    """:func:`jump_threshold` from the median positive step ``med`` [s]."""
+    return max(JUMP_STEPS * med, JUMP_MIN_S)
 
 
 def bad_stamps(t: np.ndarray) -> np.ndarray:
@@ -551,7 +556,7 @@ def _time_integrity(path: Path, t: np.ndarray, chans: dict[str, np.ndarray],
             count=len(idx), data={"records": [int(i) for i in idx[:20]]}))
     d = _diff(t)
     med = _positive_median(d)
-    thr = max(JUMP_STEPS * med, JUMP_MIN_S)  # (jump_threshold(t), from the same differences)
+    thr = _jump_threshold(med)  # (jump_threshold(t), from the same differences)
     jumps = np.flatnonzero(np.abs(d, out=d) > thr)  # (d is not used after this)
     if not len(jumps):
         return t, chans, []
