@@ -9,6 +9,7 @@ under a constant measured rudder angle, it matches the exact solution of the lin
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -135,3 +136,11 @@ def test_roll_states_are_recorded_as_channels_phi_and_p():
         np.testing.assert_allclose(out.channels["phi"][b], want, rtol=0.0, atol=2e-8)
         rate = -0.1 * w * w / wd * np.exp(-z * w * t) * np.sin(wd * t)
         np.testing.assert_allclose(out.channels["p"][b], rate, rtol=0.0, atol=2e-8 * w)
+
+
+@pytest.mark.parametrize("n", [0, 3, 8])
+def test_a_kind_interleaves_one_two_or_four_lane_vectors(n):
+    # the vector step's interleave is LLVM's vectoriser option: 1, 2 or 4 vectors side by side
+    # (the MMG kind's 2 is checked against the per-lane path in test_sim_mmg_vector.py)
+    with pytest.raises(ValueError, match="vector_interleave 1, 2 or 4"):
+        dataclasses.replace(CHAIN, name="chain_il", vector_interleave=n)

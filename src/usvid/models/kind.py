@@ -364,6 +364,13 @@ class ModelKind:
         mode) and its most used values (at most 3): the core's vectorised step is compiled
         once more per value with that row a constant, so that it evaluates only that branch
         (lanes of other values take the generic vectorised step). -1: none.
+    vector_interleave : int
+        Lane vectors the core's vectorised step computes side by side (1: one at a time). A
+        right-hand side whose square roots and divisions follow one another (the MMG kind's
+        hull, wake and rudder inflow) makes one vector's RK4 step a chain of long-latency
+        instructions that the processor cannot overlap with the next vector's (the step is
+        thousands of instructions); two vectors in flight fill the gaps. A short right-hand
+        side (the 3-DOF kind) gains nothing and loses registers: 1.
     """
 
     name: str
@@ -391,6 +398,7 @@ class ModelKind:
     switch_row: int = -1
     switch_values: tuple[float, ...] = ()
     state_estimation: bool = False
+    vector_interleave: int = 1
     source_hash: str = ""
 
     def __post_init__(self) -> None:
@@ -398,6 +406,9 @@ class ModelKind:
             raise ValueError(f"kind {self.name}: 1 to {MAX_STATES} states")
         if len(set(self.states)) != len(self.states):
             raise ValueError(f"kind {self.name}: state names must be unique {self.states}")
+        if self.vector_interleave not in (1, 2, 4):
+            raise ValueError(f"kind {self.name}: vector_interleave 1, 2 or 4, not "
+                             f"{self.vector_interleave}")
         bad = set(self.inputs) - set(INPUTS)
         if bad:
             raise ValueError(f"kind {self.name}: unknown inputs {sorted(bad)}")

@@ -20,6 +20,7 @@ The joint-state and parameter helpers of a kind are generated from its state nam
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
@@ -28,8 +29,10 @@ import types
 from dataclasses import dataclass
 from typing import Any
 
+import llvmlite.binding as _llvm
 import numba
 import numpy as np
+from numba.core.compiler_lock import global_compiler_lock
 
 import usvid.jitcache  # noqa: F401 - numba's cache written best effort
 from usvid.models.kind import ModelKind
@@ -114,6 +117,25 @@ def _specialise(g: dict[str, Any], name: str, qual: str, sig: Any = None, *,
     return g[name]
 
 
+@contextlib.contextmanager
+def _interleaved(n: int) -> Any:
+    """Compile with LLVM's loop vectoriser interleaving ``n`` vectors (its option
+    ``-force-vector-interleave``; 0, its default, lets its cost model choose) and restore the
+    default after: an option of the process's LLVM, set under numba's compiler lock so that no
+    other compilation sees it. The cost model interleaves only small loop bodies; a vector step
+    is thousands of instructions, for which it keeps one vector (:class:`ModelKind`'s
+    ``vector_interleave``). llvmlite ignores an option its LLVM does not have."""
+    if n <= 1:
+        yield
+        return
+    with global_compiler_lock:
+        _llvm.set_option("usvid", f"-force-vector-interleave={n}")
+        try:
+            yield
+        finally:
+            _llvm.set_option("usvid", "-force-vector-interleave=0")
+
+
 def _helper(fn: Any) -> Any:
     """Compile a generated joint-state helper (inlined by LLVM; not cached on disk: it is
     compiled only into the cached functions, which carry it)."""
@@ -139,7 +161,9 @@ class KindCode:
     """A kind's compiled code: its ``layout``, ``kinfo`` (int64 array, :data:`layout.KINFO`),
     the address of its per-lane step ``lstep``, its switch row and values (``swr``: -1 none,
     ``swv`` the values with vector steps of their own; the last vector step, index
-    ``len(swv)``, is the generic one), the specialisation's ``key`` and globals ``g``."""
+    ``len(swv)``, is the generic one), the specialisation's ``key`` and globals ``g``, the
+    lane vectors its vector steps compute side by side (``interleave``,
+    :class:`ModelKind`'s ``vector_interleave``)."""
 
     layout: _layout.Layout
     kinfo: np.ndarray
@@ -148,6 +172,7 @@ class KindCode:
     swv: tuple[float, ...]
     key: str
     g: dict[str, Any]
+    interleave: int = 1
     env: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def chunk_switch(self, P: np.ndarray, lo: int, hi: int) -> int:
@@ -197,7 +222,8 @@ def kernel(kind: ModelKind) -> KindCode:
         raise ValueError(f"kind {kind.name}: at most 3 switch values")
     code = KindCode(layout=lay, kinfo=np.array(lay.kinfo(
         speed_row=kind.speed_row, trig=bool(kind.uses_trig), **pos), dtype=np.int64),
-        lstep=lstep.address, swr=kind.switch_row if values else -1, swv=values, key=key, g=g)
+        lstep=lstep.address, swr=kind.switch_row if values else -1, swv=values, key=key, g=g,
+        interleave=kind.vector_interleave)
     _KINDS[key] = code
     return code
 
@@ -329,5 +355,7 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     for name in VECTOR_TEMPLATES:
         _specialise(gv, name, f"{name}{tag}__{code.key}",
                     forceinline=False if (name == "_vderiv" and not inline) else None)
-    _VSTEPS[vk] = _specialise(gv, "_vstep", f"_vstep{tag}__{code.key}", _vector_mod.VSIG)
+    # a narrow step's VW lane slots are one vector: nothing to interleave
+    with _interleaved(1 if narrow or not inline else code.interleave):
+        _VSTEPS[vk] = _specialise(gv, "_vstep", f"_vstep{tag}__{code.key}", _vector_mod.VSIG)
     return _VSTEPS[vk].address
