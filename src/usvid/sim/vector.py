@@ -151,8 +151,10 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     """:func:`_deriv` for the vector step, with the variant's constants :data:`SK`,
     :data:`NOD`, :data:`XY`, :data:`WIND` (the branches of the other variants vanish at compile
     time; ``fe`` the environment's loads held over the step, read only with WIND); returns
-    (the derivative, the largest |angle - base angle| of its rotations). ``first``: the step
-    start (stage 1), where the angles are the bases' own (no rotation)."""
+    (the derivative, the largest |angle - base angle| of its rotations). ``first``: 1.0 at the
+    step start (stage 1), where the angles are the bases' own (no rotation), else 0.0 (a float,
+    not a bool: numba types a constant True and False as two literal types and compiled this
+    function twice, 12 s of a first MMG run; inlined, LLVM folds the constant all the same)."""
     zdl = z[JDL]
     ma = srv[0]
     mr = srv[1]
@@ -206,7 +208,7 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     sd = 0.0
     hm = 0.0
     if TRIG:
-        if first and NOD:  # the steering angle is its base's
+        if first != 0.0 and NOD:  # the steering angle is its base's
             cd = tr[4]
             sd = tr[5]
         else:
@@ -221,7 +223,7 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     if XY:
         cps = tr[1]
         sps = tr[2]
-        if not first:
+        if first == 0.0:
             cps, sps, hp = _rotv(z[JPSI], tr[0], tr[1], tr[2])
             hm = max(hm, hp)
         k0 = u * cps - v * sps
@@ -247,11 +249,11 @@ def _vrk4(p, fe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
     """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``; with WIND the
     environment's loads ``fe`` held over it, :func:`usvid.sim.lane._heldload`); the heading
     is NaN when an angle moved more than 0.05 rad from its base (the lane is then flagged)."""
-    k1, m1 = _vderiv(p, fe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, True)
+    k1, m1 = _vderiv(p, fe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, 1.0)
     tm = 0.5 * frac
-    k2, m2 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), False)
-    k3, m3 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), False)
-    k4, m4 = _vderiv(p, fe, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), False)
+    k2, m2 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), 0.0)
+    k3, m3 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), 0.0)
+    k4, m4 = _vderiv(p, fe, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), 0.0)
     far = max(max(m1, m2), max(m3, m4)) > 0.05
     return _vrk4sum(z, h / 6.0, k1, k2, k3, k4, far)
 
