@@ -400,9 +400,13 @@ def _hull_nb(p: Any, u: float, v: float,
     L = p[IDX_L]
     U2 = u * u + v * v
     U = vmath.sqrt(U2)
-    Ug = max(U, p[IDX_U_MIN])
-    vp = min(1.0, max(-1.0, v / Ug))
-    rp = r * L / Ug
+    Umin = p[IDX_U_MIN]
+    Ug = max(U, Umin)
+    # 1/U_g = U_g / U_g^2 with U_g^2 = max(U^2, U_min^2): the division waits on U^2 only, side
+    # by side with the square root, not after it (the vector step's lanes wait on this chain)
+    iUg = Ug / max(U2, Umin * Umin)
+    vp = min(1.0, max(-1.0, v * iUg))
+    rp = r * L * iUg
     vp2 = vp * vp
     rp2 = rp * rp
     qf = p[IDX_QF] * U2
