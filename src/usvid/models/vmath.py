@@ -3,9 +3,13 @@
 ``math.asin`` and ``math.sqrt`` compile to calls of the C library, which stop LLVM's loop
 vectoriser, and ``math.exp`` to a call per lane (numba has no vector math library here). These
 are the same functions as straight-line arithmetic (selects instead of branches, square roots,
-one division): FreeBSD's msun (fdlibm, Sun Microsystems 1993) ``e_asin.c`` and ``e_exp.c``, with
-their coefficients and argument reductions. Accuracy: within 1 ulp (exp) and 2 ulp (asin) of
-the correctly rounded value on their domains (tested against ``math`` in tests/test_vmath.py).
+at most one division): FreeBSD's msun (fdlibm, Sun Microsystems 1993) ``e_asin.c`` (its
+coefficients and argument reduction) and ``e_exp.c`` (its argument reduction; e^r of the reduced
+argument by its Taylor polynomial, no division). Polynomials are evaluated by Estrin's scheme
+(Estrin 1960: pairs ``a + b x``, then combined with x^2, x^4, ...): in the vector step the lanes
+wait on the dependency chain, which is log-deep this way instead of as deep as the degree
+(Horner's). Accuracy: within 1 ulp (exp) and 2 ulp (asin) of the correctly rounded value on
+their domains (tested against ``math`` in tests/test_vmath.py).
 """
 
 from __future__ import annotations
