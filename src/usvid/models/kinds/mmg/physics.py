@@ -400,9 +400,13 @@ def _hull_nb(p: Any, u: float, v: float,
     L = p[IDX_L]
     U2 = u * u + v * v
     U = vmath.sqrt(U2)
-    Ug = max(U, p[IDX_U_MIN])
-    vp = min(1.0, max(-1.0, v / Ug))
-    rp = r * L / Ug
+    Umin = p[IDX_U_MIN]
+    Ug = max(U, Umin)
+    # 1/U_g = U_g / U_g^2 with U_g^2 = max(U^2, U_min^2): the division waits on U^2 only, side
+    # by side with the square root, not after it (the vector step's lanes wait on this chain)
+    iUg = Ug / max(U2, Umin * Umin)
+    vp = min(1.0, max(-1.0, v * iUg))
+    rp = r * L * iUg
     vp2 = vp * vp
     rp2 = rp * rp
     qf = p[IDX_QF] * U2
@@ -472,12 +476,19 @@ def _rudder_nb(p: Any, U: float, beta: float, rp: float, uP: float, n: float,
     an = abs(n)
     ktn2d2 = (p[IDX_K_0] * n * n * D * D + p[IDX_K_1] * an * D * uP
               + p[IDX_K_2] * uP * uP)
-    s = vmath.sqrt(max(0.0, uP * uP + _EIGHT_PI * ktn2d2))
+    uP2 = uP * uP
+    a = max(0.0, uP2 + _EIGHT_PI * ktn2d2)
+    s = vmath.sqrt(a)
     kap = p[IDX_KAPPA]
-    w = (1.0 - kap) * uP + kap * s
     eta = p[IDX_ETA]
     eps = p[IDX_EPSILON]
-    b = eta * w * w + (1.0 - eta) * uP * uP  # (u_R / eps)^2
+    # (u_R / eps)^2 = eta w^2 + (1 - eta) u_P^2 with w = (1 - kappa) u_P + kappa s, expanded
+    # with s^2 = a: the terms without s are formed beside the square root, one multiply-add
+    # after it (the root of b waits on s); b >= 0 (a sum of squares), kept so where rounding
+    # of the expanded form could take it below (u_P < 0 with w near 0 and eta = 1)
+    ek = eta * kap
+    b0 = (eta * (1.0 - kap) * (1.0 - kap) + (1.0 - eta)) * uP2 + ek * kap * a
+    b = max(0.0, b0 + 2.0 * ek * (1.0 - kap) * uP * s)
     uR = eps * vmath.sqrt(b)
     bR = beta - p[IDX_L_R] * rp
     pos = 1.0 if bR > 0.0 else 0.0
