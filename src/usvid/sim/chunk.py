@@ -266,12 +266,43 @@ def _dnow(V, j):
     return d if np.isnan(fd) else fd
 
 
-def _vrecord(V, lo, W, jrec, slots, rec, ki):
+def _chrow(ch, ki, cur):
+    """The row of ``V`` that holds channel ``ch``'s value (:func:`_chval`) for every lane, or
+    -1 (a value computed per lane). ``cur``: the batch has a current (u, v over ground are
+    then computed)."""
+    if ch <= 2:
+        return VZ + ch  # x, y, psi
+    if ch == 5:
+        return VZ + ki[KZR]
+    if ch == 3 and not cur:
+        zu = ki[KZU]
+        return ki[KVP] + ki[KSPEED] if zu < 0 else VZ + zu
+    if ch == 4 and not cur and ki[KZV] >= 0:
+        return VZ + ki[KZV]
+    if 9 <= ch <= 11:
+        return VF + ch - 8  # n, n_port, n_stbd at the step start
+    if ch == 13 and ki[KZPHI] >= 0:
+        return VZ + ki[KZPHI]
+    if ch == 14 and ki[KZP] >= 0:
+        return VZ + ki[KZP]
+    return -1
+
+
+def _vrecord(V, lo, W, jrec, slots, rec, ki, cur):
     """Record the quiet lanes (row LQ) of the chunk at the step start, channel by channel (the
-    values of :func:`_record`; the input series of the step loaded, :func:`_vload`)."""
+    values of :func:`_record`; the input series of the step loaded, :func:`_vload`): a
+    channel held in a row of ``V`` (:func:`_chrow`; ``cur``: the batch has a current) copied
+    from it, the others by :func:`_chval` (x, y, psi, r, u, v of the output-error windows:
+    164 -> 157 ns a lane-step, one thread)."""
     for ch in range(NCH):
         sl = slots[ch]
         if sl < 0:
+            continue
+        r = _chrow(ch, ki, cur)
+        if r >= 0:
+            for j in range(W):
+                if V[(VL + LQ) * CH + j] > 0.0:
+                    rec[sl, lo + j, jrec] = V[r * CH + j]
             continue
         for j in range(W):
             if V[(VL + LQ) * CH + j] > 0.0:
@@ -283,8 +314,9 @@ def _quiet_until(V, j, b, lk, L, qt, busy):
     """Time [s] up to which lane j (lane b of the batch) is quiet: no command event queued, no
     ideal-servo ramp ending and no logic start pending before it (-inf: never, for logics
     acting at every step, a commanded rudder series or a noise input; the first-order-hold
-    input series are loaded on the quiet path too, :func:`_vload`). A step ending at t1 with t1 + eps <= this
-    time takes the quiet path of :func:`_chunk` (the per-lane branches would do nothing)."""
+    input series are loaded on the quiet path too, :func:`_vload`). A step ending at t1 with
+    t1 + eps <= this time takes the quiet path of :func:`_chunk` (the per-lane branches would do
+    nothing)."""
     if busy or V[(VL + LESD) * CH + j] > 0.0:
         return -math.inf
     tq = math.inf
@@ -461,6 +493,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     # first-order-hold series: loaded for the quiet lanes by _vload)
     busy = lk == COURSE or (lk == COMMANDED and s4_ >= 0)
     fdser = sidx[0] >= 0  # a measured steering angle
+    hascur = sidx[SCUR] >= 0 or sidx[SCUR + 1] >= 0  # a current (u, v over ground, _chrow)
     for k in range(nmax + 1):
         t = k * dt
         t1 = t + dt
@@ -479,7 +512,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         if series and nq > 0.0:
             _vload(V, W, SER, sidx, lo * sstride, sstride, k)
         if recnow and nq > 0.0:
-            _vrecord(V, lo, W, jrec, slots, rec, ki)
+            _vrecord(V, lo, W, jrec, slots, rec, ki, hascur)
         # -- phase 1, per lane: inputs, logic, events at the step start, record, trig bases --
         for j in range(W if nq < nact else 0):
             if not act[j] or V[(VL + LQ) * CH + j] > 0.0:
@@ -712,6 +745,6 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
 
 
 #: The driver's template functions (specialised once for all kinds, :mod:`usvid.sim.specialise`).
-TEMPLATES = ("_load_series", "_vload", "_steer", "_vbases", "_base_far", "_chval", "_dnow",
-             "_record", "_vrecord",
-             "_quiet_until", "_vquiet", "_vmaxd", "_restore", "_finite_rows", "_chunk")
+TEMPLATES = ("_load_series", "_vload", "_steer", "_vbases", "_base_far", "_chval", "_chrow",
+             "_dnow", "_record", "_vrecord", "_quiet_until", "_vquiet", "_vmaxd", "_restore",
+             "_finite_rows", "_chunk")
