@@ -625,8 +625,8 @@ KIND = ModelKind(
     switch_row=_m.IDX_VARIANT,
     switch_values=(0.0, 1.0, 2.0),
     state_estimation=True,
-    # the hull's, wake's and rudder inflow's square roots and divisions in series (about 20
-    # of each per RK4 step): two lane vectors side by side
+    # the hull's, drift angle's and rudder inflow's square roots and divisions in series (20
+    # and 8 per RK4 step): two lane vectors side by side
     vector_interleave=2,
 )
 
