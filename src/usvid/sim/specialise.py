@@ -161,9 +161,7 @@ class KindCode:
     """A kind's compiled code: its ``layout``, ``kinfo`` (int64 array, :data:`layout.KINFO`),
     the address of its per-lane step ``lstep``, its switch row and values (``swr``: -1 none,
     ``swv`` the values with vector steps of their own; the last vector step, index
-    ``len(swv)``, is the generic one), the specialisation's ``key`` and globals ``g``, the
-    lane vectors its vector steps compute side by side (``interleave``,
-    :class:`ModelKind`'s ``vector_interleave``)."""
+    ``len(swv)``, is the generic one), the specialisation's ``key`` and globals ``g``."""
 
     layout: _layout.Layout
     kinfo: np.ndarray
@@ -172,7 +170,6 @@ class KindCode:
     swv: tuple[float, ...]
     key: str
     g: dict[str, Any]
-    interleave: int = 1
     env: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def chunk_switch(self, P: np.ndarray, lo: int, hi: int) -> int:
@@ -222,8 +219,7 @@ def kernel(kind: ModelKind) -> KindCode:
         raise ValueError(f"kind {kind.name}: at most 3 switch values")
     code = KindCode(layout=lay, kinfo=np.array(lay.kinfo(
         speed_row=kind.speed_row, trig=bool(kind.uses_trig), **pos), dtype=np.int64),
-        lstep=lstep.address, swr=kind.switch_row if values else -1, swv=values, key=key, g=g,
-        interleave=kind.vector_interleave)
+        lstep=lstep.address, swr=kind.switch_row if values else -1, swv=values, key=key, g=g)
     _KINDS[key] = code
     return code
 
@@ -356,6 +352,6 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
         _specialise(gv, name, f"{name}{tag}__{code.key}",
                     forceinline=False if (name == "_vderiv" and not inline) else None)
     # a narrow step's VW lane slots are one vector: nothing to interleave
-    with _interleaved(1 if narrow or not inline else code.interleave):
+    with _interleaved(1 if narrow or not inline else kind.vector_interleave):
         _VSTEPS[vk] = _specialise(gv, "_vstep", f"_vstep{tag}__{code.key}", _vector_mod.VSIG)
     return _VSTEPS[vk].address
