@@ -106,7 +106,16 @@ from usvid.sim.layout import (
     VZ,
     ZIGZAG,
 )
-from usvid.sim.scalar import _clip, _normal, _push, _rot_nan, _splitmix, _start_ramp, _wrap
+from usvid.sim.scalar import (
+    _clip,
+    _fin,
+    _normal,
+    _push,
+    _rot_nan,
+    _splitmix,
+    _start_ramp,
+    _wrap,
+)
 from usvid.sim.vector import _steer
 
 
@@ -317,11 +326,11 @@ def _restore(V, zb, j, nt):
 
 def _finite_rows(V, o, j, nt):
     """Lane j's positions, heading and kind states in the joint-state rows from ``o`` finite."""
-    ok = np.isfinite(V[(o + JPSI) * CH + j])
+    ok = _fin(V[(o + JPSI) * CH + j])  # (not np.isfinite: folded under fast math, _fin)
     for r in range(JPSI):
-        ok = ok and np.isfinite(V[(o + r) * CH + j])
+        ok = ok and _fin(V[(o + r) * CH + j])
     for r in range(JS, nt):
-        ok = ok and np.isfinite(V[(o + r) * CH + j])
+        ok = ok and _fin(V[(o + r) * CH + j])
     return ok
 
 
