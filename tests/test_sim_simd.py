@@ -256,3 +256,31 @@ def test_fin_is_false_for_a_computed_nan_under_fast_math():
     out = np.zeros(8)
     fin_of(h, u, z, out)
     np.testing.assert_array_equal(out, [0, 1, 0, 0, 0, 1, 0, 1])
+
+
+def test_simd_path_equals_per_lane_path_measured_series():
+    """Measured input series (a per-lane measured steering angle, the shaft speed) without a
+    command: the lanes take the quiet path, the series loaded for the quiet lanes and the
+    measured angle in their record and max |delta| (the output-error windows); with a zig-zag
+    and a measured shaft speed too. Some lanes' angle jumps by more than 0.05 rad within a
+    step (their steering base then comes from the library, on the per-lane path)."""
+    prop = Propeller(D=0.46, pitch_ratio=0.3, disk_ratio=0.516, t_P=0.05, w_P=0.04)
+    dyn = mu2018_threedof(x_l=3.5, thrust=prop, n=52.88)
+    model = VesselModel(dyn, servo=IdealServo(max_rate=math.radians(20.0)),
+                        vessel=Vessel(length=7.02, speed=5.14))
+    t = np.arange(0.0, 20.5, 0.1)
+    lane = np.arange(B)[:, None]
+    delta = np.radians(5.0 + 0.5 * lane) * np.sin(t / (2.0 + 0.1 * lane))
+    delta[::5, 100:] += np.radians(8.0)  # a jump of 0.14 rad in some lanes
+    n = 52.88 * (1.0 - 0.005 * lane * np.clip((t - 8.0) / 2.0, 0.0, 1.0))
+    channels = ("psi", "r", "u", "v", "U", "delta", "n")
+    a, b = _both(model, Commanded(t, delta=delta, n=n), t_end=20.0, dt=0.1, channels=channels)
+    _assert_same(a, b)
+    np.testing.assert_array_equal(a.channels["delta"], delta[:, :201])  # the samples, exactly
+    amp = np.radians(np.linspace(8.0, 25.0, B))
+    # a zig-zag in a current and an external force that vary in time (series, quiet lanes)
+    env = Environment(t=t, current_speed=0.3 + 0.02 * t, current_dir=math.radians(60.0),
+                      force=(0.0, 20.0 * np.sin(t), 0.0, 10.0 * np.cos(t / 2.0)))
+    a, b = _both(model, ZigZag(amp, amp, first=np.where(np.arange(B) % 2 == 0, 1, -1)),
+                 t_end=20.0, dt=0.05, environment=env, channels=("x", "y") + channels)
+    _assert_same(a, b)
