@@ -370,8 +370,7 @@ def _vmaxd(V, tmp):
 
     The updated row goes through the scratch row ``tmp`` (CH values) and is copied back:
     ``V[o] = new if cond else V[o]`` would compile to a masked store (``vmaskmovpd``, slow).
-    (The vector step's max |delta| of the quiet lanes is the servo's: a batch with a measured
-    steering angle keeps ``tmp`` and copies it back after the vector step, :func:`_chunk`.)"""
+    (The vector step computes the same for the quiet lanes it steps.)"""
     o = (VL + LMAXD) * CH
     for j in range(CH):
         d = abs(_dnow(V, j))
@@ -427,7 +426,6 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     W = hi - lo
     V = np.zeros(ki[KROWS] * CH)
     zb = V[ki[KVB] * CH:]  # the scratch rows (of the vector step, _vmaxd)
-    mxd = np.zeros(CH)  # max |delta| of a batch with a measured steering angle (_vmaxd)
     out = np.zeros(5)  # the per-lane step's command, ramp rate, ramp end, queue head and length
     for j in range(CH):
         V[(VT + 1) * CH + j] = 1.0  # trig bases: cos 0, sin 0
@@ -507,7 +505,6 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
     # lanes whose logic or commanded input acts at every step are never quiet (the
     # first-order-hold series: loaded for the quiet lanes by _vload)
     busy = lk == COURSE or (lk == COMMANDED and s4_ >= 0)
-    fdser = sidx[0] >= 0  # a measured steering angle
     hascur = sidx[SCUR] >= 0 or sidx[SCUR + 1] >= 0  # a current (u, v over ground, _chrow)
     for k in range(nmax + 1):
         t = k * dt
@@ -626,13 +623,8 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         # flagged, row LFLAG); else the max |delta| of the quiet lanes and the trig bases --
         nslow = float(nact)
         if nsimple > 0:
-            if fdser and nq > 0.0:  # the measured angle's max |delta| (_vmaxd)
-                _vmaxd(V, mxd)
             nslow = _vcall(vaddr, V, t1 - t, (t1 - t) * idt, 1.0 if lk == ZIGZAG else 0.0,
                            float(skind))
-            if fdser and nq > 0.0:
-                for j in range(CH):
-                    V[(VL + LMAXD) * CH + j] = mxd[j]
         else:
             _vmaxd(V, zb)
             for j in range(W if _vbases(V, trig) > 0.0 else 0):

@@ -280,7 +280,7 @@ def _vstep(Vp, h, frac, zig, sk):
       rotated from the previous step's (:func:`_rot_nan`) and renormalised; NaN where the angle
       moved more than 0.05 rad (the lane is then flagged, and its bases are computed by the
       library before the per-lane step);
-    * max |delta| of the quiet lanes at the step start;
+    * max |delta| of the quiet lanes at the step start (the measured angle, else the servo's);
     * the RK4 step (:func:`_vrk4`; the heading NaN where an angle moved more than 0.05 rad from
       its base within the step);
     * the end of the step, the same arithmetic as the per-lane branch of :func:`_chunk`: the
@@ -393,9 +393,12 @@ def _vstep(Vp, h, frac, zig, sk):
         y = _vrk4(_ptup(V, j), fe, z, h, frac, srv, V[VCMD * CH + j],
                   V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
         quiet = V[(VL + LQ) * CH + j] > 0.0
-        # max |delta| of the quiet lanes at the step start (the measured angle is absent on
-        # the quiet path: the servo's, limited)
-        V[(VB + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(d) if quiet else 0.0)
+        # max |delta| of the quiet lanes at the step start: the measured angle (series delta,
+        # loaded for the quiet lanes by the driver), else the servo's, limited (the value
+        # :func:`usvid.sim.chunk._dnow` records; without series fs[0] is a NaN literal and
+        # the select compiles away)
+        dm = d if np.isnan(fs[0]) else fs[0]
+        V[(VB + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(dm) if quiet else 0.0)
         # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
         # every load unconditional, clips as selects: no masked loads and stores)
         ok = _finite(y)
