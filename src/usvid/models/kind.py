@@ -371,12 +371,6 @@ class ModelKind:
         instructions that the processor cannot overlap with the next vector's (the step is
         thousands of instructions); two vectors in flight fill the gaps. A short right-hand
         side (the 3-DOF kind) gains nothing and loses registers: 1.
-    vector_staged : bool
-        The core's vectorised step runs each RK4 stage as a lane loop of its own (the stage's
-        derivative of every lane stored, then the next stage's), instead of a whole RK4 step
-        per lane in one loop: one stage's values live at a time instead of four stages'. For
-        a right-hand side too long for the registers (the MMG kind's); a short one (the 3-DOF
-        kind) keeps the one loop: False.
     """
 
     name: str
@@ -405,7 +399,6 @@ class ModelKind:
     switch_values: tuple[float, ...] = ()
     state_estimation: bool = False
     vector_interleave: int = 1
-    vector_staged: bool = False
     source_hash: str = ""
 
     def __post_init__(self) -> None:

@@ -153,9 +153,7 @@ class Layout:
 
     ``nt`` joint-state length, ``vp`` first parameter row, ``vb`` first scratch row (the joint
     state and overshoot before the vector step, then its new max |delta| and overshoot),
-    ``vn`` first row of the per-lane step's result (the joint state), ``vk`` first row of the
-    staged vector step's scratch (a stage's derivative, the RK4 sum so far, the largest angle
-    from a base so far: :func:`usvid.sim.vector._vstage`), ``rows`` the total."""
+    ``vn`` first row of the per-lane step's result (the joint state), ``rows`` the total."""
 
     ns: int
     npk: int
@@ -177,17 +175,13 @@ class Layout:
         return self.vb + self.nt + 3
 
     @property
-    def vk(self) -> int:
-        return self.vn + self.nt
-
-    @property
     def rows(self) -> int:
-        return self.vk + 2 * self.nt + 1
+        return self.vn + self.nt
 
     def constants(self) -> dict[str, int]:
         """The kind-dependent constants the kind's templates read as globals."""
         return {"NS": self.ns, "NPK": self.npk, "NT": self.nt, "VP": self.vp, "VB": self.vb,
-                "VN": self.vn, "VK": self.vk, "VROWS": self.rows}
+                "VN": self.vn, "VROWS": self.rows}
 
     def kinfo(self, *, zu: int, zv: int, zr: int, zphi: int, zp: int, speed_row: int,
               trig: bool) -> tuple[int, ...]:
@@ -218,7 +212,7 @@ def joint_helpers(layout: Layout, g: Mapping[str, Any], *, xy: bool = True,
     caller compiles them), by name:
 
     * ``_ztup(V, j)``: the tuple from the rows VZ.. of lane slot j; ``_zput(A, o, z)``: stores
-      it at ``A[o + i * CH]`` (o = row * CH + j), ``_zget(A, o)`` loads it from there;
+      it at ``A[o + i * CH]`` (o = row * CH + j);
     * ``_states(z)``: the kind's states; ``_joint(k0, k1, k2, rate, acc, k5, k6, ds)``: a
       derivative tuple from the kinematics, the servo, the filter and the kind's ``ds``;
     * ``_with_dl(z, d)``: z with the servo angle d (``_with_servo(z, d, dd)``: and rate dd);
@@ -228,15 +222,12 @@ def joint_helpers(layout: Layout, g: Mapping[str, Any], *, xy: bool = True,
     * ``_axpy(z, h, k)``: z + h k; ``_rk4sum(z, h6, k1, k2, k3, k4)``: the RK4 combination;
     * for the vector step (variant ``xy``: x and y integrated; ``nod``: no disturbance filter),
       ``_vaxpy`` and ``_vrk4sum(z, h6, k1, k2, k3, k4, far)`` keeping the rows the variant
-      does not integrate (and psi NaN where ``far``), ``_vrk4acc(z, h6, s, k4, far)`` the same
-      with ``s = k1 + 2 k2 + 2 k3`` summed stage by stage, ``_vput(V, j, y, dl, dd)`` storing its
+      does not integrate (and psi NaN where ``far``), ``_vput(V, j, y, dl, dd)`` storing its
       result.
     """
     nt = layout.nt
     rng = range(nt)
     rk = "z[{i}] + h6 * (k1[{i}] + 2.0 * k2[{i}] + 2.0 * k3[{i}] + k4[{i}])"
-    # the same sum with s = (k1 + 2 k2) + 2 k3 formed stage by stage (the same order)
-    rs = "z[{i}] + h6 * (s[{i}] + k4[{i}])"
 
     def kept(i: int) -> bool:  # a row the vector variant leaves as it is
         return (not xy and i in (JX, JY)) or (nod and i in (JW1, JW2))
@@ -244,7 +235,6 @@ def joint_helpers(layout: Layout, g: Mapping[str, Any], *, xy: bool = True,
     fs = {
         "_ztup": ("V, j", [f"return {_tuple([f'V[{(VZ + i) * CH} + j]' for i in rng])}"]),
         "_zput": ("A, o, z", [f"A[o + {i * CH}] = z[{i}]" for i in rng]),
-        "_zget": ("A, o", [f"return {_tuple([f'A[o + {i * CH}]' for i in rng])}"]),
         "_states": ("z", [f"return {_tuple([f'z[{JS + i}]' for i in range(layout.ns)])}"]),
         "_joint": ("k0, k1, k2, rate, acc, k5, k6, ds", [
             "return " + _tuple(["k0", "k1", "k2", "rate", "acc", "k5", "k6"]
@@ -261,10 +251,6 @@ def joint_helpers(layout: Layout, g: Mapping[str, Any], *, xy: bool = True,
             f"y{JPSI} = {rk.format(i=JPSI)}",
             "return " + _tuple([f"z[{i}]" if kept(i) else ("np.nan if far else y2" if i == JPSI
                                                             else rk.format(i=i)) for i in rng])]),
-        "_vrk4acc": ("z, h6, s, k4, far", [
-            f"y{JPSI} = {rs.format(i=JPSI)}",
-            "return " + _tuple([f"z[{i}]" if kept(i) else ("np.nan if far else y2" if i == JPSI
-                                                            else rs.format(i=i)) for i in rng])]),
         "_vput": ("V, j, y, dl, dd", [
             f"V[{(VZ + i) * CH} + j] = " + ("dl" if i == JDL else "dd" if i == JDD else f"y[{i}]")
             for i in rng if not kept(i)]),

@@ -55,17 +55,15 @@ LANE_TEMPLATES = ("_inputs", "_heldload", "_holdset", "_holdget", "_deriv", "_rk
                   "_substeps")
 #: The vector path's templates (:mod:`usvid.sim.vector`); the C callback :func:`vector._vstep`.
 VECTOR_TEMPLATES = ("_steer", "_heldload", "_holdset", "_holdget", "_hbase", "_vheld",
-                    "_vderiv", "_vrk4", "_vbase", "_vtr", "_vload", "_vsrv", "_vseries",
-                    "_vstage", "_vend")
+                    "_vderiv", "_vrk4")
 #: The generated joint-state helpers of a vector-step variant (:func:`layout.joint_helpers`).
-VARIANT_HELPERS = ("_vaxpy", "_vrk4sum", "_vrk4acc", "_vput")
+VARIANT_HELPERS = ("_vaxpy", "_vrk4sum", "_vput")
 #: Templates inlined by LLVM where they are called (tuples only: no reference counting; numba's
 #: own inlining, inline="always", copies the IR at every call site, most of the compile time).
 #: ``_deriv`` stays out of line in the per-lane step (integrating only the steps with an event
 #: inside, or lanes the vector step does not take): a quarter of the compile work.
 _FORCEINLINE = ("_rk4", "_heldload", "_holdset", "_holdget", "_hbase", "_vheld", "_inputs",
-                "_substeps", "_steer", "_vderiv", "_vrk4", "_chval", "_finite_rows", "_vbase",
-                "_vtr", "_vload", "_vsrv", "_vseries", "_vstage", "_vend")
+                "_substeps", "_steer", "_vderiv", "_vrk4", "_chval", "_finite_rows")
 
 _MODULES = (_scalar, _layout, _lane_mod, _vector_mod, _chunk_mod)
 #: The modules of the environment's numba functions the templates compile into themselves
@@ -338,8 +336,7 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     const = {code.swr: code.swv[swi]} if code.swr >= 0 and swi < len(code.swv) else {}
     gv = dict(_wind_globals(code) if wind else code.g, SK=sk, NOD=bool(nod), XY=bool(xy),
               NLANES=_vector_mod.VW if narrow else _layout.CH, SHARED=bool(shared),
-              STEADY=bool(steady), FORCE=bool(force),
-              STAGED=bool(kind.vector_staged and inline and not generic))
+              STEADY=bool(steady), FORCE=bool(force))
     if wind and wcode >= 0:
         gv["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(
             lay, gv, read=True, const={0: float(wcode)}))

@@ -95,17 +95,13 @@ TRIG = False  # the kind reads cos/sin of the steering angle
 VB = 0  # first scratch row
 NT = 1  # joint-state length
 VROWS = 1  # rows of the chunk array
-VK = 0  # first row of the staged step's scratch (:func:`_vstage`)
-#: Variant constant: the RK4 stages in lane loops of their own (:func:`_vstage`; the kind's
-#: ``vector_staged``), else the whole step in one lane loop (:func:`_vrk4`).
-STAGED = False
 ZR = 0  # position of r in the joint-state tuple
 #: Lanes of one vector (the AVX2 width of float64): a chunk of at most VW lanes (a single run)
 #: takes the vector step of VW lane slots, not CH, and the driver's vectorised loops compute
 #: the chunk's lanes rounded up to a multiple of VW, so that one run costs one vector of lanes.
 VW = 4
 NLANES = CH  # the vector step's lane slots (CH, or VW: set by the specialisation)
-rhs = _ztup = _zput = _zget = _vrk4acc = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _ptup = None
+rhs = _ztup = _zput = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _ptup = None
 _etup = None
 
 
@@ -262,195 +258,6 @@ def _vrk4(p, fe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
     return _vrk4sum(z, h / 6.0, k1, k2, k3, k4, far)
 
 
-def _vbase(V, j):
-    """Lane slot j's trig bases at the step start (:func:`_hbase` of the heading with
-    :data:`XY`, the steering angle's of a TRIG kind), stored in the rows VT..; returns them
-    as the tuple (heading, cos, sin, steering angle, cos, sin) of :func:`_vderiv`."""
-    a = V[RPSI * CH + j]
-    c0 = 1.0
-    s0 = 0.0
-    if XY:
-        o = VT * CH + j
-        a, c0, s0 = _hbase(V, j)
-        V[o] = a
-        V[o + CH] = c0
-        V[o + 2 * CH] = s0
-    elif WIND:  # the heading's cosine at the last evaluation of the loads (NaN: the
-        # evaluation could not rotate the base, the loads not refreshed); without x and
-        # y nothing else in the step reads the bases: they follow the heading at the
-        # evaluations only (rotated over the load interval, :func:`_hbase`)
-        c0 = V[(VT + 1) * CH + j]
-    a3 = 0.0
-    c3 = 1.0
-    s3 = 0.0
-    if TRIG:
-        o = (VT + 3) * CH + j
-        if NOD:
-            x7 = V[RDL * CH + j]
-            ma = V[VS * CH + j]
-            a3 = ma if x7 > ma else (-ma if x7 < -ma else x7)  # _clip, as selects
-        else:
-            a3 = _steer(V, j)
-        c_, s_ = _rot_nan(a3, V[o], V[o + CH], V[o + 2 * CH])
-        g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
-        c3 = c_ * g_
-        s3 = s_ * g_
-        V[o] = a3
-        V[o + CH] = c3
-        V[o + 2 * CH] = s3
-    return (a, c0, s0, a3, c3, s3)
-
-
-def _vtr(V, j):
-    """Lane slot j's trig bases of the step as :func:`_vbase` returned them (read back from
-    the rows it stored)."""
-    a = V[RPSI * CH + j]
-    c0 = 1.0
-    s0 = 0.0
-    if XY:
-        o = VT * CH + j
-        a = V[o]
-        c0 = V[o + CH]
-        s0 = V[o + 2 * CH]
-    elif WIND:
-        c0 = V[(VT + 1) * CH + j]
-    a3 = 0.0
-    c3 = 1.0
-    s3 = 0.0
-    if TRIG:
-        o = (VT + 3) * CH + j
-        a3 = V[o]
-        c3 = V[o + CH]
-        s3 = V[o + 2 * CH]
-    return (a, c0, s0, a3, c3, s3)
-
-
-def _vload(V, j, c0, sh):
-    """Lane slot j's environment loads held over the step (with WIND, else :data:`NOF`):
-    :func:`usvid.sim.lane._holdget` at ``sh``, NaN with the heading's base cosine ``c0`` (0 c0
-    is NaN then, else a zero: X unchanged), so that such a lane's result is not finite and the
-    per-lane step takes the step (and evaluates the loads if due): without x, y nothing else
-    in the step reads the base, and held loads would go on unrefreshed; with STEADY and FORCE
-    plus the series' force (constant), as :func:`_vderiv` adds."""
-    fe = NOF
-    if WIND:
-        fe = _holdget(V, j, sh)
-        fe = (fe[0] + 0.0 * c0, fe[1], fe[2], fe[3])
-        if STEADY and FORCE:
-            o = (VF + SFORCE) * CH + j
-            fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
-                  V[o + 3 * CH] + fe[3])
-    return fe
-
-
-def _vsrv(V, j, w0, w1, w2):
-    """Lane slot j's servo tuple of :func:`_vderiv` (the rows VS.., the blend's weights)."""
-    o = VS * CH + j
-    return (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
-            V[o + 6 * CH], w0, w1, w2)
-
-
-def _vseries(V, j):
-    """Lane slot j's input series at the step's two ends (the rows VF..; NaN where the variant
-    reads none)."""
-    nan = np.nan
-    if NOD and not WIND:
-        return (nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan,
-                nan, nan, nan, nan, nan, nan, nan, nan)
-    o = VF * CH + j
-    if NOD and STEADY:  # (WIND) the current only, at the step start
-        return (nan, nan, nan, nan, nan, nan, nan, nan, V[o + 8 * CH], V[o + 9 * CH], nan, nan,
-                nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan)
-    return (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
-            V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
-            V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH], V[o + 15 * CH],
-            V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH], V[o + 19 * CH], V[o + 20 * CH],
-            V[o + 21 * CH], V[o + 22 * CH], V[o + 23 * CH])
-
-
-def _vstage(V, h, frac, sh, w0, w1, w2, c, tau, first, last):
-    """One RK4 stage of :func:`_vrk4` for every lane slot, in a lane loop of its own (the
-    variant :data:`STAGED`): the stage's state ``z + c h k`` (k the previous stage's
-    derivative, rows VK..; ``first``: the step start), its derivative at ``tau``
-    (:func:`_vderiv`) stored in the rows VK.. for the next stage, the sum
-    ``k1 + 2 k2 + 2 k3`` so far (rows VK + NT..) and the largest |angle - base angle| so far
-    (row VK + 2 NT); ``last``: the fourth stage, which stores the step's result (the RK4
-    combination, :func:`_vrk4`) in the rows VK.. instead. The same arithmetic as
-    :func:`_vrk4`, whose lane loop keeps the four stages' values live at once: a right-hand
-    side as long as the MMG kind's then spills half its values to the stack; a loop per stage
-    holds one stage's (arguments ``c``, ``tau``, ``first``, ``last`` literals at the call:
-    LLVM folds them after inlining)."""
-    for j in range(NLANES):
-        tr = _vtr(V, j)
-        z = _ztup(V, j)
-        o = VK * CH + j
-        zs = z
-        if first == 0.0:
-            zs = _vaxpy(z, c * h, _zget(V, o))
-        k, m = _vderiv(_ptup(V, j), _vload(V, j, tr[1], sh), tau, _vsrv(V, j, w0, w1, w2),
-                       V[VCMD * CH + j], V[VRAMP * CH + j], V[VNOISE * CH + j], _vseries(V, j),
-                       tr, zs, first)
-        om = (VK + 2 * NT) * CH + j
-        if first != 0.0:
-            _zput(V, o + NT * CH, k)
-            V[om] = m
-            _zput(V, o, k)
-        elif last == 0.0:
-            _zput(V, o + NT * CH, _vaxpy(_zget(V, o + NT * CH), 2.0, k))
-            V[om] = max(V[om], m)
-            _zput(V, o, k)
-        else:
-            far = max(V[om], m) > 0.05
-            _zput(V, o, _vrk4acc(z, h / 6.0, _zget(V, o + NT * CH), k, far))
-
-
-def _vend(V, j, z, y, zig, sk):
-    """The end of lane slot j's step from its state z at the step start and y at its end, the
-    same arithmetic as the per-lane branch of :func:`_chunk` (see :func:`_vstep`): the max
-    |delta| of a quiet lane, the servo limits, the zig-zag overshoot tracker, the flag; stores
-    the new rows and the old in the scratch rows; returns the flag times the lane's active
-    flag."""
-    x7 = V[RDL * CH + j]
-    ma = V[VS * CH + j]
-    d = ma if x7 > ma else (-ma if x7 < -ma else x7)  # _clip, as selects
-    quiet = V[(VL + LQ) * CH + j] > 0.0
-    # max |delta| of the quiet lanes at the step start (the measured angle is absent on
-    # the quiet path: the servo's, limited)
-    V[(VB + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(d) if quiet else 0.0)
-    # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
-    # every load unconditional, clips as selects: no masked loads and stores)
-    ok = _finite(y)
-    cur = V[(VL + LCUR) * CH + j]
-    cur = cur if zig > 0.0 else 0.0
-    sw = V[(VL + LSW) * CH + j]
-    dev1 = y[JPSI] - V[(VL + LPSI0) * CH + j]
-    cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
-    ovmax = V[(VL + LOVMAX) * CH + j]
-    ov = -cur * dev1 - sw
-    upd = (cur != 0.0) & (V[(VL + LZZN) * CH + j] >= 1.0) & (np.isnan(ovmax) | (ov > ovmax))
-    dl = y[JDL]
-    dd = y[JDD]
-    if SK != 0:
-        above = dl > ma
-        below = dl < -ma
-        dd2 = min(dd, 0.0) if above else (max(dd, 0.0) if below else dd)
-        dl2 = ma if above else (-ma if below else dl)
-        if SK == 2 or SK < 0:
-            mr = V[(VS + 1) * CH + j]
-            dd3 = mr if dd2 > mr else (-mr if dd2 < -mr else dd2)
-            dd2 = dd3 if (SK == 2 or sk == 2.0) else dd2
-        dl = dl2 if (SK > 0 or sk != 0.0) else dl
-        dd = dd2 if (SK > 0 or sk != 0.0) else dd
-    fast = quiet & ok & (not cross) & (abs(y[ZR]) <= R_MAX)
-    flag = 0.0 if fast else 1.0
-    V[(VL + LFLAG) * CH + j] = flag
-    _zput(V, VB * CH + j, z)
-    V[(VB + NT) * CH + j] = ovmax
-    V[(VB + NT + 2) * CH + j] = ov if upd else ovmax
-    _vput(V, j, y, dl, dd)
-    return flag * V[(VL + LACT) * CH + j]  # (a product: a select would load it masked)
-
-
 def _vstep(Vp, h, frac, zig, sk):
     """One step of the first :data:`NLANES` lane slots of a chunk (all :data:`CH`, or
     :data:`VW` in the variant for a chunk of at most VW lanes, e.g. a single run), vectorised
@@ -519,23 +326,108 @@ def _vstep(Vp, h, frac, zig, sk):
             for j in range(NLANES):
                 for i in range(HOLD_ROWS):
                     V[(VH + i) * CH + j] = V[(VB + i) * CH + j]
-    if STAGED:  # the bases, the four RK4 stages and the end, a lane loop each
-        for j in range(NLANES):
-            _vbase(V, j)
-        _vstage(V, h, frac, sh, w0, w1, w2, 0.0, 0.0, 1.0, 0.0)
-        _vstage(V, h, frac, sh, w0, w1, w2, 0.5, 0.5 * frac, 0.0, 0.0)
-        _vstage(V, h, frac, sh, w0, w1, w2, 0.5, 0.5 * frac, 0.0, 0.0)
-        _vstage(V, h, frac, sh, w0, w1, w2, 1.0, frac, 0.0, 1.0)
-        for j in range(NLANES):
-            nslow += _vend(V, j, _ztup(V, j), _zget(V, VK * CH + j), zig, sk)
-    else:
-        for j in range(NLANES):
-            tr = _vbase(V, j)
-            fe = _vload(V, j, tr[1], sh)
-            z = _ztup(V, j)
-            y = _vrk4(_ptup(V, j), fe, z, h, frac, _vsrv(V, j, w0, w1, w2), V[VCMD * CH + j],
-                      V[VRAMP * CH + j], V[VNOISE * CH + j], _vseries(V, j), tr)
-            nslow += _vend(V, j, z, y, zig, sk)
+    for j in range(NLANES):
+        a = V[RPSI * CH + j]
+        c0 = 1.0
+        s0 = 0.0
+        if XY:
+            o = VT * CH + j
+            a, c0, s0 = _hbase(V, j)
+            V[o] = a
+            V[o + CH] = c0
+            V[o + 2 * CH] = s0
+        elif WIND:  # the heading's cosine at the last evaluation of the loads (NaN: the
+            # evaluation could not rotate the base, the loads not refreshed); without x and
+            # y nothing else in the step reads the bases: they follow the heading at the
+            # evaluations only (rotated over the load interval, :func:`_hbase`)
+            c0 = V[(VT + 1) * CH + j]
+        if WIND:  # the loads held over the step; NaN with the heading's base (0 c0 is NaN
+            # then, else a zero: X unchanged), so that such a lane's result is not finite and
+            # the per-lane step takes the step (and evaluates the loads if due): without x, y
+            # nothing else in the step reads the base, and held loads would go on unrefreshed
+            fe = _holdget(V, j, sh)
+            fe = (fe[0] + 0.0 * c0, fe[1], fe[2], fe[3])
+            if STEADY and FORCE:  # the series' force (constant) plus the loads, as
+                # :func:`_vderiv` adds
+                o = (VF + SFORCE) * CH + j
+                fe = (V[o] + fe[0], V[o + CH] + fe[1], V[o + 2 * CH] + fe[2],
+                      V[o + 3 * CH] + fe[3])
+        x7 = V[RDL * CH + j]
+        ma = V[VS * CH + j]
+        d = ma if x7 > ma else (-ma if x7 < -ma else x7)  # _clip, as selects
+        a3 = 0.0
+        c3 = 1.0
+        s3 = 0.0
+        if TRIG:
+            o = (VT + 3) * CH + j
+            a3 = d if NOD else _steer(V, j)
+            c_, s_ = _rot_nan(a3, V[o], V[o + CH], V[o + 2 * CH])
+            g_ = 1.5 - 0.5 * (c_ * c_ + s_ * s_)
+            c3 = c_ * g_
+            s3 = s_ * g_
+            V[o] = a3
+            V[o + CH] = c3
+            V[o + 2 * CH] = s3
+        tr = (a, c0, s0, a3, c3, s3)
+        o = VS * CH + j
+        srv = (ma, V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+               V[o + 6 * CH], w0, w1, w2)
+        if NOD and not WIND:
+            fs = (np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
+                  np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan, np.nan,
+                  np.nan, np.nan, np.nan, np.nan)
+        elif NOD and STEADY:  # (WIND) the current only, at the step start
+            o = VF * CH + j
+            nan = np.nan
+            fs = (nan, nan, nan, nan, nan, nan, nan, nan, V[o + 8 * CH], V[o + 9 * CH], nan, nan,
+                  nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan)
+        else:
+            o = VF * CH + j
+            fs = (V[o], V[o + CH], V[o + 2 * CH], V[o + 3 * CH], V[o + 4 * CH], V[o + 5 * CH],
+                  V[o + 6 * CH], V[o + 7 * CH], V[o + 8 * CH], V[o + 9 * CH], V[o + 10 * CH],
+                  V[o + 11 * CH], V[o + 12 * CH], V[o + 13 * CH], V[o + 14 * CH],
+                  V[o + 15 * CH], V[o + 16 * CH], V[o + 17 * CH], V[o + 18 * CH],
+                  V[o + 19 * CH], V[o + 20 * CH], V[o + 21 * CH], V[o + 22 * CH],
+                  V[o + 23 * CH])
+        z = _ztup(V, j)
+        y = _vrk4(_ptup(V, j), fe, z, h, frac, srv, V[VCMD * CH + j],
+                  V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
+        quiet = V[(VL + LQ) * CH + j] > 0.0
+        # max |delta| of the quiet lanes at the step start (the measured angle is absent on
+        # the quiet path: the servo's, limited)
+        V[(VB + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(d) if quiet else 0.0)
+        # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
+        # every load unconditional, clips as selects: no masked loads and stores)
+        ok = _finite(y)
+        cur = V[(VL + LCUR) * CH + j]
+        cur = cur if zig > 0.0 else 0.0
+        sw = V[(VL + LSW) * CH + j]
+        dev1 = y[JPSI] - V[(VL + LPSI0) * CH + j]
+        cross = ((cur > 0.0) & (dev1 >= sw)) | ((cur < 0.0) & (dev1 <= -sw))
+        ovmax = V[(VL + LOVMAX) * CH + j]
+        ov = -cur * dev1 - sw
+        upd = (cur != 0.0) & (V[(VL + LZZN) * CH + j] >= 1.0) & (np.isnan(ovmax) | (ov > ovmax))
+        dl = y[JDL]
+        dd = y[JDD]
+        if SK != 0:
+            above = dl > ma
+            below = dl < -ma
+            dd2 = min(dd, 0.0) if above else (max(dd, 0.0) if below else dd)
+            dl2 = ma if above else (-ma if below else dl)
+            if SK == 2 or SK < 0:
+                mr = srv[1]
+                dd3 = mr if dd2 > mr else (-mr if dd2 < -mr else dd2)
+                dd2 = dd3 if (SK == 2 or sk == 2.0) else dd2
+            dl = dl2 if (SK > 0 or sk != 0.0) else dl
+            dd = dd2 if (SK > 0 or sk != 0.0) else dd
+        fast = quiet & ok & (not cross) & (abs(y[ZR]) <= R_MAX)
+        flag = 0.0 if fast else 1.0
+        V[(VL + LFLAG) * CH + j] = flag
+        nslow += flag * V[(VL + LACT) * CH + j]  # (a product: a select would load it masked)
+        _zput(V, VB * CH + j, z)
+        V[(VB + NT) * CH + j] = ovmax
+        V[(VB + NT + 2) * CH + j] = ov if upd else ovmax
+        _vput(V, j, y, dl, dd)
     for j in range(NLANES):
         V[(VL + LMAXD) * CH + j] = V[(VB + NT + 1) * CH + j]
         V[(VL + LOVMAX) * CH + j] = V[(VB + NT + 2) * CH + j]
