@@ -399,7 +399,6 @@ class ModelKind:
     switch_values: tuple[float, ...] = ()
     state_estimation: bool = False
     vector_interleave: int = 1
-    vector_stage_params: bool = False
     source_hash: str = ""
 
     def __post_init__(self) -> None:

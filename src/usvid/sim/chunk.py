@@ -52,14 +52,12 @@ from usvid.sim.layout import (
     KNPK,
     KNS,
     KNT,
-    KPC,
     KROWS,
     KSPEED,
     KTRIG,
     KVB,
     KVN,
     KVP,
-    KVPC,
     KZP,
     KZPHI,
     KZR,
@@ -391,9 +389,6 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
         nmax = max(nmax, nsteps[b])
         for i in range(npk):
             V[(ki[KVP] + i) * CH + j] = P[b, i]
-        for c in range(ki[KPC] - 1):  # the parameter rows' copies (the vector step's stages)
-            for i in range(npk):
-                V[(ki[KVPC] + c * npk + i) * CH + j] = P[b, i]
         for i in range(SERVO_ROWS):
             V[(VS + i) * CH + j] = S[b, i]
         if sconst:

@@ -143,9 +143,8 @@ def joint_names(states: Sequence[str]) -> tuple[str, ...]:
 #: joint-state positions of u, v, r, phi, p (-1: none; u -1: the constant speed of the
 #: parameter row ``speed_row``, v -1: zero), and whether it reads cos/sin of the steering angle.
 KINFO = ("ns", "npk", "nt", "vp", "vb", "vn", "rows", "zu", "zv", "zr", "zphi", "zp",
-         "speed_row", "trig", "pc", "vpc")
-(KNS, KNPK, KNT, KVP, KVB, KVN, KROWS, KZU, KZV, KZR, KZPHI, KZP, KSPEED, KTRIG, KPC,
- KVPC) = range(len(KINFO))
+         "speed_row", "trig")
+(KNS, KNPK, KNT, KVP, KVB, KVN, KROWS, KZU, KZV, KZR, KZPHI, KZP, KSPEED, KTRIG) = range(len(KINFO))
 
 
 @dataclass(frozen=True)
@@ -158,7 +157,6 @@ class Layout:
 
     ns: int
     npk: int
-    pc: int = 1
 
     @property
     def nt(self) -> int:
@@ -177,23 +175,19 @@ class Layout:
         return self.vb + self.nt + 3
 
     @property
-    def vpc(self) -> int:
-        return self.vn + self.nt
-
-    @property
     def rows(self) -> int:
-        return self.vpc + (self.pc - 1) * self.npk
+        return self.vn + self.nt
 
     def constants(self) -> dict[str, int]:
         """The kind-dependent constants the kind's templates read as globals."""
         return {"NS": self.ns, "NPK": self.npk, "NT": self.nt, "VP": self.vp, "VB": self.vb,
-                "VN": self.vn, "PC": self.pc, "VPC": self.vpc, "VROWS": self.rows}
+                "VN": self.vn, "VROWS": self.rows}
 
     def kinfo(self, *, zu: int, zv: int, zr: int, zphi: int, zp: int, speed_row: int,
               trig: bool) -> tuple[int, ...]:
         """The values of :data:`KINFO` (positions ``z..`` in the joint-state tuple)."""
         return (self.ns, self.npk, self.nt, self.vp, self.vb, self.vn, self.rows, zu, zv, zr,
-                zphi, zp, speed_row, int(trig), self.pc, self.vpc)
+                zphi, zp, speed_row, int(trig))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -272,16 +266,6 @@ def param_tuple(layout: Layout, g: Mapping[str, Any],
     items = [repr(float(const[i])) if i in const else f"V[{(layout.vp + i) * CH} + j]"
              for i in range(layout.npk)]
     return _function("_ptup", "V, j", [f"return {_tuple(items)}"], g)
-
-
-def param_tuple_at(layout: Layout, g: Mapping[str, Any],
-                   const: Mapping[int, float] | None = None) -> Any:
-    """``_ptupo(V, j, o)``: :func:`param_tuple` from the rows VP.. shifted by ``o`` elements
-    (a copy of the parameter rows: :data:`usvid.sim.vector.PC`)."""
-    const = const or {}
-    items = [repr(float(const[i])) if i in const else f"V[{(layout.vp + i) * CH} + j + o]"
-             for i in range(layout.npk)]
-    return _function("_ptupo", "V, j, o", [f"return {_tuple(items)}"], g)
 
 
 def env_tuple(layout: Layout, g: Mapping[str, Any], *, read: bool,

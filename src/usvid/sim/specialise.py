@@ -198,7 +198,7 @@ def kernel(kind: ModelKind) -> KindCode:
     key = kernel_key(kind)
     if key in _KINDS:
         return _KINDS[key]
-    lay = _layout.Layout(kind.n_states, kind.n_params, 4 if kind.vector_stage_params else 1)
+    lay = _layout.Layout(kind.n_states, kind.n_params)
     js = _layout.JS
     phi, p = kind.state_row("phi"), kind.state_row("p")
     pos = {"zu": js + kind.body[0] if kind.body[0] >= 0 else -1,
@@ -256,8 +256,7 @@ def _wind_globals(code: KindCode) -> dict[str, Any]:
         g["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(lay, g, read=True))
         k = code.kinfo.copy()
         for i, v in ((_layout.KNPK, wide.npk), (_layout.KVB, wide.vb), (_layout.KVN, wide.vn),
-                     (_layout.KROWS, wide.rows), (_layout.KPC, wide.pc),
-                     (_layout.KVPC, wide.vpc)):
+                     (_layout.KROWS, wide.rows)):
             k[i] = v
         code.env["g"] = g
         code.env["wkinfo"] = k
@@ -341,13 +340,7 @@ def vector_step(kind: ModelKind, swi: int, sk: int, nod: bool, xy: bool, *,
     if wind and wcode >= 0:
         gv["_etup"] = numba.njit(forceinline=True)(_layout.env_tuple(
             lay, gv, read=True, const={0: float(wcode)}))
-    if gv["PC"] > 1 and not wind:
-        gv.update({f"PO{k}": (gv["VPC"] + (k - 2) * gv["NPK"] - gv["VP"]) * _layout.CH
-                   for k in (2, 3, 4)})
-    else:
-        gv.update(PC=1, PO2=0, PO3=0, PO4=0)
     gv["_ptup"] = numba.njit(forceinline=True)(_layout.param_tuple(lay, gv, const))
-    gv["_ptupo"] = numba.njit(forceinline=True)(_layout.param_tuple_at(lay, gv, const))
     helpers = _layout.joint_helpers(lay, gv, xy=bool(xy), nod=bool(nod))
     for name in VARIANT_HELPERS:
         gv[name] = _helper(helpers[name])

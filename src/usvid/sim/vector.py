@@ -101,10 +101,7 @@ ZR = 0  # position of r in the joint-state tuple
 #: the chunk's lanes rounded up to a multiple of VW, so that one run costs one vector of lanes.
 VW = 4
 NLANES = CH  # the vector step's lane slots (CH, or VW: set by the specialisation)
-PC = 1  # copies of the parameter rows (the first at row VP, the others from row VPC)
-VPC = 0
-PO2 = PO3 = PO4 = 0  # element offsets of the RK4 stages 2-4's parameter copies (0: row VP)
-rhs = _ptupo = _ztup = _zput = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _ptup = None
+rhs = _ztup = _zput = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _ptup = None
 _etup = None
 
 
@@ -248,18 +245,15 @@ def _vderiv(p, fe, tau, srv, cmdin, ramp, noise, fs, tr, z, first):
     return _joint(k0, k1, r, rate, acc, k5, k6, ds), hm
 
 
-def _vrk4(V, j, fe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
+def _vrk4(p, fe, z, h, frac, srv, cmdin, ramp, noise, fs, tr):
     """:func:`_rk4` for the vector step (a whole step: tau from 0 to ``frac``; with WIND the
     environment's loads ``fe`` held over it, :func:`usvid.sim.lane._heldload`); the heading
     is NaN when an angle moved more than 0.05 rad from its base (the lane is then flagged)."""
-    k1, m1 = _vderiv(_ptupo(V, j, 0), fe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, 1.0)
+    k1, m1 = _vderiv(p, fe, 0.0, srv, cmdin, ramp, noise, fs, tr, z, 1.0)
     tm = 0.5 * frac
-    k2, m2 = _vderiv(_ptupo(V, j, PO2), fe, tm, srv, cmdin, ramp, noise, fs, tr,
-                     _vaxpy(z, 0.5 * h, k1), 0.0)
-    k3, m3 = _vderiv(_ptupo(V, j, PO3), fe, tm, srv, cmdin, ramp, noise, fs, tr,
-                     _vaxpy(z, 0.5 * h, k2), 0.0)
-    k4, m4 = _vderiv(_ptupo(V, j, PO4), fe, frac, srv, cmdin, ramp, noise, fs, tr,
-                     _vaxpy(z, h, k3), 0.0)
+    k2, m2 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k1), 0.0)
+    k3, m3 = _vderiv(p, fe, tm, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, 0.5 * h, k2), 0.0)
+    k4, m4 = _vderiv(p, fe, frac, srv, cmdin, ramp, noise, fs, tr, _vaxpy(z, h, k3), 0.0)
     far = max(max(m1, m2), max(m3, m4)) > 0.05
     return _vrk4sum(z, h / 6.0, k1, k2, k3, k4, far)
 
@@ -396,7 +390,7 @@ def _vstep(Vp, h, frac, zig, sk):
                   V[o + 19 * CH], V[o + 20 * CH], V[o + 21 * CH], V[o + 22 * CH],
                   V[o + 23 * CH])
         z = _ztup(V, j)
-        y = _vrk4(V, j, fe, z, h, frac, srv, V[VCMD * CH + j],
+        y = _vrk4(_ptup(V, j), fe, z, h, frac, srv, V[VCMD * CH + j],
                   V[VRAMP * CH + j], V[VNOISE * CH + j], fs, tr)
         quiet = V[(VL + LQ) * CH + j] > 0.0
         # max |delta| of the quiet lanes at the step start (the measured angle is absent on

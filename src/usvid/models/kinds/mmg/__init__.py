@@ -628,7 +628,6 @@ KIND = ModelKind(
     # the hull's, drift angle's and rudder inflow's square roots and divisions in series (20
     # and 8 per RK4 step): two lane vectors side by side
     vector_interleave=2,
-    vector_stage_params=True,
 )
 
 __all__ = ["COMPONENTS", "CONFOUNDED", "EXTRA_KEYS", "FIELDS", "FIELD_NAMES", "GENERIC",
