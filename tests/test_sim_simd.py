@@ -284,3 +284,32 @@ def test_simd_path_equals_per_lane_path_measured_series():
     a, b = _both(model, ZigZag(amp, amp, first=np.where(np.arange(B) % 2 == 0, 1, -1)),
                  t_end=20.0, dt=0.05, environment=env, channels=("x", "y") + channels)
     _assert_same(a, b)
+
+
+def test_no_isfinite_in_code_compiled_with_fast_math():
+    """No ``np.isfinite`` / ``math.isfinite`` in code compiled into the kernels (the core's
+    templates, which :mod:`usvid.sim.specialise` compiles with fast math, and every numba
+    function of :mod:`usvid.models`, inlined into them), nor in the code :mod:`usvid.sim.layout`
+    generates: under ``reassoc`` and ``nsz`` it tests a NaN finite (see the test above); use
+    :func:`usvid.sim.scalar._fin`."""
+    import ast
+    from pathlib import Path
+
+    import usvid
+
+    root = Path(usvid.__file__).parent
+    templates = [root / "sim" / f"{m}.py" for m in ("chunk", "vector", "lane", "scalar")]
+    bad = []
+    for path in [*templates, *sorted((root / "models").rglob("*.py")), root / "sim" / "layout.py"]:
+        tree = ast.parse(path.read_text())
+        for fn in ast.walk(tree):
+            if not isinstance(fn, ast.FunctionDef):
+                continue
+            jitted = path in templates or any("njit" in ast.unparse(d) for d in fn.decorator_list)
+            for node in ast.walk(fn):
+                called = (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                          and node.func.attr == "isfinite")
+                generated = isinstance(node, ast.Constant) and "isfinite(" in str(node.value)
+                if (jitted and called) or generated:
+                    bad.append(f"{path.relative_to(root)}:{node.lineno} in {fn.name}")
+    assert not bad, bad
