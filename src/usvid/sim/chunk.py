@@ -121,7 +121,7 @@ from usvid.sim.scalar import (
     _start_ramp,
     _wrap,
 )
-from usvid.sim.vector import _steer
+from usvid.sim.vector import _dnow, _steer
 
 
 @numba.extending.intrinsic
@@ -270,16 +270,6 @@ def _record(V, j, b, jrec, slots, rec, dnow, cmdlog, ki):
             rec[sl, b, jrec] = _chval(V, j, ch, dnow, cmdlog, ki)
 
 
-def _dnow(V, j):
-    """Lane j's steering angle at the step start [rad] as recorded (without the disturbance):
-    the measured one (series ``delta``, row VF), else the servo's, limited."""
-    fd = V[VF * CH + j]
-    x = V[RDL * CH + j]
-    ma = V[VS * CH + j]
-    d = ma if x > ma else (-ma if x < -ma else x)  # _clip, as selects
-    return d if np.isnan(fd) else fd
-
-
 def _chrow(ch, ki, cur):
     """The row of ``V`` that holds channel ``ch``'s value (:func:`_chval`) for every lane, or
     -1 (a value computed per lane). ``cur``: the batch has a current (u, v over ground are
@@ -366,7 +356,7 @@ def _vquiet(V, kf, tq1):
 
 def _vmaxd(V, tmp):
     """max |delta| [rad] of the quiet lanes (row LQ) at the step start, vectorised (the
-    measured steering angle, else the servo's, limited: :func:`_dnow`).
+    measured steering angle, else the servo's, limited: :func:`usvid.sim.vector._dnow`).
 
     The updated row goes through the scratch row ``tmp`` (CH values) and is copied back:
     ``V[o] = new if cond else V[o]`` would compile to a masked store (``vmaskmovpd``, slow).
@@ -547,7 +537,6 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
             o = VF * CH + j
             if series:
                 _load_series(V, o, SER, sidx, row, k, kk)
-            fd = V[o]
             # logic -> command events
             psi = V[RPSI * CH + j]
             if lk == COMMANDED:
@@ -594,7 +583,7 @@ def _chunk(lo, hi, P, S, skind, lk, L, Dq, SER, sidx, sstride, Z, nsteps, dt, re
                 rend = math.inf
             V[RDL * CH + j] = z7
             # record (at the step start)
-            dnow = _clip(z7, ma) if np.isnan(fd) else fd
+            dnow = _dnow(V, j)
             if abs(dnow) > V[(VL + LMAXD) * CH + j]:
                 V[(VL + LMAXD) * CH + j] = abs(dnow)
             if recnow:

@@ -54,7 +54,7 @@ INLINE_MAX_PARAMS = 40
 LANE_TEMPLATES = ("_inputs", "_heldload", "_holdset", "_holdget", "_deriv", "_rk4",
                   "_substeps")
 #: The vector path's templates (:mod:`usvid.sim.vector`); the C callback :func:`vector._vstep`.
-VECTOR_TEMPLATES = ("_steer", "_heldload", "_holdset", "_holdget", "_hbase", "_vheld",
+VECTOR_TEMPLATES = ("_dnow", "_steer", "_heldload", "_holdset", "_holdget", "_hbase", "_vheld",
                     "_vderiv", "_vrk4")
 #: The generated joint-state helpers of a vector-step variant (:func:`layout.joint_helpers`).
 VARIANT_HELPERS = ("_vaxpy", "_vrk4sum", "_vput")
@@ -63,7 +63,7 @@ VARIANT_HELPERS = ("_vaxpy", "_vrk4sum", "_vput")
 #: ``_deriv`` stays out of line in the per-lane step (integrating only the steps with an event
 #: inside, or lanes the vector step does not take): a quarter of the compile work.
 _FORCEINLINE = ("_rk4", "_heldload", "_holdset", "_holdget", "_hbase", "_vheld", "_inputs",
-                "_substeps", "_steer", "_vderiv", "_vrk4", "_chval", "_finite_rows")
+                "_substeps", "_dnow", "_steer", "_vderiv", "_vrk4", "_chval", "_finite_rows")
 
 _MODULES = (_scalar, _layout, _lane_mod, _vector_mod, _chunk_mod)
 #: The modules of the environment's numba functions the templates compile into themselves

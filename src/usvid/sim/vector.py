@@ -105,16 +105,22 @@ rhs = _ztup = _zput = _states = _joint = _finite = _vaxpy = _vrk4sum = _vput = _
 _etup = None
 
 
-def _steer(V, j):
-    """Lane j's steering angle at the step start [rad]: the measured one, else the servo's
-    (limited), plus the disturbance."""
+def _dnow(V, j):
+    """Lane j's steering angle at the step start [rad] as recorded (without the disturbance):
+    the measured one (series ``delta``, row VF), else the servo's, limited."""
     fd = V[VF * CH + j]
     # every value loaded whatever fd and the clip written as selects (:func:`_clip`): no
-    # branch, no conditional load, so that the lane loop of :func:`_vbases` vectorises
+    # branch, no conditional load, so that the lane loops calling it (:func:`_vbases`, the
+    # driver's ``_vmaxd``) vectorise
     x = V[RDL * CH + j]
     ma = V[VS * CH + j]
     d = ma if x > ma else (-ma if x < -ma else x)
-    return (d if np.isnan(fd) else fd) + DIST_B * V[RW2 * CH + j]
+    return d if np.isnan(fd) else fd
+
+
+def _steer(V, j):
+    """Lane j's steering angle at the step start [rad]: :func:`_dnow` plus the disturbance."""
+    return _dnow(V, j) + DIST_B * V[RW2 * CH + j]
 
 
 def _hbase(V, j):
@@ -395,8 +401,8 @@ def _vstep(Vp, h, frac, zig, sk):
         quiet = V[(VL + LQ) * CH + j] > 0.0
         # max |delta| of the quiet lanes at the step start: the measured angle (series delta,
         # loaded for the quiet lanes by the driver), else the servo's, limited (the value
-        # :func:`usvid.sim.chunk._dnow` records; without series fs[0] is a NaN literal and
-        # the select compiles away)
+        # :func:`_dnow` records, from the values loaded above; without series fs[0] is a NaN
+        # literal and the select compiles away)
         dm = d if np.isnan(fs[0]) else fs[0]
         V[(VB + NT + 1) * CH + j] = max(V[(VL + LMAXD) * CH + j], abs(dm) if quiet else 0.0)
         # the end of the step (bitwise & and |: no short-circuit branches in the vector loop;
